@@ -1,0 +1,112 @@
+//! O(n) reference tracer: every triangle and sphere tested for every ray. Slow and obviously right.
+use super::{sphere_root, Hit, Tracer};
+use crate::math::Ray;
+use crate::scene::{Geometry, Scene};
+use glam::Vec3;
+
+pub struct Brute {
+    tris: Vec<([Vec3; 3], u32, u32)>,
+    spheres: Vec<(Vec3, f32, u32)>,
+}
+
+impl Brute {
+    pub fn new(scene: &Scene) -> Brute {
+        let mut tris = Vec::new();
+        let mut spheres = Vec::new();
+        for (si, s) in scene.shapes.iter().enumerate() {
+            match &s.geometry {
+                Geometry::Mesh(m) => {
+                    for pi in 0..m.indices.len() {
+                        tris.push((m.triangle(pi), si as u32, pi as u32));
+                    }
+                }
+                Geometry::Sphere { center, radius } => spheres.push((*center, *radius, si as u32)),
+            }
+        }
+        Brute { tris, spheres }
+    }
+}
+
+/// Möller–Trumbore in f64: (t, u, v).
+fn tri_hit(r: &Ray, [a, b, c]: [Vec3; 3]) -> Option<(f32, f32, f32)> {
+    let (o, d) = (r.o.as_dvec3(), r.d.as_dvec3());
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - a;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    Some((t as f32, u as f32, v as f32))
+}
+
+impl Tracer for Brute {
+    fn intersect(&self, r: &Ray) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        let mut tmax = r.tmax;
+        for (tri, s, p) in &self.tris {
+            if let Some((t, u, v)) = tri_hit(r, *tri) {
+                if t > r.tmin && t < tmax {
+                    tmax = t;
+                    best = Some(Hit {
+                        t,
+                        u,
+                        v,
+                        shape: *s,
+                        prim: *p,
+                    });
+                }
+            }
+        }
+        for (c, rad, s) in &self.spheres {
+            if let Some(t) = sphere_root(
+                r.o.to_array(),
+                r.d.to_array(),
+                c.to_array(),
+                *rad,
+                r.tmin,
+                tmax,
+            ) {
+                tmax = t;
+                best = Some(Hit {
+                    t,
+                    u: 0.0,
+                    v: 0.0,
+                    shape: *s,
+                    prim: 0,
+                });
+            }
+        }
+        best
+    }
+
+    fn occluded(&self, r: &Ray) -> bool {
+        self.tris
+            .iter()
+            .any(|(tri, _, _)| tri_hit(r, *tri).is_some_and(|(t, _, _)| t > r.tmin && t < r.tmax))
+            || self.spheres.iter().any(|(c, rad, _)| {
+                sphere_root(
+                    r.o.to_array(),
+                    r.d.to_array(),
+                    c.to_array(),
+                    *rad,
+                    r.tmin,
+                    r.tmax,
+                )
+                .is_some()
+            })
+    }
+}

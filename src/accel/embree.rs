@@ -1,0 +1,357 @@
+//! Embree 3 backend (through the `embree3` crate's raw `sys` API): one BVH over every triangle mesh and
+//! analytic sphere (user geometry with an exact f64 intersector). The only module with unsafe code.
+#![allow(unsafe_code)]
+
+use super::{sphere_root, Hit, Tracer};
+use crate::math::Ray;
+use crate::scene::{Geometry, Scene};
+use embree3::sys::*;
+use std::os::raw::c_void;
+use std::ptr;
+
+const INVALID: u32 = u32::MAX;
+
+/// A sphere handed to Embree as user data (lives as long as the `Accel`).
+#[repr(C)]
+struct SphereData {
+    center: [f32; 3],
+    radius: f32,
+}
+
+/// The Embree device and scene; released in `Drop`.
+pub struct Accel {
+    device: RTCDevice,
+    scene: RTCScene,
+    _spheres: Vec<Box<SphereData>>,
+    /// Seconds spent in rtcCommitScene.
+    pub build_seconds: f64,
+}
+
+// SAFETY: Embree scenes are safe to query from many threads once committed; we never modify after commit.
+unsafe impl Send for Accel {}
+// SAFETY: as above; all query entry points take &self and Embree's traversal is reentrant.
+unsafe impl Sync for Accel {}
+
+#[repr(C, align(64))]
+struct Packet16(RTCRayHit16);
+
+fn context() -> RTCIntersectContext {
+    RTCIntersectContext {
+        flags: RTCIntersectContextFlags::INCOHERENT,
+        filter: None,
+        instID: [INVALID],
+    }
+}
+
+/// Lane accessors for Embree's SoA ray layout (`RTCRayHitN`): field k of lane i is at k·N + i.
+mod lane {
+    pub const ORG: usize = 0;
+    pub const TNEAR: usize = 3;
+    pub const DIR: usize = 4;
+    pub const TFAR: usize = 8;
+    pub const NG: usize = 12;
+    pub const U: usize = 15;
+    pub const V: usize = 16;
+    pub const PRIM: usize = 17;
+    pub const GEOM: usize = 18;
+    pub const INST: usize = 19;
+}
+
+unsafe extern "C" fn sphere_bounds(args: *const RTCBoundsFunctionArguments) {
+    // SAFETY: Embree passes a valid argument struct whose user pointer is the SphereData we registered.
+    unsafe {
+        let a = &*args;
+        let s = &*(a.geometryUserPtr as *const SphereData);
+        let b = &mut *a.bounds_o;
+        let pad = s.radius * (1.0 + 1e-5);
+        b.lower_x = s.center[0] - pad;
+        b.lower_y = s.center[1] - pad;
+        b.lower_z = s.center[2] - pad;
+        b.upper_x = s.center[0] + pad;
+        b.upper_y = s.center[1] + pad;
+        b.upper_z = s.center[2] + pad;
+    }
+}
+
+/// Reads one ray lane (origin, direction, tnear, tfar) from an SoA block of N rays.
+///
+/// # Safety
+/// `base` must point to at least 9·n floats of a valid RTCRayN block and `i < n`.
+unsafe fn read_lane(base: *const f32, n: usize, i: usize) -> ([f32; 3], [f32; 3], f32, f32) {
+    // SAFETY: guaranteed by the caller.
+    unsafe {
+        let g = |k: usize| *base.add(k * n + i);
+        (
+            [g(lane::ORG), g(lane::ORG + 1), g(lane::ORG + 2)],
+            [g(lane::DIR), g(lane::DIR + 1), g(lane::DIR + 2)],
+            g(lane::TNEAR),
+            g(lane::TFAR),
+        )
+    }
+}
+
+unsafe extern "C" fn sphere_intersect(args: *const RTCIntersectFunctionNArguments) {
+    // SAFETY: Embree passes N valid lanes of an RTCRayHitN block (SoA, 4-byte fields) and our user data.
+    unsafe {
+        let a = &*args;
+        let n = a.N as usize;
+        let s = &*(a.geometryUserPtr as *const SphereData);
+        let base = a.rayhit as *mut f32;
+        for i in 0..n {
+            if *a.valid.add(i) == 0 {
+                continue;
+            }
+            let (o, d, tnear, tfar) = read_lane(base, n, i);
+            if let Some(t) = sphere_root(o, d, s.center, s.radius, tnear, tfar) {
+                let set = |k: usize, v: f32| *base.add(k * n + i) = v;
+                let setu = |k: usize, v: u32| *(base.add(k * n + i) as *mut u32) = v;
+                set(lane::TFAR, t);
+                for (k, c) in s.center.iter().enumerate() {
+                    set(lane::NG + k, o[k] + t * d[k] - c);
+                }
+                set(lane::U, 0.0);
+                set(lane::V, 0.0);
+                setu(lane::PRIM, a.primID);
+                setu(lane::GEOM, a.geomID);
+                setu(lane::INST, (*a.context).instID[0]);
+            }
+        }
+    }
+}
+
+unsafe extern "C" fn sphere_occluded(args: *const RTCOccludedFunctionNArguments) {
+    // SAFETY: as for sphere_intersect, with an RTCRayN block.
+    unsafe {
+        let a = &*args;
+        let n = a.N as usize;
+        let s = &*(a.geometryUserPtr as *const SphereData);
+        let base = a.ray as *mut f32;
+        for i in 0..n {
+            if *a.valid.add(i) == 0 {
+                continue;
+            }
+            let (o, d, tnear, tfar) = read_lane(base, n, i);
+            if sphere_root(o, d, s.center, s.radius, tnear, tfar).is_some() {
+                *base.add(lane::TFAR * n + i) = f32::NEG_INFINITY;
+            }
+        }
+    }
+}
+
+impl Accel {
+    /// Builds one Embree scene over all shapes; geometry ID = shape index.
+    pub fn new(scene: &Scene) -> Result<Accel, String> {
+        // SAFETY: plain Embree C API calls; every handle is checked or released; buffers are sized
+        // from the counts we pass, and user data outlives the scene (kept in `_spheres`).
+        unsafe {
+            let device = rtcNewDevice(ptr::null());
+            if device.is_null() {
+                return Err("Embree: rtcNewDevice failed".into());
+            }
+            let rscene = rtcNewScene(device);
+            let mut spheres = Vec::new();
+            for (si, shape) in scene.shapes.iter().enumerate() {
+                let geom = match &shape.geometry {
+                    Geometry::Mesh(m) => {
+                        let g = rtcNewGeometry(device, RTCGeometryType::TRIANGLE);
+                        let vb = rtcSetNewGeometryBuffer(
+                            g,
+                            RTCBufferType::VERTEX,
+                            0,
+                            RTCFormat::FLOAT3,
+                            12,
+                            m.positions.len(),
+                        ) as *mut f32;
+                        let ib = rtcSetNewGeometryBuffer(
+                            g,
+                            RTCBufferType::INDEX,
+                            0,
+                            RTCFormat::UINT3,
+                            12,
+                            m.indices.len(),
+                        ) as *mut u32;
+                        if vb.is_null() || ib.is_null() {
+                            rtcReleaseGeometry(g);
+                            rtcReleaseScene(rscene);
+                            rtcReleaseDevice(device);
+                            return Err(format!(
+                                "Embree: cannot allocate buffers for {}",
+                                shape.name
+                            ));
+                        }
+                        ptr::copy_nonoverlapping(
+                            m.positions.as_ptr() as *const f32,
+                            vb,
+                            m.positions.len() * 3,
+                        );
+                        ptr::copy_nonoverlapping(
+                            m.indices.as_ptr() as *const u32,
+                            ib,
+                            m.indices.len() * 3,
+                        );
+                        g
+                    }
+                    Geometry::Sphere { center, radius } => {
+                        let data = Box::new(SphereData {
+                            center: center.to_array(),
+                            radius: *radius,
+                        });
+                        let g = rtcNewGeometry(device, RTCGeometryType::USER);
+                        rtcSetGeometryUserPrimitiveCount(g, 1);
+                        let up = &*data as *const SphereData as *mut c_void;
+                        rtcSetGeometryUserData(g, up);
+                        rtcSetGeometryBoundsFunction(g, Some(sphere_bounds), ptr::null_mut());
+                        rtcSetGeometryIntersectFunction(g, Some(sphere_intersect));
+                        rtcSetGeometryOccludedFunction(g, Some(sphere_occluded));
+                        spheres.push(data);
+                        g
+                    }
+                };
+                rtcCommitGeometry(geom);
+                rtcAttachGeometryByID(rscene, geom, si as u32);
+                rtcReleaseGeometry(geom);
+            }
+            let t0 = std::time::Instant::now();
+            rtcCommitScene(rscene);
+            let build_seconds = t0.elapsed().as_secs_f64();
+            let err = rtcGetDeviceError(device);
+            if err != RTCError::NONE {
+                rtcReleaseScene(rscene);
+                rtcReleaseDevice(device);
+                return Err(format!("Embree error {err:?} while building the scene"));
+            }
+            Ok(Accel {
+                device,
+                scene: rscene,
+                _spheres: spheres,
+                build_seconds,
+            })
+        }
+    }
+
+    /// The baseline for `caustica bench rays`: a bare `rtcIntersect16` loop over rays already laid out
+    /// in Embree's SoA packets (a copy of the prepared packet, the call, nothing decoded). Returns hits.
+    pub fn raw_intersect16(&self, packets: &RawPackets) -> usize {
+        let valid = [-1i32; 16];
+        let mut hits = 0;
+        for p in &packets.0 {
+            let mut q = Packet16(p.0);
+            let mut ctx = context();
+            // SAFETY: committed scene, 64-byte aligned packet, 16-lane valid mask.
+            unsafe { rtcIntersect16(valid.as_ptr(), self.scene, &mut ctx, &mut q.0) };
+            hits += q.0.hit.geomID.iter().filter(|&&g| g != INVALID).count();
+        }
+        hits
+    }
+}
+
+/// Rays converted ahead of time to Embree's 16-wide SoA packets (for the bare-Embree baseline).
+pub struct RawPackets(Vec<Packet16>);
+
+impl RawPackets {
+    pub fn new(packets: &[[Ray; 16]]) -> RawPackets {
+        RawPackets(packets.iter().map(|p| Packet16(to_packet(p))).collect())
+    }
+}
+
+fn to_packet(rays: &[Ray]) -> RTCRayHit16 {
+    // SAFETY: RTCRayHit16 is plain old data; all-zero is a valid bit pattern.
+    let mut p: RTCRayHit16 = unsafe { std::mem::zeroed() };
+    for (i, r) in rays.iter().enumerate() {
+        p.ray.org_x[i] = r.o.x;
+        p.ray.org_y[i] = r.o.y;
+        p.ray.org_z[i] = r.o.z;
+        p.ray.dir_x[i] = r.d.x;
+        p.ray.dir_y[i] = r.d.y;
+        p.ray.dir_z[i] = r.d.z;
+        p.ray.tnear[i] = r.tmin;
+        p.ray.tfar[i] = r.tmax;
+        p.ray.mask[i] = u32::MAX;
+        p.hit.geomID[i] = INVALID;
+        p.hit.instID[0][i] = INVALID;
+    }
+    p
+}
+
+fn rtc_ray(r: &Ray) -> RTCRay {
+    RTCRay {
+        org_x: r.o.x,
+        org_y: r.o.y,
+        org_z: r.o.z,
+        tnear: r.tmin,
+        dir_x: r.d.x,
+        dir_y: r.d.y,
+        dir_z: r.d.z,
+        time: 0.0,
+        tfar: r.tmax,
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
+    }
+}
+
+impl Tracer for Accel {
+    fn intersect(&self, r: &Ray) -> Option<Hit> {
+        let mut rh = RTCRayHit {
+            ray: rtc_ray(r),
+            hit: RTCHit {
+                Ng_x: 0.0,
+                Ng_y: 0.0,
+                Ng_z: 0.0,
+                u: 0.0,
+                v: 0.0,
+                primID: INVALID,
+                geomID: INVALID,
+                instID: [INVALID],
+            },
+        };
+        let mut ctx = context();
+        // SAFETY: committed scene; rh and ctx are valid for the call.
+        unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
+        (rh.hit.geomID != INVALID).then_some(Hit {
+            t: rh.ray.tfar,
+            u: rh.hit.u,
+            v: rh.hit.v,
+            shape: rh.hit.geomID,
+            prim: rh.hit.primID,
+        })
+    }
+
+    fn occluded(&self, r: &Ray) -> bool {
+        let mut ray = rtc_ray(r);
+        let mut ctx = context();
+        // SAFETY: committed scene; ray and ctx are valid for the call.
+        unsafe { rtcOccluded1(self.scene, &mut ctx, &mut ray) };
+        ray.tfar == f32::NEG_INFINITY
+    }
+
+    fn intersect_packet(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        assert!(rays.len() <= 16 && out.len() == rays.len());
+        let mut p = Packet16(to_packet(rays));
+        let mut valid = [0i32; 16];
+        valid[..rays.len()].fill(-1);
+        let mut ctx = context();
+        // SAFETY: committed scene, 64-byte aligned packet, valid mask covers only filled lanes.
+        unsafe { rtcIntersect16(valid.as_ptr(), self.scene, &mut ctx, &mut p.0) };
+        let h = &p.0.hit;
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = (h.geomID[i] != INVALID).then_some(Hit {
+                t: p.0.ray.tfar[i],
+                u: h.u[i],
+                v: h.v[i],
+                shape: h.geomID[i],
+                prim: h.primID[i],
+            });
+        }
+    }
+}
+
+impl Drop for Accel {
+    fn drop(&mut self) {
+        // SAFETY: handles were created in `new` and are released exactly once here.
+        unsafe {
+            rtcReleaseScene(self.scene);
+            rtcReleaseDevice(self.device);
+        }
+    }
+}

@@ -1,0 +1,17 @@
+//! caustica: photon mapping and path tracing side by side, through Embree, measured against each other.
+#![deny(unsafe_code)]
+
+pub mod accel;
+pub mod color;
+pub mod math;
+pub mod scene;
+
+pub mod app;
+pub mod bench;
+pub mod cli;
+pub mod film;
+pub mod integrator;
+pub mod integrator_app;
+pub mod metrics;
+pub mod output;
+pub mod render;

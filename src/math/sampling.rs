@@ -1,0 +1,113 @@
+//! Warps from the unit square to directions and points, with their densities.
+use glam::Vec3;
+use std::f32::consts::PI;
+
+/// Cosine-weighted hemisphere around +z; pdf = cos θ / π.
+pub fn cosine_hemisphere(u: [f32; 2]) -> Vec3 {
+    let d = concentric_disk(u);
+    let z = (1.0 - d[0] * d[0] - d[1] * d[1]).max(0.0).sqrt();
+    Vec3::new(d[0], d[1], z)
+}
+
+/// Shirley–Chiu concentric map from the square to the unit disk.
+pub fn concentric_disk(u: [f32; 2]) -> [f32; 2] {
+    let a = 2.0 * u[0] - 1.0;
+    let b = 2.0 * u[1] - 1.0;
+    if a == 0.0 && b == 0.0 {
+        return [0.0, 0.0];
+    }
+    let (r, theta) = if a.abs() > b.abs() {
+        (a, PI / 4.0 * (b / a))
+    } else {
+        (b, PI / 2.0 - PI / 4.0 * (a / b))
+    };
+    [r * theta.cos(), r * theta.sin()]
+}
+
+/// Uniform direction on the unit sphere; pdf = 1 / 4π.
+pub fn uniform_sphere(u: [f32; 2]) -> Vec3 {
+    let z = 1.0 - 2.0 * u[0];
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u[1];
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Uniform direction in the cone around +z with cos θ ≥ `cos_max`; pdf = 1 / (2π (1 − cos_max)).
+pub fn uniform_cone(u: [f32; 2], cos_max: f32) -> Vec3 {
+    let cos_t = 1.0 - u[0] * (1.0 - cos_max);
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let phi = 2.0 * PI * u[1];
+    Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+}
+
+/// Uniform barycentrics on a triangle: returns (b1, b2) for p = (1 − b1 − b2) v0 + b1 v1 + b2 v2.
+pub fn uniform_triangle(u: [f32; 2]) -> [f32; 2] {
+    let su = u[0].sqrt();
+    [1.0 - su, u[1] * su]
+}
+
+/// Power heuristic (β = 2) for multiple importance sampling.
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let a = pdf_a * pdf_a;
+    let b = pdf_b * pdf_b;
+    if a + b == 0.0 {
+        0.0
+    } else {
+        a / (a + b)
+    }
+}
+
+/// Samples an index from a cumulative distribution (last entry = total); returns (index, probability).
+pub fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
+    let total = *cdf.last().unwrap_or(&0.0);
+    let x = u * total;
+    let i = cdf
+        .partition_point(|&c| c <= x)
+        .min(cdf.len().saturating_sub(1));
+    let lo = if i == 0 { 0.0 } else { cdf[i - 1] };
+    (i, (cdf[i] - lo) / total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Rng;
+
+    #[test]
+    fn cosine_hemisphere_integrates_cos_correctly() {
+        // E[1/pdf] over the hemisphere must equal its solid angle 2π... estimated with cos-weighted samples:
+        // E[cos θ] under pdf cosθ/π equals ∫cos²θ dω / π = 2/3.
+        let mut r = Rng::new(3, 0, 0);
+        let n = 100_000;
+        let mean: f64 = (0..n)
+            .map(|_| cosine_hemisphere(r.next_2d()).z as f64)
+            .sum::<f64>()
+            / n as f64;
+        assert!((mean - 2.0 / 3.0).abs() < 0.005, "{mean}");
+    }
+
+    #[test]
+    fn cone_stays_inside_and_sphere_is_unit() {
+        let mut r = Rng::new(4, 0, 0);
+        for _ in 0..10_000 {
+            let d = uniform_cone(r.next_2d(), 0.9);
+            assert!(d.z >= 0.9 - 1e-6 && (d.length() - 1.0).abs() < 1e-5);
+            assert!((uniform_sphere(r.next_2d()).length() - 1.0).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn cdf_sampling_matches_weights() {
+        let cdf = [1.0, 1.0, 4.0, 8.0];
+        let mut counts = [0usize; 4];
+        let mut r = Rng::new(5, 0, 0);
+        for _ in 0..80_000 {
+            let (i, p) = sample_cdf(&cdf, r.next_f32());
+            counts[i] += 1;
+            let expect = [0.125, 0.0, 0.375, 0.5][i];
+            assert!((p - expect).abs() < 1e-6);
+        }
+        assert_eq!(counts[1], 0);
+        assert!((counts[3] as f64 / 80_000.0 - 0.5).abs() < 0.01);
+    }
+}

@@ -1,0 +1,344 @@
+//! The scene file format: serde structs that mirror the TOML one to one, with defaults.
+//! Unknown keys are refused (`deny_unknown_fields`), so a typo is an error, not a silent default.
+//!
+//! ```toml
+//! [camera]
+//! origin = [0.0, 1.0, 3.9]
+//! target = [0.0, 1.0, 0.0]
+//! fov = 39.3                 # degrees, along fov_axis ("x" default, or "y")
+//! resolution = [512, 512]
+//!
+//! [materials]
+//! white = { type = "diffuse", reflectance = [0.8, 0.8, 0.8] }
+//! glass = { type = "dielectric", ior = 1.5 }
+//! gold  = { type = "conductor", preset = "Au", roughness = 0.05 }
+//!
+//! [[shapes]]
+//! type = "sphere"
+//! center = [0.4, 0.3, 0.2]
+//! radius = 0.3
+//! material = "glass"
+//!
+//! [[lights]]
+//! type = "quad"
+//! corner = [-0.25, 1.98, -0.25]
+//! edge_u = [0.5, 0.0, 0.0]
+//! edge_v = [0.0, 0.0, 0.5]
+//! power = [30.0, 30.0, 30.0]
+//! ```
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+pub type V3 = [f32; 3];
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    pub camera: CameraSpec,
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialSpec>,
+    #[serde(default)]
+    pub shapes: Vec<ShapeSpec>,
+    #[serde(default)]
+    pub lights: Vec<LightSpec>,
+    #[serde(default)]
+    pub render: RenderSettings,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum FovAxis {
+    X,
+    Y,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    pub origin: V3,
+    pub target: V3,
+    #[serde(default = "default_up")]
+    pub up: V3,
+    #[serde(default = "default_fov")]
+    pub fov: f32,
+    #[serde(default = "default_fov_axis")]
+    pub fov_axis: FovAxis,
+    #[serde(default = "default_resolution")]
+    pub resolution: [u32; 2],
+}
+
+fn default_up() -> V3 {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f32 {
+    40.0
+}
+fn default_fov_axis() -> FovAxis {
+    FovAxis::X
+}
+fn default_resolution() -> [u32; 2] {
+    [512, 512]
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum MaterialSpec {
+    /// Lambertian reflector.
+    Diffuse { reflectance: V3 },
+    /// Perfect (or GGX-rough) mirror with a constant specular colour.
+    Mirror {
+        #[serde(default = "one3")]
+        specular: V3,
+        #[serde(default)]
+        roughness: f32,
+    },
+    /// Metal with Schlick Fresnel from a preset ("Au", "Ag", "Cu", "Al", "Cr") or a given F0 colour.
+    Conductor {
+        #[serde(default)]
+        preset: Option<String>,
+        #[serde(default)]
+        specular: Option<V3>,
+        #[serde(default)]
+        roughness: f32,
+    },
+    /// Smooth glass or water: exact Fresnel, refraction and total internal reflection.
+    Dielectric {
+        ior: f32,
+        #[serde(default = "one3")]
+        tint: V3,
+    },
+}
+
+fn one3() -> V3 {
+    [1.0, 1.0, 1.0]
+}
+
+/// Translate / rotate (degrees, applied x then y then z) / scale, or a full 4×4 row-major matrix.
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransformSpec {
+    #[serde(default)]
+    pub translate: Option<V3>,
+    #[serde(default)]
+    pub rotate_x: Option<f32>,
+    #[serde(default)]
+    pub rotate_y: Option<f32>,
+    #[serde(default)]
+    pub rotate_z: Option<f32>,
+    #[serde(default)]
+    pub scale: Option<Scale>,
+    #[serde(default)]
+    pub matrix: Option<[[f32; 4]; 4]>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(untagged)]
+pub enum Scale {
+    Uniform(f32),
+    Axes(V3),
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum ShapeSpec {
+    /// Triangle mesh from an OBJ (with MTL) or PLY (ASCII or binary, optionally .gz) file.
+    Mesh {
+        file: String,
+        #[serde(default)]
+        material: Option<String>,
+        #[serde(default)]
+        transform: TransformSpec,
+        #[serde(default)]
+        emission: Option<V3>,
+        /// Compute area-weighted vertex normals when the file has none.
+        #[serde(default)]
+        smooth: bool,
+    },
+    /// Analytic sphere (exact hits; not tessellated).
+    Sphere {
+        center: V3,
+        radius: f32,
+        material: String,
+        #[serde(default)]
+        transform: TransformSpec,
+        #[serde(default)]
+        emission: Option<V3>,
+    },
+    /// Parallelogram `corner + s·edge_u + t·edge_v`, s,t ∈ [0,1]; the front side is edge_u × edge_v.
+    Quad {
+        corner: V3,
+        edge_u: V3,
+        edge_v: V3,
+        material: String,
+        #[serde(default)]
+        transform: TransformSpec,
+        #[serde(default)]
+        emission: Option<V3>,
+    },
+    /// Disk of `radius` around `center` facing `normal` (tessellated into `segments` triangles).
+    Disk {
+        center: V3,
+        #[serde(default = "default_normal")]
+        normal: V3,
+        radius: f32,
+        material: String,
+        #[serde(default = "default_segments")]
+        segments: u32,
+        #[serde(default)]
+        transform: TransformSpec,
+        #[serde(default)]
+        emission: Option<V3>,
+    },
+    /// Axis-aligned box from `min` to `max` (then transformed), outward normals.
+    Box {
+        min: V3,
+        max: V3,
+        material: String,
+        #[serde(default)]
+        transform: TransformSpec,
+        #[serde(default)]
+        emission: Option<V3>,
+    },
+}
+
+fn default_normal() -> V3 {
+    [0.0, 1.0, 0.0]
+}
+fn default_segments() -> u32 {
+    64
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LightSpec {
+    /// Isotropic point light of total `power` (W per channel).
+    Point { position: V3, power: V3 },
+    /// Spherical area light (visible, emits outward); give `power` or `radiance`.
+    Sphere {
+        center: V3,
+        radius: f32,
+        #[serde(default)]
+        power: Option<V3>,
+        #[serde(default)]
+        radiance: Option<V3>,
+    },
+    /// One-sided quad area light facing edge_u × edge_v; give `power` or `radiance`.
+    Quad {
+        corner: V3,
+        edge_u: V3,
+        edge_v: V3,
+        #[serde(default)]
+        power: Option<V3>,
+        #[serde(default)]
+        radiance: Option<V3>,
+    },
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    Path,
+    PhotonMap,
+    Both,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum DirectLight {
+    ShadowRays,
+    PhotonMap,
+}
+
+/// `[render]`: every field has a default and can be overridden with `--set render.KEY=VALUE`.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderSettings {
+    pub mode: Mode,
+    /// Samples per pixel (path tracer; photon-map eye pass uses `pm_spp`).
+    pub spp: u32,
+    /// Maximum path length; the furnace test uses a large value with Russian roulette.
+    pub max_depth: u32,
+    /// Bounces before Russian roulette starts.
+    pub rr_depth: u32,
+    pub seed: u64,
+    /// Preview exposure in stops (PNG only; the EXR is linear radiance).
+    pub exposure: f32,
+    /// Eye-pass samples per pixel for photon mapping.
+    pub pm_spp: u32,
+    /// Extra eye samples for pixels whose first hit is not diffuse (photon mapping).
+    pub specular_spp: u32,
+    pub direct_light: DirectLight,
+    /// Final-gather rays at the first diffuse hit (0 = read the indirect map directly).
+    pub final_gather: u32,
+    pub photons: PhotonSettings,
+    pub gather: GatherSettings,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            mode: Mode::Path,
+            spp: 16,
+            max_depth: 64,
+            rr_depth: 4,
+            seed: 0,
+            exposure: 0.0,
+            pm_spp: 4,
+            specular_spp: 4,
+            direct_light: DirectLight::ShadowRays,
+            final_gather: 0,
+            photons: PhotonSettings::default(),
+            gather: GatherSettings::default(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PhotonSettings {
+    pub direct: u64,
+    pub indirect: u64,
+    pub caustic: u64,
+    pub max_bounces: u32,
+    /// Give up shooting after this many photons per requested photon (reported, never loops forever).
+    pub max_shots_factor: u64,
+    /// Aim caustic photons at specular surfaces (area-weighted); false = uniform emission.
+    pub caustic_targeting: bool,
+}
+
+impl Default for PhotonSettings {
+    fn default() -> Self {
+        PhotonSettings {
+            direct: 200_000,
+            indirect: 500_000,
+            caustic: 500_000,
+            max_bounces: 16,
+            max_shots_factor: 50,
+            caustic_targeting: true,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GatherSettings {
+    pub direct: u32,
+    pub indirect: u32,
+    pub caustic: u32,
+    /// Cone filter constant k (< 1 disables the filter).
+    pub cone_k: f32,
+    /// Largest gather radius, as a fraction of the scene's bounding-box diagonal.
+    pub max_radius: f32,
+}
+
+impl Default for GatherSettings {
+    fn default() -> Self {
+        GatherSettings {
+            direct: 50,
+            indirect: 200,
+            caustic: 100,
+            cone_k: 1.1,
+            max_radius: 0.05,
+        }
+    }
+}

@@ -1,0 +1,288 @@
+//! Lights: point lights and emissive shapes (triangles of any mesh, analytic spheres), chosen by power.
+//! Sampling for next-event estimation (solid-angle pdfs, cone sampling for spheres) and for photon emission.
+use crate::color::{luminance, Rgb};
+use crate::math::{sampling, Frame, Ray};
+use crate::scene::{Geometry, Scene};
+use glam::Vec3;
+use std::f32::consts::PI;
+
+#[derive(Clone, Debug)]
+pub enum LightKind {
+    Point { position: Vec3, intensity: Rgb },
+    Triangle { shape: u32, prim: u32 },
+    Sphere { shape: u32 },
+}
+
+/// All lights with a power-proportional selection distribution.
+#[derive(Clone, Debug, Default)]
+pub struct Lights {
+    pub list: Vec<LightKind>,
+    /// Emitted power (W per channel) of each light.
+    pub power: Vec<Rgb>,
+    pub cdf: Vec<f32>,
+    /// For each shape, the index in `list` of its first emitter (triangle `prim` is at offset + prim).
+    pub shape_offset: Vec<Option<u32>>,
+}
+
+/// A point on a light seen from a reference point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    pub wi: Vec3,
+    pub dist: f32,
+    /// Incident radiance (area lights) or intensity / d² (point lights).
+    pub li: Rgb,
+    /// Solid-angle pdf including the light choice (for point lights: the choice probability).
+    pub pdf: f32,
+    pub delta: bool,
+}
+
+/// A photon leaving a light: origin, direction, and power Φ/(p_choice · pdf) before division by n_emitted.
+#[derive(Clone, Copy, Debug)]
+pub struct EmittedRay {
+    pub ray: Ray,
+    pub normal: Vec3,
+    pub phi: Rgb,
+}
+
+impl Lights {
+    pub fn build(scene: &Scene, points: &[(Vec3, Rgb)]) -> Lights {
+        let mut l = Lights {
+            shape_offset: vec![None; scene.shapes.len()],
+            ..Default::default()
+        };
+        for &(position, power) in points {
+            l.list.push(LightKind::Point {
+                position,
+                intensity: power / (4.0 * PI),
+            });
+            l.power.push(power);
+        }
+        for (si, shape) in scene.shapes.iter().enumerate() {
+            if shape.emission == Rgb::ZERO {
+                continue;
+            }
+            l.shape_offset[si] = Some(l.list.len() as u32);
+            match &shape.geometry {
+                Geometry::Mesh(m) => {
+                    for pi in 0..m.indices.len() {
+                        l.list.push(LightKind::Triangle {
+                            shape: si as u32,
+                            prim: pi as u32,
+                        });
+                        l.power.push(shape.emission * PI * m.area(pi));
+                    }
+                }
+                Geometry::Sphere { radius, .. } => {
+                    l.list.push(LightKind::Sphere { shape: si as u32 });
+                    l.power
+                        .push(shape.emission * PI * 4.0 * PI * radius * radius);
+                }
+            }
+        }
+        let mut acc = 0.0;
+        l.cdf = l
+            .power
+            .iter()
+            .map(|p| {
+                acc += luminance(*p).max(0.0);
+                acc
+            })
+            .collect();
+        l
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.cdf.last().is_none_or(|&t| t <= 0.0)
+    }
+
+    pub fn total_power(&self) -> Rgb {
+        self.power.iter().copied().sum()
+    }
+
+    /// Probability of choosing light `i`.
+    pub fn choice_pdf(&self, i: usize) -> f32 {
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        (self.cdf[i] - lo) / self.cdf[self.cdf.len() - 1]
+    }
+
+    /// Samples a light point for next-event estimation at `x`.
+    pub fn sample(&self, scene: &Scene, x: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
+        if self.is_empty() {
+            return None;
+        }
+        let (i, p_sel) = sampling::sample_cdf(&self.cdf, u_sel);
+        match &self.list[i] {
+            LightKind::Point {
+                position,
+                intensity,
+            } => {
+                let d = *position - x;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                Some(LightSample {
+                    wi: d / dist,
+                    dist,
+                    li: *intensity / dist2,
+                    pdf: p_sel,
+                    delta: true,
+                })
+            }
+            LightKind::Triangle { shape, prim } => {
+                let s = &scene.shapes[*shape as usize];
+                let Geometry::Mesh(m) = &s.geometry else {
+                    return None;
+                };
+                let [a, b, c] = m.triangle(*prim as usize);
+                let bc = sampling::uniform_triangle(u);
+                let y = a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1];
+                let n = (b - a).cross(c - a);
+                let area = 0.5 * n.length();
+                let n = n.normalize();
+                let d = y - x;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                let wi = d / dist;
+                let cos_l = -wi.dot(n);
+                if cos_l <= 0.0 || area <= 0.0 {
+                    return None;
+                }
+                let pdf = p_sel * dist2 / (cos_l * area);
+                Some(LightSample {
+                    wi,
+                    dist,
+                    li: s.emission,
+                    pdf,
+                    delta: false,
+                })
+            }
+            LightKind::Sphere { shape } => {
+                let s = &scene.shapes[*shape as usize];
+                let Geometry::Sphere { center, radius } = s.geometry else {
+                    return None;
+                };
+                let d = center - x;
+                let dc2 = d.length_squared();
+                if dc2 <= radius * radius * 1.0001 {
+                    return None;
+                }
+                let dc = dc2.sqrt();
+                let sin2 = radius * radius / dc2;
+                let cos_max = (1.0 - sin2).max(0.0).sqrt();
+                let f = Frame::from_normal(d / dc);
+                let wi = f.to_world(sampling::uniform_cone(u, cos_max));
+                let dist = sphere_hit(x, wi, center, radius).unwrap_or(dc - radius);
+                let pdf = p_sel / (2.0 * PI * (1.0 - cos_max));
+                Some(LightSample {
+                    wi,
+                    dist,
+                    li: s.emission,
+                    pdf,
+                    delta: false,
+                })
+            }
+        }
+    }
+
+    /// Solid-angle pdf that `sample` from `x` produces the point `y` (normal `n`) on the given emitter.
+    pub fn pdf(&self, scene: &Scene, shape: u32, prim: u32, x: Vec3, y: Vec3, n: Vec3) -> f32 {
+        let Some(off) = self.shape_offset[shape as usize] else {
+            return 0.0;
+        };
+        match &scene.shapes[shape as usize].geometry {
+            Geometry::Mesh(m) => {
+                let i = (off + prim) as usize;
+                let area = m.area(prim as usize);
+                let d = y - x;
+                let dist2 = d.length_squared();
+                let cos_l = (-d.normalize().dot(n)).max(0.0);
+                if cos_l == 0.0 || area == 0.0 {
+                    return 0.0;
+                }
+                self.choice_pdf(i) * dist2 / (cos_l * area)
+            }
+            Geometry::Sphere { center, radius } => {
+                let dc2 = (*center - x).length_squared();
+                if dc2 <= radius * radius * 1.0001 {
+                    return 0.0;
+                }
+                let cos_max = (1.0 - radius * radius / dc2).max(0.0).sqrt();
+                self.choice_pdf(off as usize) / (2.0 * PI * (1.0 - cos_max))
+            }
+        }
+    }
+
+    /// Emits a photon: light chosen by power, position uniform on it, direction uniform (point) or cosine.
+    pub fn emit(
+        &self,
+        scene: &Scene,
+        u_sel: f32,
+        u_pos: [f32; 2],
+        u_dir: [f32; 2],
+    ) -> Option<EmittedRay> {
+        if self.is_empty() {
+            return None;
+        }
+        let (i, p_sel) = sampling::sample_cdf(&self.cdf, u_sel);
+        let phi = self.power[i] / p_sel;
+        let (o, n, d) = match &self.list[i] {
+            LightKind::Point { position, .. } => {
+                let d = sampling::uniform_sphere(u_dir);
+                (*position, d, d)
+            }
+            LightKind::Triangle { shape, prim } => {
+                let Geometry::Mesh(m) = &scene.shapes[*shape as usize].geometry else {
+                    return None;
+                };
+                let [a, b, c] = m.triangle(*prim as usize);
+                let bc = sampling::uniform_triangle(u_pos);
+                let y = a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1];
+                let n = (b - a).cross(c - a).normalize();
+                (
+                    y,
+                    n,
+                    Frame::from_normal(n).to_world(sampling::cosine_hemisphere(u_dir)),
+                )
+            }
+            LightKind::Sphere { shape } => {
+                let Geometry::Sphere { center, radius } = scene.shapes[*shape as usize].geometry
+                else {
+                    return None;
+                };
+                let n = sampling::uniform_sphere(u_pos);
+                (
+                    center + n * radius,
+                    n,
+                    Frame::from_normal(n).to_world(sampling::cosine_hemisphere(u_dir)),
+                )
+            }
+        };
+        let o = crate::math::offset_ray_origin(o, n, d);
+        Some(EmittedRay {
+            ray: Ray::new(o, d),
+            normal: n,
+            phi,
+        })
+    }
+}
+
+/// Nearest positive distance along the unit direction `d` from `o` to a sphere, if any.
+pub fn sphere_hit(o: Vec3, d: Vec3, c: Vec3, r: f32) -> Option<f32> {
+    let oc = (o - c).as_dvec3();
+    let dd = d.as_dvec3();
+    let b = oc.dot(dd);
+    let cc = oc.length_squared() - (r as f64) * (r as f64);
+    let disc = b * b - cc;
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let t0 = -b - s;
+    let t1 = -b + s;
+    if t0 > 0.0 {
+        Some(t0 as f32)
+    } else if t1 > 0.0 {
+        Some(t1 as f32)
+    } else {
+        None
+    }
+}

@@ -1,0 +1,674 @@
+//! Scene file → `Scene`: TOML parsing, `--set` overrides, and every check a user's mistake needs,
+//! each error naming the file and the key (TOML syntax and type errors also give the line).
+use crate::color::Rgb;
+use crate::scene::file::*;
+use crate::scene::light::Lights;
+use crate::scene::material::{conductor_preset, Material};
+use crate::scene::mesh::{self, TriMesh};
+use crate::scene::{Camera, Geometry, Scene, SceneError, Shape};
+use glam::{Mat4, Vec3};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Largest image we agree to allocate (pixels); beyond it the run is refused up front.
+pub const MAX_PIXELS: u64 = 64 * 1024 * 1024;
+
+pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    load_scene_with(path, &[])
+}
+
+/// Loads a scene and applies `key=value` overrides (TOML values; bare words are strings).
+pub fn load_scene_with(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
+    let t0 = std::time::Instant::now();
+    let shown = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
+        file: shown.clone(),
+        msg: e.to_string(),
+    })?;
+    let file = parse_scene_text(&text, &shown, overrides)?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut scene = build(file, &shown, &dir)?;
+    scene.path = path.to_path_buf();
+    scene.load_seconds = t0.elapsed().as_secs_f64();
+    Ok(scene)
+}
+
+/// Parses and type-checks the TOML text, applying overrides; returns the effective settings.
+pub fn parse_scene_text(
+    text: &str,
+    shown: &str,
+    overrides: &[String],
+) -> Result<SceneFile, SceneError> {
+    let perr = |msg: String| SceneError::Parse {
+        file: shown.to_string(),
+        msg,
+    };
+    let mut value: toml::Table =
+        toml::from_str(text).map_err(|e| perr(e.to_string().trim_end().to_string()))?;
+    // Type-check against the original text first so errors carry line numbers.
+    toml::from_str::<SceneFile>(text).map_err(|e| perr(e.to_string().trim_end().to_string()))?;
+    for ov in overrides {
+        apply_override(&mut value, ov).map_err(|msg| SceneError::Invalid {
+            file: shown.into(),
+            key: ov.clone(),
+            msg,
+        })?;
+    }
+    check_finite(&toml::Value::Table(value.clone()), "", shown)?;
+    let file: SceneFile = toml::Value::Table(value)
+        .try_into()
+        .map_err(|e: toml::de::Error| {
+            perr(format!(
+                "after --set overrides: {}",
+                e.to_string().trim_end()
+            ))
+        })?;
+    Ok(file)
+}
+
+fn apply_override(root: &mut toml::Table, ov: &str) -> Result<(), String> {
+    let (key, val) = ov
+        .split_once('=')
+        .ok_or("expected KEY=VALUE, e.g. render.spp=64")?;
+    let val: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {val}")) {
+        Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(val.into())),
+        Err(_) => toml::Value::String(val.trim().to_string()),
+    };
+    let parts: Vec<&str> = key.trim().split('.').collect();
+    let mut cur = root;
+    for (i, part) in parts.iter().enumerate() {
+        if i + 1 == parts.len() {
+            cur.insert(part.to_string(), val);
+            return Ok(());
+        }
+        let entry = cur
+            .entry(part.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        cur = match entry {
+            toml::Value::Table(t) => t,
+            _ => return Err(format!("`{part}` is not a table")),
+        };
+    }
+    Err("empty key".into())
+}
+
+fn check_finite(v: &toml::Value, key: &str, shown: &str) -> Result<(), SceneError> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() || f.abs() > f32::MAX as f64 => {
+            Err(SceneError::Invalid {
+                file: shown.into(),
+                key: key.into(),
+                msg: format!("number {f} is not finite (or does not fit in f32)"),
+            })
+        }
+        toml::Value::Table(t) => t.iter().try_for_each(|(k, v)| {
+            check_finite(
+                v,
+                &if key.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{key}.{k}")
+                },
+                shown,
+            )
+        }),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .try_for_each(|(i, v)| check_finite(v, &format!("{key}[{i}]"), shown)),
+        _ => Ok(()),
+    }
+}
+
+struct Ctx<'a> {
+    shown: &'a str,
+}
+
+impl Ctx<'_> {
+    fn err(&self, key: &str, msg: impl Into<String>) -> SceneError {
+        SceneError::Invalid {
+            file: self.shown.into(),
+            key: key.into(),
+            msg: msg.into(),
+        }
+    }
+    fn colour(&self, key: &str, c: V3, max: Option<f32>) -> Result<Rgb, SceneError> {
+        let v = Vec3::from_array(c);
+        if v.min_element() < 0.0 {
+            return Err(self.err(key, format!("{c:?} has a negative component")));
+        }
+        if let Some(m) = max {
+            if v.max_element() > m {
+                return Err(self.err(
+                    key,
+                    format!("{c:?} exceeds {m} (reflectance must be in [0, 1])"),
+                ));
+            }
+        }
+        Ok(v)
+    }
+    fn positive(&self, key: &str, x: f32) -> Result<f32, SceneError> {
+        if x > 0.0 {
+            Ok(x)
+        } else {
+            Err(self.err(key, format!("must be > 0, got {x}")))
+        }
+    }
+}
+
+fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> {
+    let cx = Ctx { shown };
+    let camera = build_camera(&cx, &file.camera)?;
+    check_render(&cx, &file.render)?;
+
+    let mut materials = Vec::new();
+    let mut names = Vec::new();
+    let mut index = HashMap::new();
+    for (name, spec) in &file.materials {
+        index.insert(name.clone(), materials.len() as u32);
+        materials.push(build_material(&cx, &format!("materials.{name}"), spec)?);
+        names.push(name.clone());
+    }
+    let mut shapes = Vec::new();
+    for (i, spec) in file.shapes.iter().enumerate() {
+        build_shape(
+            &cx,
+            &format!("shapes[{i}]"),
+            spec,
+            dir,
+            &index,
+            &mut materials,
+            &mut names,
+            &mut shapes,
+        )?;
+    }
+    let black = materials.len() as u32;
+    materials.push(Material::Diffuse {
+        reflectance: Rgb::ZERO,
+    });
+    names.push("(light)".into());
+    let mut points = Vec::new();
+    for (i, spec) in file.lights.iter().enumerate() {
+        build_light(
+            &cx,
+            &format!("lights[{i}]"),
+            spec,
+            black,
+            &mut shapes,
+            &mut points,
+        )?;
+    }
+    let bounds = scene_bounds(&shapes, &points);
+    let mut scene = Scene {
+        path: PathBuf::new(),
+        camera,
+        materials,
+        material_names: names,
+        shapes,
+        lights: Lights::default(),
+        render: file.render,
+        bounds,
+        load_seconds: 0.0,
+    };
+    scene.lights = Lights::build(&scene, &points);
+    if scene.lights.is_empty() {
+        return Err(cx.err(
+            "lights",
+            "the scene has no light with positive power (add [[lights]] or an emissive shape)",
+        ));
+    }
+    Ok(scene)
+}
+
+fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
+    let (o, t, up) = (
+        Vec3::from_array(c.origin),
+        Vec3::from_array(c.target),
+        Vec3::from_array(c.up),
+    );
+    if (t - o).length() == 0.0 {
+        return Err(cx.err("camera.target", "equals camera.origin"));
+    }
+    if up.length() == 0.0 || (t - o).normalize().cross(up.normalize()).length() < 1e-6 {
+        return Err(cx.err("camera.up", "is zero or parallel to the view direction"));
+    }
+    if !(c.fov > 0.0 && c.fov < 180.0) {
+        return Err(cx.err(
+            "camera.fov",
+            format!("must be in (0, 180) degrees, got {}", c.fov),
+        ));
+    }
+    let [w, h] = c.resolution;
+    if w == 0 || h == 0 {
+        return Err(cx.err("camera.resolution", "width and height must be ≥ 1"));
+    }
+    let px = w as u64 * h as u64;
+    if px > MAX_PIXELS {
+        return Err(cx.err(
+            "camera.resolution",
+            format!(
+                "{w}×{h} needs about {} MiB of film; the limit is {MAX_PIXELS} pixels",
+                px * 40 / (1 << 20)
+            ),
+        ));
+    }
+    Ok(Camera::new(o, t, up, c.fov, c.fov_axis, c.resolution))
+}
+
+fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
+    if r.spp == 0 {
+        return Err(cx.err("render.spp", "must be ≥ 1"));
+    }
+    if r.pm_spp == 0 {
+        return Err(cx.err("render.pm_spp", "must be ≥ 1"));
+    }
+    let total = r.photons.direct + r.photons.indirect + r.photons.caustic;
+    // 20 bytes per stored photon plus about as much again while tracing and building.
+    let bytes = total.saturating_mul(48);
+    if bytes > 16 << 30 {
+        return Err(cx.err(
+            "render.photons",
+            format!(
+                "{total} photons need about {} GiB; the limit is 16 GiB",
+                bytes >> 30
+            ),
+        ));
+    }
+    if r.photons.max_shots_factor == 0 {
+        return Err(cx.err("render.photons.max_shots_factor", "must be ≥ 1"));
+    }
+    if !(r.gather.max_radius > 0.0) {
+        return Err(cx.err("render.gather.max_radius", "must be > 0"));
+    }
+    Ok(())
+}
+
+fn build_material(cx: &Ctx, key: &str, spec: &MaterialSpec) -> Result<Material, SceneError> {
+    let rough = |r: f32| -> Result<f32, SceneError> {
+        if (0.0..=1.0).contains(&r) {
+            Ok(r)
+        } else {
+            Err(cx.err(
+                &format!("{key}.roughness"),
+                format!("must be in [0, 1], got {r}"),
+            ))
+        }
+    };
+    Ok(match spec {
+        MaterialSpec::Diffuse { reflectance } => Material::Diffuse {
+            reflectance: cx.colour(&format!("{key}.reflectance"), *reflectance, Some(1.0))?,
+        },
+        MaterialSpec::Mirror {
+            specular,
+            roughness,
+        } => Material::Conductor {
+            f0: cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?,
+            alpha: rough(*roughness)?,
+            schlick: false,
+        },
+        MaterialSpec::Conductor {
+            preset,
+            specular,
+            roughness,
+        } => {
+            let f0 = match (preset, specular) {
+                (Some(p), None) => conductor_preset(p).ok_or_else(|| {
+                    cx.err(
+                        &format!("{key}.preset"),
+                        format!("unknown metal `{p}` (accepted: Au, Ag, Cu, Al, Cr)"),
+                    )
+                })?,
+                (None, Some(s)) => cx.colour(&format!("{key}.specular"), *s, Some(1.0))?,
+                _ => {
+                    return Err(cx.err(
+                        key,
+                        "a conductor needs exactly one of `preset` or `specular`",
+                    ))
+                }
+            };
+            Material::Conductor {
+                f0,
+                alpha: rough(*roughness)?,
+                schlick: true,
+            }
+        }
+        MaterialSpec::Dielectric { ior, tint } => {
+            if !(*ior >= 1.0 / 4.0 && *ior <= 4.0) {
+                return Err(cx.err(
+                    &format!("{key}.ior"),
+                    format!("must be in [0.25, 4], got {ior}"),
+                ));
+            }
+            Material::Dielectric {
+                ior: *ior,
+                tint: cx.colour(&format!("{key}.tint"), *tint, Some(1.0))?,
+            }
+        }
+    })
+}
+
+/// Transform to a matrix; refuses degenerate or non-finite ones.
+pub fn transform_matrix(cx_key: &str, t: &TransformSpec, shown: &str) -> Result<Mat4, SceneError> {
+    let err = |msg: String| SceneError::Invalid {
+        file: shown.into(),
+        key: format!("{cx_key}.transform"),
+        msg,
+    };
+    let m = if let Some(rows) = t.matrix {
+        if t.translate.is_some()
+            || t.scale.is_some()
+            || t.rotate_x.is_some()
+            || t.rotate_y.is_some()
+            || t.rotate_z.is_some()
+        {
+            return Err(err(
+                "give either `matrix` or translate/rotate/scale, not both".into(),
+            ));
+        }
+        Mat4::from_cols_array_2d(&rows).transpose()
+    } else {
+        let s = match &t.scale {
+            None => Vec3::ONE,
+            Some(Scale::Uniform(s)) => Vec3::splat(*s),
+            Some(Scale::Axes(a)) => Vec3::from_array(*a),
+        };
+        Mat4::from_translation(Vec3::from_array(t.translate.unwrap_or([0.0; 3])))
+            * Mat4::from_rotation_z(t.rotate_z.unwrap_or(0.0).to_radians())
+            * Mat4::from_rotation_y(t.rotate_y.unwrap_or(0.0).to_radians())
+            * Mat4::from_rotation_x(t.rotate_x.unwrap_or(0.0).to_radians())
+            * Mat4::from_scale(s)
+    };
+    let det = m.determinant();
+    if !det.is_finite() || det.abs() < 1e-12 || !m.is_finite() {
+        return Err(err(format!("is degenerate (determinant {det})")));
+    }
+    Ok(m)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn build_shape(
+    cx: &Ctx,
+    key: &str,
+    spec: &ShapeSpec,
+    dir: &Path,
+    index: &HashMap<String, u32>,
+    materials: &mut Vec<Material>,
+    names: &mut Vec<String>,
+    shapes: &mut Vec<Shape>,
+) -> Result<(), SceneError> {
+    let lookup = |name: &str| -> Result<u32, SceneError> {
+        index.get(name).copied().ok_or_else(|| {
+            let known: Vec<&String> = index.keys().collect();
+            cx.err(
+                &format!("{key}.material"),
+                format!("unknown material `{name}` (defined: {known:?})"),
+            )
+        })
+    };
+    let emission = |e: &Option<V3>| -> Result<Rgb, SceneError> {
+        e.map_or(Ok(Rgb::ZERO), |c| {
+            cx.colour(&format!("{key}.emission"), c, None)
+        })
+    };
+    let mut push = |mut mesh: TriMesh,
+                    transform: &TransformSpec,
+                    material: u32,
+                    em: Rgb|
+     -> Result<(), SceneError> {
+        mesh.transform(&transform_matrix(key, transform, cx.shown)?);
+        shapes.push(Shape {
+            name: key.into(),
+            geometry: Geometry::Mesh(mesh),
+            material,
+            emission: em,
+        });
+        Ok(())
+    };
+    match spec {
+        ShapeSpec::Mesh {
+            file,
+            material,
+            transform,
+            emission: e,
+            smooth,
+        } => {
+            let path = dir.join(file);
+            let shown_mesh = path.display().to_string();
+            let loaded = mesh::load_mesh_file(&path, &shown_mesh)?;
+            for lm in loaded {
+                lm.mesh.validate(&shown_mesh)?;
+                let mat = match (material, lm.mtl_diffuse) {
+                    (Some(m), _) => lookup(m)?,
+                    (None, Some(kd)) => {
+                        materials.push(Material::Diffuse {
+                            reflectance: Vec3::from_array(kd).clamp(Vec3::ZERO, Vec3::ONE),
+                        });
+                        names.push(format!("{file} (MTL)"));
+                        materials.len() as u32 - 1
+                    }
+                    (None, None) => {
+                        return Err(cx.err(
+                            &format!("{key}.material"),
+                            "missing, and the mesh has no MTL colour",
+                        ))
+                    }
+                };
+                let mut m = lm.mesh;
+                if *smooth && m.normals.is_none() {
+                    m.compute_smooth_normals();
+                }
+                push(m, transform, mat, emission(e)?)?;
+            }
+        }
+        ShapeSpec::Sphere {
+            center,
+            radius,
+            material,
+            transform,
+            emission: e,
+        } => {
+            cx.positive(&format!("{key}.radius"), *radius)?;
+            let m = transform_matrix(key, transform, cx.shown)?;
+            let (sx, sy, sz) = (
+                m.x_axis.truncate(),
+                m.y_axis.truncate(),
+                m.z_axis.truncate(),
+            );
+            let s = sx.length();
+            let similar = (sy.length() - s).abs() < 1e-4 * s
+                && (sz.length() - s).abs() < 1e-4 * s
+                && sx.dot(sy).abs() < 1e-4 * s * s
+                && sx.dot(sz).abs() < 1e-4 * s * s
+                && sy.dot(sz).abs() < 1e-4 * s * s;
+            if !similar {
+                return Err(cx.err(
+                    &format!("{key}.transform"),
+                    "a sphere accepts only uniform scale, rotation and translation",
+                ));
+            }
+            let center = m.transform_point3(Vec3::from_array(*center));
+            shapes.push(Shape {
+                name: key.into(),
+                geometry: Geometry::Sphere {
+                    center,
+                    radius: radius * s,
+                },
+                material: lookup(material)?,
+                emission: emission(e)?,
+            });
+        }
+        ShapeSpec::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            material,
+            transform,
+            emission: e,
+        } => {
+            let (eu, ev) = (Vec3::from_array(*edge_u), Vec3::from_array(*edge_v));
+            if eu.cross(ev).length() == 0.0 {
+                return Err(cx.err(&format!("{key}.edge_u"), "edge_u and edge_v span zero area"));
+            }
+            push(
+                mesh::quad(Vec3::from_array(*corner), eu, ev),
+                transform,
+                lookup(material)?,
+                emission(e)?,
+            )?;
+        }
+        ShapeSpec::Disk {
+            center,
+            normal,
+            radius,
+            material,
+            segments,
+            transform,
+            emission: e,
+        } => {
+            cx.positive(&format!("{key}.radius"), *radius)?;
+            if *segments < 3 || *segments > 1 << 20 {
+                return Err(cx.err(&format!("{key}.segments"), "must be in [3, 1048576]"));
+            }
+            let n = Vec3::from_array(*normal);
+            if n.length() == 0.0 {
+                return Err(cx.err(&format!("{key}.normal"), "is the zero vector"));
+            }
+            push(
+                mesh::disk(Vec3::from_array(*center), n, *radius, *segments),
+                transform,
+                lookup(material)?,
+                emission(e)?,
+            )?;
+        }
+        ShapeSpec::Box {
+            min,
+            max,
+            material,
+            transform,
+            emission: e,
+        } => {
+            let (a, b) = (Vec3::from_array(*min), Vec3::from_array(*max));
+            if (b - a).min_element() <= 0.0 {
+                return Err(cx.err(&format!("{key}.max"), "must exceed `min` on every axis"));
+            }
+            push(
+                mesh::cuboid(a, b),
+                transform,
+                lookup(material)?,
+                emission(e)?,
+            )?;
+        }
+    }
+    Ok(())
+}
+
+fn radiance_of(
+    cx: &Ctx,
+    key: &str,
+    power: &Option<V3>,
+    radiance: &Option<V3>,
+    area: f32,
+) -> Result<Rgb, SceneError> {
+    let l = match (power, radiance) {
+        (Some(p), None) => {
+            cx.colour(&format!("{key}.power"), *p, None)? / (std::f32::consts::PI * area)
+        }
+        (None, Some(r)) => cx.colour(&format!("{key}.radiance"), *r, None)?,
+        _ => return Err(cx.err(key, "give exactly one of `power` or `radiance`")),
+    };
+    if !l.is_finite() {
+        return Err(cx.err(
+            key,
+            "radiance overflows f32 (power too large for this area)",
+        ));
+    }
+    Ok(l)
+}
+
+fn build_light(
+    cx: &Ctx,
+    key: &str,
+    spec: &LightSpec,
+    black: u32,
+    shapes: &mut Vec<Shape>,
+    points: &mut Vec<(Vec3, Rgb)>,
+) -> Result<(), SceneError> {
+    match spec {
+        LightSpec::Point { position, power } => {
+            points.push((
+                Vec3::from_array(*position),
+                cx.colour(&format!("{key}.power"), *power, None)?,
+            ));
+        }
+        LightSpec::Sphere {
+            center,
+            radius,
+            power,
+            radiance,
+        } => {
+            let r = cx.positive(&format!("{key}.radius"), *radius)?;
+            let area = 4.0 * std::f32::consts::PI * r * r;
+            let emission = radiance_of(cx, key, power, radiance, area)?;
+            let geometry = Geometry::Sphere {
+                center: Vec3::from_array(*center),
+                radius: r,
+            };
+            shapes.push(Shape {
+                name: key.into(),
+                geometry,
+                material: black,
+                emission,
+            });
+        }
+        LightSpec::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            power,
+            radiance,
+        } => {
+            let (eu, ev) = (Vec3::from_array(*edge_u), Vec3::from_array(*edge_v));
+            let area = eu.cross(ev).length();
+            if area == 0.0 {
+                return Err(cx.err(&format!("{key}.edge_u"), "the quad light has zero area"));
+            }
+            let emission = radiance_of(cx, key, power, radiance, area)?;
+            let geometry = Geometry::Mesh(mesh::quad(Vec3::from_array(*corner), eu, ev));
+            shapes.push(Shape {
+                name: key.into(),
+                geometry,
+                material: black,
+                emission,
+            });
+        }
+    }
+    Ok(())
+}
+
+fn scene_bounds(shapes: &[Shape], points: &[(Vec3, Rgb)]) -> (Vec3, Vec3) {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for s in shapes {
+        match &s.geometry {
+            Geometry::Mesh(m) => {
+                for p in &m.positions {
+                    lo = lo.min(*p);
+                    hi = hi.max(*p);
+                }
+            }
+            Geometry::Sphere { center, radius } => {
+                lo = lo.min(*center - Vec3::splat(*radius));
+                hi = hi.max(*center + Vec3::splat(*radius));
+            }
+        }
+    }
+    for (p, _) in points {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    if lo.x > hi.x {
+        (Vec3::ZERO, Vec3::ZERO)
+    } else {
+        (lo, hi)
+    }
+}

@@ -1,0 +1,481 @@
+//! Triangle meshes: OBJ (tobj, with MTL colours), PLY (ply-rs-bw header and binary payloads, a fast
+//! parallel reader for ASCII payloads, optional .gz), and generated quads, disks and boxes.
+use crate::scene::SceneError;
+use glam::{Mat4, Vec3};
+use rayon::prelude::*;
+use std::io::{BufReader, Read};
+use std::path::Path;
+
+/// An indexed triangle mesh in world space.
+#[derive(Clone, Debug, Default)]
+pub struct TriMesh {
+    pub positions: Vec<Vec3>,
+    pub indices: Vec<[u32; 3]>,
+    /// Per-vertex shading normals, when the file has them or `smooth = true`.
+    pub normals: Option<Vec<Vec3>>,
+}
+
+impl TriMesh {
+    pub fn triangle(&self, i: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.indices[i];
+        [
+            self.positions[a as usize],
+            self.positions[b as usize],
+            self.positions[c as usize],
+        ]
+    }
+
+    pub fn area(&self, i: usize) -> f32 {
+        let [a, b, c] = self.triangle(i);
+        0.5 * (b - a).cross(c - a).length()
+    }
+
+    pub fn total_area(&self) -> f32 {
+        (0..self.indices.len()).map(|i| self.area(i)).sum()
+    }
+
+    /// Applies an affine transform to positions (and inverse-transpose to normals).
+    pub fn transform(&mut self, m: &Mat4) {
+        for p in &mut self.positions {
+            *p = m.transform_point3(*p);
+        }
+        if let Some(ns) = &mut self.normals {
+            let nm = m.inverse().transpose();
+            for n in ns.iter_mut() {
+                *n = nm.transform_vector3(*n).normalize_or_zero();
+            }
+        }
+        if m.determinant() < 0.0 {
+            for t in &mut self.indices {
+                t.swap(1, 2);
+            }
+        }
+    }
+
+    /// Area-weighted vertex normals.
+    pub fn compute_smooth_normals(&mut self) {
+        let mut ns = vec![Vec3::ZERO; self.positions.len()];
+        for t in &self.indices {
+            let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
+            let n = (self.positions[b] - self.positions[a])
+                .cross(self.positions[c] - self.positions[a]);
+            ns[a] += n;
+            ns[b] += n;
+            ns[c] += n;
+        }
+        for n in &mut ns {
+            *n = n.normalize_or_zero();
+        }
+        self.normals = Some(ns);
+    }
+
+    /// Checks every vertex is finite and every index in range; returns the count of bad vertices.
+    pub fn validate(&self, file: &str) -> Result<(), SceneError> {
+        let bad = self.positions.iter().filter(|p| !p.is_finite()).count();
+        if bad > 0 {
+            return Err(SceneError::Mesh {
+                file: file.into(),
+                msg: format!("{bad} vertices have NaN or infinite coordinates"),
+            });
+        }
+        let n = self.positions.len() as u32;
+        if let Some(t) = self.indices.iter().find(|t| t.iter().any(|&i| i >= n)) {
+            return Err(SceneError::Mesh {
+                file: file.into(),
+                msg: format!("face {:?} refers past the {} vertices", t, n),
+            });
+        }
+        Ok(())
+    }
+
+    pub fn bytes(&self) -> usize {
+        self.positions.len() * 12
+            + self.indices.len() * 12
+            + self.normals.as_ref().map_or(0, |n| n.len() * 12)
+    }
+}
+
+/// A mesh read from a file, with the diffuse colour its MTL gave, if any.
+pub struct LoadedMesh {
+    pub mesh: TriMesh,
+    pub mtl_diffuse: Option<[f32; 3]>,
+}
+
+/// Loads an OBJ or PLY (optionally gzip-compressed) file.
+pub fn load_mesh_file(path: &Path, shown: &str) -> Result<Vec<LoadedMesh>, SceneError> {
+    let name = path.to_string_lossy().to_lowercase();
+    let err = |msg: String| SceneError::Mesh {
+        file: shown.into(),
+        msg,
+    };
+    if !path.exists() {
+        return Err(SceneError::MissingFile { file: shown.into() });
+    }
+    if name.ends_with(".obj") {
+        load_obj(path).map_err(err)
+    } else if name.ends_with(".ply") || name.ends_with(".ply.gz") {
+        let f = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
+        let mut bytes = Vec::new();
+        if name.ends_with(".gz") {
+            flate2::read::GzDecoder::new(BufReader::new(f))
+                .read_to_end(&mut bytes)
+                .map_err(|e| err(format!("gzip: {e}")))?;
+        } else {
+            BufReader::new(f)
+                .read_to_end(&mut bytes)
+                .map_err(|e| err(e.to_string()))?;
+        }
+        Ok(vec![LoadedMesh {
+            mesh: parse_ply(&bytes).map_err(err)?,
+            mtl_diffuse: None,
+        }])
+    } else {
+        Err(err(
+            "unknown mesh format (accepted: .obj, .ply, .ply.gz)".into()
+        ))
+    }
+}
+
+fn load_obj(path: &Path) -> Result<Vec<LoadedMesh>, String> {
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ..Default::default()
+    };
+    let (models, mtls) = tobj::load_obj(path, &opts).map_err(|e| format!("OBJ: {e}"))?;
+    let mtls = mtls.unwrap_or_default();
+    let mut out = Vec::new();
+    for m in models {
+        let mm = &m.mesh;
+        let positions: Vec<Vec3> = mm
+            .positions
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
+        let indices: Vec<[u32; 3]> = mm
+            .indices
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+        let normals =
+            (mm.normals.len() == mm.positions.len() && !mm.normals.is_empty()).then(|| {
+                mm.normals
+                    .chunks_exact(3)
+                    .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero())
+                    .collect()
+            });
+        let mtl_diffuse = mm
+            .material_id
+            .and_then(|i| mtls.get(i))
+            .and_then(|m| m.diffuse);
+        out.push(LoadedMesh {
+            mesh: TriMesh {
+                positions,
+                indices,
+                normals,
+            },
+            mtl_diffuse,
+        });
+    }
+    if out.is_empty() {
+        return Err("OBJ file has no geometry".into());
+    }
+    Ok(out)
+}
+
+#[derive(Default)]
+struct PlyVertex {
+    p: [f32; 3],
+    n: [f32; 3],
+}
+
+impl ply_rs_bw::ply::PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        PlyVertex::default()
+    }
+    fn set_property(&mut self, key: &String, prop: ply_rs_bw::ply::Property) {
+        use ply_rs_bw::ply::Property as P;
+        let v = match prop {
+            P::Float(v) => v,
+            P::Double(v) => v as f32,
+            _ => return,
+        };
+        match key.as_str() {
+            "x" => self.p[0] = v,
+            "y" => self.p[1] = v,
+            "z" => self.p[2] = v,
+            "nx" => self.n[0] = v,
+            "ny" => self.n[1] = v,
+            "nz" => self.n[2] = v,
+            _ => {}
+        }
+    }
+}
+
+#[derive(Default)]
+struct PlyFace(Vec<u32>);
+
+impl ply_rs_bw::ply::PropertyAccess for PlyFace {
+    fn new() -> Self {
+        PlyFace::default()
+    }
+    fn set_property(&mut self, key: &String, prop: ply_rs_bw::ply::Property) {
+        use ply_rs_bw::ply::Property as P;
+        if key != "vertex_indices" && key != "vertex_index" {
+            return;
+        }
+        self.0 = match prop {
+            P::ListInt(v) => v.into_iter().map(|i| i as u32).collect(),
+            P::ListUInt(v) => v,
+            P::ListUChar(v) => v.into_iter().map(u32::from).collect(),
+            P::ListUShort(v) => v.into_iter().map(u32::from).collect(),
+            P::ListShort(v) => v.into_iter().map(|i| i as u32).collect(),
+            _ => return,
+        };
+    }
+}
+
+/// Parses a PLY file held in memory: triangles and polygons (fan-triangulated), optional normals.
+pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
+    use ply_rs_bw::parser::Parser;
+    use ply_rs_bw::ply::Encoding;
+    let mut reader = std::io::Cursor::new(bytes);
+    let vparser = Parser::<PlyVertex>::new();
+    let header = vparser
+        .read_header(&mut reader)
+        .map_err(|e| format!("PLY header: {e}"))?;
+    let vdef = header
+        .elements
+        .get("vertex")
+        .ok_or("PLY has no `vertex` element")?;
+    let has_normals = vdef.properties.contains_key("nx");
+    for k in ["x", "y", "z"] {
+        if !vdef.properties.contains_key(k) {
+            return Err(format!("PLY vertex element has no `{k}` property"));
+        }
+    }
+    let (verts, faces): (Vec<PlyVertex>, Vec<PlyFace>) = if header.encoding == Encoding::Ascii {
+        let rest = &bytes[reader.position() as usize..];
+        parse_ascii_payload(rest, &header)?
+    } else {
+        let fparser = Parser::<PlyFace>::new();
+        let mut verts = Vec::new();
+        let mut faces = Vec::new();
+        for (name, def) in &header.elements {
+            if name == "vertex" {
+                verts = vparser
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(|e| format!("PLY vertices: {e}"))?;
+            } else if name == "face" {
+                faces = fparser
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(|e| format!("PLY faces: {e}"))?;
+            } else {
+                // Skip other elements by reading them as faces (ignored properties).
+                fparser
+                    .read_payload_for_element(&mut reader, def, &header)
+                    .map_err(|e| format!("PLY element {name}: {e}"))?;
+            }
+        }
+        (verts, faces)
+    };
+    let positions: Vec<Vec3> = verts.iter().map(|v| Vec3::from_array(v.p)).collect();
+    let normals = has_normals.then(|| {
+        verts
+            .iter()
+            .map(|v| Vec3::from_array(v.n).normalize_or_zero())
+            .collect()
+    });
+    let mut indices = Vec::with_capacity(faces.len());
+    for f in &faces {
+        if f.0.len() < 3 {
+            return Err(format!(
+                "PLY face with {} vertices (need at least 3)",
+                f.0.len()
+            ));
+        }
+        for k in 1..f.0.len() - 1 {
+            indices.push([f.0[0], f.0[k], f.0[k + 1]]);
+        }
+    }
+    Ok(TriMesh {
+        positions,
+        indices,
+        normals,
+    })
+}
+
+/// Fast ASCII payload reader: the file is split into lines and parsed in parallel, one allocation per
+/// element vector (ply-rs-bw's ASCII path runs a grammar per line, which is several times slower).
+fn parse_ascii_payload(
+    rest: &[u8],
+    header: &ply_rs_bw::ply::Header,
+) -> Result<(Vec<PlyVertex>, Vec<PlyFace>), String> {
+    use ply_rs_bw::ply::PropertyType;
+    let text =
+        std::str::from_utf8(rest).map_err(|_| "PLY ASCII payload is not text".to_string())?;
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    let mut verts = Vec::new();
+    let mut faces = Vec::new();
+    for (name, def) in &header.elements {
+        let chunk: Vec<&str> = lines.by_ref().take(def.count).collect();
+        if chunk.len() != def.count {
+            return Err(format!(
+                "PLY element `{name}`: header says {} lines, file has {}",
+                def.count,
+                chunk.len()
+            ));
+        }
+        if name == "vertex" {
+            let slots: Vec<Option<usize>> = def
+                .properties
+                .keys()
+                .map(|k| {
+                    ["x", "y", "z", "nx", "ny", "nz"]
+                        .iter()
+                        .position(|s| s == k)
+                })
+                .collect();
+            if def
+                .properties
+                .values()
+                .any(|p| matches!(p.data_type, PropertyType::List(..)))
+            {
+                return Err("PLY vertex element with list properties is not supported".into());
+            }
+            verts = chunk
+                .par_iter()
+                .enumerate()
+                .map(|(i, line)| {
+                    let mut v = PlyVertex::default();
+                    let mut toks = line.split_ascii_whitespace();
+                    for slot in &slots {
+                        let tok = toks
+                            .next()
+                            .ok_or_else(|| format!("vertex {i}: too few values"))?;
+                        if let Some(s) = slot {
+                            let x: f32 = tok
+                                .parse()
+                                .map_err(|_| format!("vertex {i}: bad number `{tok}`"))?;
+                            if *s < 3 {
+                                v.p[*s] = x
+                            } else {
+                                v.n[*s - 3] = x
+                            }
+                        }
+                    }
+                    Ok(v)
+                })
+                .collect::<Result<_, String>>()?;
+        } else if name == "face" {
+            faces = chunk
+                .par_iter()
+                .enumerate()
+                .map(|(i, line)| {
+                    let mut toks = line.split_ascii_whitespace();
+                    let n: usize = toks
+                        .next()
+                        .and_then(|t| t.parse().ok())
+                        .ok_or_else(|| format!("face {i}: bad count"))?;
+                    let idx: Result<Vec<u32>, String> = (0..n)
+                        .map(|_| {
+                            toks.next()
+                                .and_then(|t| t.parse().ok())
+                                .ok_or_else(|| format!("face {i}: bad index"))
+                        })
+                        .collect();
+                    Ok(PlyFace(idx?))
+                })
+                .collect::<Result<_, String>>()?;
+        }
+    }
+    Ok((verts, faces))
+}
+
+/// Parallelogram with front side edge_u × edge_v.
+pub fn quad(corner: Vec3, eu: Vec3, ev: Vec3) -> TriMesh {
+    TriMesh {
+        positions: vec![corner, corner + eu, corner + eu + ev, corner + ev],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        normals: None,
+    }
+}
+
+/// Disk as a triangle fan, front side along `normal`.
+pub fn disk(center: Vec3, normal: Vec3, radius: f32, segments: u32) -> TriMesh {
+    let f = crate::math::Frame::from_normal(normal.normalize());
+    let mut positions = vec![center];
+    for i in 0..segments {
+        let phi = std::f32::consts::TAU * i as f32 / segments as f32;
+        positions.push(center + radius * (f.s * phi.cos() + f.t * phi.sin()));
+    }
+    let indices = (0..segments)
+        .map(|i| [0, 1 + i, 1 + (i + 1) % segments])
+        .collect();
+    TriMesh {
+        positions,
+        indices,
+        normals: None,
+    }
+}
+
+/// Axis-aligned box with outward-facing triangles.
+pub fn cuboid(min: Vec3, max: Vec3) -> TriMesh {
+    let s = max - min;
+    let (x, y, z) = (Vec3::X * s.x, Vec3::Y * s.y, Vec3::Z * s.z);
+    let faces = [
+        (min, z, y),     // -x
+        (min + x, y, z), // +x
+        (min, x, z),     // -y
+        (min + y, z, x), // +y
+        (min, y, x),     // -z
+        (min + z, x, y), // +z
+    ];
+    let mut m = TriMesh::default();
+    for (c, u, v) in faces {
+        let q = quad(c, u, v);
+        let base = m.positions.len() as u32;
+        m.positions.extend(q.positions);
+        m.indices.extend(
+            q.indices
+                .iter()
+                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+        );
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cuboid_normals_point_outward_and_area_is_right() {
+        let m = cuboid(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0));
+        let c = Vec3::new(0.5, 1.0, 1.5);
+        for i in 0..m.indices.len() {
+            let [a, b, cc] = m.triangle(i);
+            let n = (b - a).cross(cc - a);
+            assert!(
+                n.dot((a + b + cc) / 3.0 - c) > 0.0,
+                "triangle {i} faces inward"
+            );
+        }
+        assert!((m.total_area() - 2.0 * (2.0 + 3.0 + 6.0)).abs() < 1e-4);
+    }
+
+    #[test]
+    fn ascii_ply_with_quads_and_extra_properties() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty float confidence\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1\n1 0 0 1\n1 1 0 1\n0 1 0 1\n4 0 1 2 3\n";
+        let m = parse_ply(text.as_bytes()).unwrap();
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
+        assert!((m.total_area() - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn ascii_ply_truncated_is_an_error() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n";
+        assert!(parse_ply(text.as_bytes()).is_err());
+    }
+}

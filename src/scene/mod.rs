@@ -1,0 +1,178 @@
+//! The in-memory scene: camera, materials, shapes (triangle meshes and analytic spheres), lights, settings.
+pub mod camera;
+pub mod file;
+pub mod light;
+pub mod load;
+pub mod material;
+pub mod mesh;
+
+use crate::color::Rgb;
+use glam::Vec3;
+use std::path::PathBuf;
+
+pub use camera::Camera;
+pub use file::{RenderSettings, SceneFile};
+pub use light::Lights;
+pub use load::{load_scene, load_scene_with};
+pub use material::Material;
+pub use mesh::TriMesh;
+
+/// Everything that can be wrong with a scene; each names the file and, where it applies, the key.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{file}: cannot read: {msg}")]
+    Io { file: String, msg: String },
+    #[error("{file}: {msg}")]
+    Parse { file: String, msg: String },
+    #[error("{file}: key `{key}`: {msg}")]
+    Invalid {
+        file: String,
+        key: String,
+        msg: String,
+    },
+    #[error("{file}: file not found")]
+    MissingFile { file: String },
+    #[error("{file}: {msg}")]
+    Mesh { file: String, msg: String },
+}
+
+#[derive(Clone, Debug)]
+pub enum Geometry {
+    Mesh(TriMesh),
+    Sphere { center: Vec3, radius: f32 },
+}
+
+#[derive(Clone, Debug)]
+pub struct Shape {
+    /// Where it came from, e.g. `shapes[2]` or `lights[0]`.
+    pub name: String,
+    pub geometry: Geometry,
+    pub material: u32,
+    /// Emitted radiance (front side of triangles, outside of spheres).
+    pub emission: Rgb,
+}
+
+impl Shape {
+    pub fn area(&self) -> f32 {
+        match &self.geometry {
+            Geometry::Mesh(m) => m.total_area(),
+            Geometry::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
+        }
+    }
+    pub fn primitive_count(&self) -> usize {
+        match &self.geometry {
+            Geometry::Mesh(m) => m.indices.len(),
+            Geometry::Sphere { .. } => 1,
+        }
+    }
+}
+
+pub struct Scene {
+    pub path: PathBuf,
+    pub camera: Camera,
+    pub materials: Vec<Material>,
+    pub material_names: Vec<String>,
+    pub shapes: Vec<Shape>,
+    pub lights: Lights,
+    pub render: RenderSettings,
+    /// Bounds of all geometry (and point lights).
+    pub bounds: (Vec3, Vec3),
+    /// Seconds spent reading files and building meshes.
+    pub load_seconds: f64,
+}
+
+/// A ray's hit turned into surface data.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub p: Vec3,
+    /// Unit geometric normal as stored (triangle winding, sphere outward).
+    pub ng: Vec3,
+    /// Unit shading normal, on the same side as `ng`.
+    pub ns: Vec3,
+    pub shape: u32,
+    pub prim: u32,
+}
+
+impl Scene {
+    pub fn material_of(&self, shape: u32) -> &Material {
+        &self.materials[self.shapes[shape as usize].material as usize]
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.shapes
+            .iter()
+            .map(|s| match &s.geometry {
+                Geometry::Mesh(m) => m.indices.len(),
+                Geometry::Sphere { .. } => 0,
+            })
+            .sum()
+    }
+
+    pub fn diagonal(&self) -> f32 {
+        (self.bounds.1 - self.bounds.0).length()
+    }
+
+    /// Surface data at a hit (shape, primitive, barycentrics u,v, distance t along `ray`).
+    pub fn surface(
+        &self,
+        ray: &crate::math::Ray,
+        shape: u32,
+        prim: u32,
+        u: f32,
+        v: f32,
+        t: f32,
+    ) -> SurfaceHit {
+        match &self.shapes[shape as usize].geometry {
+            Geometry::Mesh(m) => {
+                let [i0, i1, i2] = m.indices[prim as usize];
+                let (a, b, c) = (
+                    m.positions[i0 as usize],
+                    m.positions[i1 as usize],
+                    m.positions[i2 as usize],
+                );
+                let p = a * (1.0 - u - v) + b * u + c * v;
+                let ng = (b - a).cross(c - a).normalize_or_zero();
+                let ng = if ng == Vec3::ZERO {
+                    -ray.d.normalize()
+                } else {
+                    ng
+                };
+                let ns = match &m.normals {
+                    Some(ns) => {
+                        let n = (ns[i0 as usize] * (1.0 - u - v)
+                            + ns[i1 as usize] * u
+                            + ns[i2 as usize] * v)
+                            .normalize_or_zero();
+                        if n == Vec3::ZERO {
+                            ng
+                        } else if n.dot(ng) < 0.0 {
+                            -n
+                        } else {
+                            n
+                        }
+                    }
+                    None => ng,
+                };
+                SurfaceHit {
+                    p,
+                    ng,
+                    ns,
+                    shape,
+                    prim,
+                }
+            }
+            Geometry::Sphere { center, radius } => {
+                let p = ray.at(t);
+                let n = (p - *center).normalize();
+                let p = *center + n * *radius;
+                SurfaceHit {
+                    p,
+                    ng: n,
+                    ns: n,
+                    shape,
+                    prim,
+                }
+            }
+        }
+    }
+}
