@@ -89,6 +89,145 @@ pub fn rays(path: &Path, rounds: u32) -> Result<()> {
     Ok(())
 }
 
+/// Builds our tree and kiddo's on the same photons, checks that every query's sorted squared distances
+/// agree, and prints the build and query speed ratios (single-threaded queries).
+#[cfg(feature = "oracle")]
+pub fn knn_check(a: &KnnArgs) -> Result<()> {
+    use crate::photon::distributions::{points, queries, Distribution};
+    use crate::photon::kdtree::{KdTree, KnnResult};
+    use kiddo::{ImmutableKdTree, SquaredEuclidean};
+    use std::num::NonZeroUsize;
+    let dist: Distribution = a.distribution.parse().map_err(anyhow::Error::msg)?;
+    let k = NonZeroUsize::new(a.k).ok_or_else(|| anyhow::anyhow!("--k must be ≥ 1"))?;
+    let r2 = a.radius.map_or(f32::INFINITY, |r| r * r);
+    let pts = points(dist, a.points, a.seed);
+    let qs = queries(dist, a.queries, a.seed);
+    let t = Instant::now();
+    let ours = KdTree::build(
+        pts.iter()
+            .enumerate()
+            .map(|(i, p)| (*p, i as u32))
+            .collect(),
+    )
+    .map_err(anyhow::Error::msg)?;
+    let our_build = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let theirs: ImmutableKdTree<f32, 3> = ImmutableKdTree::new_from_slice_parallel(&pts)
+        .map_err(|e| anyhow::anyhow!("kiddo: {e:?}"))?;
+    let their_build = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mutable: kiddo::MutableKdTree<f32, 3> =
+        kiddo::MutableKdTree::new_from_slice(&pts).map_err(|e| anyhow::anyhow!("kiddo: {e:?}"))?;
+    let mutable_build = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    for q in &qs {
+        let found = if r2.is_finite() {
+            mutable
+                .query(q)
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .within(r2)
+                .execute()
+        } else {
+            mutable
+                .query(q)
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .execute()
+        };
+        std::hint::black_box(found);
+    }
+    let mutable_q = t.elapsed().as_secs_f64();
+    let mut res = KnnResult::new();
+    let (mut bad, mut sum_ours, mut sum_theirs) = (0usize, 0f64, 0f64);
+    let t = Instant::now();
+    for q in &qs {
+        ours.knn(*q, a.k, r2, &mut res);
+        sum_ours += res.len() as f64;
+    }
+    let our_q = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    for q in &qs {
+        let found = if r2.is_finite() {
+            theirs
+                .query(q)
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .within(r2)
+                .execute()
+        } else {
+            theirs
+                .query(q)
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .execute()
+        };
+        sum_theirs += found.len() as f64;
+    }
+    let their_q = t.elapsed().as_secs_f64();
+    for q in qs.iter().take(20_000) {
+        ours.knn(*q, a.k, r2, &mut res);
+        let found = if r2.is_finite() {
+            theirs
+                .query(q)
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .within(r2)
+                .execute()
+        } else {
+            theirs
+                .query(q)
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .execute()
+        };
+        let mut d: Vec<f32> = found.iter().map(|r| r.distance).collect();
+        d.sort_by(f32::total_cmp);
+        if d != res.sorted_d2() {
+            bad += 1;
+        }
+    }
+    println!(
+        "{} photons ({:?}), {} queries, k = {}, radius cap {}",
+        a.points,
+        dist,
+        a.queries,
+        a.k,
+        a.radius.map_or("none".into(), |r| r.to_string())
+    );
+    println!(
+        "agreement (first {} queries, sorted squared distances): {}",
+        qs.len().min(20_000),
+        if bad == 0 {
+            "all equal".to_string()
+        } else {
+            format!("{bad} DIFFER")
+        }
+    );
+    println!(
+        "mean neighbours found: ours {:.1}, kiddo {:.1}",
+        sum_ours / qs.len().max(1) as f64,
+        sum_theirs / qs.len().max(1) as f64
+    );
+    println!("vs kiddo ImmutableKdTree:\nbuild ({} threads): ours {:.3} s, kiddo {:.3} s, ratio ours/kiddo {:.2}", rayon::current_num_threads(), our_build, their_build, our_build / their_build);
+    println!(
+        "queries (1 thread): ours {:.0}/s, kiddo {:.0}/s, speed-up {:.2}x",
+        qs.len() as f64 / our_q,
+        qs.len() as f64 / their_q,
+        their_q / our_q
+    );
+    println!(
+        "vs kiddo MutableKdTree: build {:.3} s (ratio {:.2}), queries {:.0}/s, speed-up {:.2}x",
+        mutable_build,
+        our_build / mutable_build,
+        qs.len() as f64 / mutable_q,
+        mutable_q / our_q
+    );
+    println!(
+        "memory: {:.1} bytes per photon in our tree (positions, item, split planes)",
+        ours.bytes_per_point()
+    );
+    if bad > 0 {
+        anyhow::bail!("{bad} queries disagree with kiddo");
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "oracle"))]
 pub fn knn_check(_a: &KnnArgs) -> Result<()> {
-    anyhow::bail!("knn-check needs the photon k-d tree")
+    anyhow::bail!("knn-check compares against kiddo, which this binary was built without; rebuild with `cargo build --release --features oracle`")
 }

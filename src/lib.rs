@@ -4,6 +4,7 @@
 pub mod accel;
 pub mod color;
 pub mod math;
+pub mod photon;
 pub mod scene;
 
 pub mod app;

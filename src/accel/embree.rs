@@ -22,6 +22,8 @@ struct SphereData {
 pub struct Accel {
     device: RTCDevice,
     scene: RTCScene,
+    // Boxed so each sphere keeps its address (Embree holds the pointer) while the Vec grows.
+    #[allow(clippy::vec_box)]
     _spheres: Vec<Box<SphereData>>,
     /// Seconds spent in rtcCommitScene.
     pub build_seconds: f64,

@@ -277,7 +277,7 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
     if r.photons.max_shots_factor == 0 {
         return Err(cx.err("render.photons.max_shots_factor", "must be ≥ 1"));
     }
-    if !(r.gather.max_radius > 0.0) {
+    if r.gather.max_radius.is_nan() || r.gather.max_radius <= 0.0 {
         return Err(cx.err("render.gather.max_radius", "must be > 0"));
     }
     Ok(())
