@@ -3,8 +3,14 @@ use crate::accel::{Accel, Tracer};
 use crate::cli::{BenchCommand, Cli, Command, InfoArgs, RenderArgs};
 use crate::film::Image;
 use crate::integrator::path::PathTracer;
+use crate::integrator::photon_map::{
+    build_maps, splat_photons, MapRequest, PhotonMapper, PhotonMaps,
+};
 use crate::integrator::Counters;
+use crate::math::Ray;
 use crate::output;
+use crate::photon::trace::{CAUSTIC, DIRECT, INDIRECT};
+use crate::plan::{Plan, Probe};
 use crate::render::{render, RenderOutput};
 use crate::scene::file::Mode;
 use crate::scene::{load_scene_with, Geometry, Scene};
@@ -85,24 +91,179 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             bvh_s
         );
     }
-    let mode = scene.render.mode;
-    if a.view != "image" || mode != Mode::Path {
-        return crate::integrator_app::render_photon_modes(&scene, &accel, &a, &out, bvh_s);
-    }
-    let r = render_path(&scene, &accel, scene.render.spp, a.quiet);
-    let stats = json!({
+    let base = json!({
         "scene": a.scene.display().to_string(),
-        "mode": "path",
         "settings": scene.render,
         "resolution": [scene.camera.width, scene.camera.height],
-        "times_s": { "load": scene.load_seconds, "bvh": bvh_s, "render": r.seconds },
-        "rays": r.counters.rays,
-        "rays_per_s": r.counters.rays as f64 / r.seconds.max(1e-9),
-        "nonfinite_samples": r.counters.nonfinite,
-        "peak_rss_bytes": output::peak_rss_bytes(),
     });
-    write_outputs(&out, &r.image, scene.render.exposure, &stats)?;
-    println!("{}", describe(&out, &r.image));
+    if a.view != "image" {
+        return render_view(&scene, &accel, &a.view, &out, base, a.quiet);
+    }
+    let mode = scene.render.mode;
+    let mut images = Vec::new();
+    if mode != Mode::PhotonMap {
+        let r = render_path(&scene, &accel, scene.render.spp, a.quiet);
+        let mut stats = base.clone();
+        stats["mode"] = json!("path");
+        stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "render": r.seconds });
+        add_counters(&mut stats, &r);
+        let o = if mode == Mode::Both {
+            suffixed(&out, "-pt")
+        } else {
+            out.clone()
+        };
+        write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
+        println!("{}", describe(&o, &r.image));
+        images.push(r.image);
+    }
+    if mode != Mode::Path {
+        let plan = plan_for(&scene, &accel);
+        let maps = build_maps(
+            &scene,
+            &accel,
+            &MapRequest {
+                want: plan.photons,
+                targeted: scene.render.photons.caustic_targeting,
+                targets: Some(plan.caustic_targets.clone()),
+            },
+            a.quiet,
+        )?;
+        let r = render_photon_map(&scene, &accel, &maps, &plan, None, a.quiet);
+        let mut stats = base.clone();
+        stats["mode"] = json!("photon_map");
+        stats["plan"] = json!(plan);
+        stats["photon_maps"] = json!(maps.stats);
+        let trace_s = maps.stats.global_pass.map_or(0.0, |p| p.seconds)
+            + maps.stats.caustic_pass.map_or(0.0, |p| p.seconds);
+        stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "photon_trace": trace_s, "kdtree_build": maps.stats.build_seconds, "eye_pass": r.seconds });
+        add_counters(&mut stats, &r);
+        let o = if mode == Mode::Both {
+            suffixed(&out, "-pm")
+        } else {
+            out.clone()
+        };
+        write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
+        println!("{}", describe(&o, &r.image));
+        images.push(r.image);
+    }
+    if images.len() == 2 {
+        let side = Image::side_by_side(&[&images[0], &images[1]], 4);
+        let p = out.with_extension("png");
+        output::write_png(&p, &side, scene.render.exposure)?;
+        println!(
+            "wrote {} (left: path tracing, right: photon mapping)",
+            p.display()
+        );
+    }
+    Ok(())
+}
+
+fn suffixed(out: &Path, suffix: &str) -> PathBuf {
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    out.with_file_name(format!("{name}{suffix}"))
+}
+
+fn add_counters(stats: &mut serde_json::Value, r: &RenderOutput) {
+    stats["rays"] = json!(r.counters.rays);
+    stats["rays_per_s"] = json!(r.counters.rays as f64 / r.seconds.max(1e-9));
+    stats["nonfinite_samples"] = json!(r.counters.nonfinite);
+    stats["peak_rss_bytes"] = json!(output::peak_rss_bytes());
+}
+
+/// The planner, asking Embree its visibility questions.
+pub fn plan_for(scene: &Scene, tracer: &dyn Tracer) -> Plan {
+    let visible = |a: glam::Vec3, b: glam::Vec3| {
+        let mut r = Ray::new(a, b - a);
+        r.tmax = 1.0;
+        !tracer.occluded(&r)
+    };
+    let first = |r: Ray| tracer.intersect(&r).map(|h| h.shape);
+    crate::plan::plan(
+        scene,
+        &Probe {
+            visible: &visible,
+            first_shape: &first,
+        },
+    )
+}
+
+/// The photon-map eye pass over the whole film; `only` shows a single map's estimate.
+pub fn render_photon_map(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    maps: &PhotonMaps,
+    plan: &Plan,
+    only: Option<usize>,
+    quiet: bool,
+) -> RenderOutput {
+    let mut pm = PhotonMapper::new(scene, tracer, maps, only);
+    pm.specular_spp = plan.specular_spp;
+    let cam = &scene.camera;
+    render(
+        cam.width,
+        cam.height,
+        scene.render.pm_spp,
+        scene.render.seed,
+        "eye pass",
+        quiet,
+        |x, y, rng, c: &mut Counters| pm.li(cam.ray(x, y), rng, c),
+    )
+}
+
+fn parse_map(name: &str) -> Result<Vec<usize>> {
+    Ok(match name {
+        "direct" => vec![DIRECT],
+        "indirect" => vec![INDIRECT],
+        "caustic" => vec![CAUSTIC],
+        "all" => vec![DIRECT, INDIRECT, CAUSTIC],
+        _ => bail!("unknown map `{name}` (accepted: direct, indirect, caustic, all)"),
+    })
+}
+
+/// `--view photons:MAP` (splatted photon positions) and `--view map:MAP` (one map's estimate).
+fn render_view(
+    scene: &Scene,
+    accel: &Accel,
+    view: &str,
+    out: &Path,
+    mut stats: serde_json::Value,
+    quiet: bool,
+) -> Result<()> {
+    let (kind, map) = view
+        .split_once(':')
+        .ok_or_else(|| anyhow::anyhow!("--view {view}: expected image, photons:MAP or map:MAP"))?;
+    let which = parse_map(map)?;
+    if kind == "map" && which.len() != 1 {
+        bail!("--view map:{map}: choose one of direct, indirect, caustic");
+    }
+    let plan = plan_for(scene, accel);
+    let ps = &scene.render.photons;
+    let mut want = [0u64; 3];
+    for &m in &which {
+        want[m] = [ps.direct, ps.indirect, ps.caustic][m];
+    }
+    let maps = build_maps(
+        scene,
+        accel,
+        &MapRequest {
+            want,
+            targeted: ps.caustic_targeting,
+            targets: Some(plan.caustic_targets.clone()),
+        },
+        quiet,
+    )?;
+    let img = match kind {
+        "photons" => splat_photons(scene, accel, &maps, &which),
+        "map" => render_photon_map(scene, accel, &maps, &plan, Some(which[0]), quiet).image,
+        _ => bail!("--view {view}: expected image, photons:MAP or map:MAP"),
+    };
+    stats["view"] = json!(view);
+    stats["photon_maps"] = json!(maps.stats);
+    write_outputs(out, &img, scene.render.exposure, &stats)?;
+    println!("{}", describe(out, &img));
     Ok(())
 }
 

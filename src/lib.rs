@@ -5,6 +5,7 @@ pub mod accel;
 pub mod color;
 pub mod math;
 pub mod photon;
+pub mod plan;
 pub mod scene;
 
 pub mod app;
@@ -12,7 +13,6 @@ pub mod bench;
 pub mod cli;
 pub mod film;
 pub mod integrator;
-pub mod integrator_app;
 pub mod metrics;
 pub mod output;
 pub mod render;

@@ -1,6 +1,7 @@
 //! Integrators: the path tracer (reference) and the photon-map eye pass, sharing light sampling.
 pub mod direct;
 pub mod path;
+pub mod photon_map;
 
 /// Per-thread counters, summed after a render.
 #[derive(Clone, Copy, Debug, Default)]

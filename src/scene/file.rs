@@ -270,6 +270,8 @@ pub struct RenderSettings {
     pub direct_light: DirectLight,
     /// Final-gather rays at the first diffuse hit (0 = read the indirect map directly).
     pub final_gather: u32,
+    /// Run every pass even where the planner finds it useless (for checking the planner).
+    pub force_all_passes: bool,
     pub photons: PhotonSettings,
     pub gather: GatherSettings,
 }
@@ -287,6 +289,7 @@ impl Default for RenderSettings {
             specular_spp: 4,
             direct_light: DirectLight::ShadowRays,
             final_gather: 0,
+            force_all_passes: false,
             photons: PhotonSettings::default(),
             gather: GatherSettings::default(),
         }

@@ -211,7 +211,54 @@ impl Lights {
         }
     }
 
+    /// A point on light `i`: position, normal (zero for point lights), area pdf (1 for point lights),
+    /// and emitted radiance (area lights) or intensity (point lights).
+    pub fn sample_point(&self, scene: &Scene, i: usize, u: [f32; 2]) -> Option<LightPoint> {
+        Some(match &self.list[i] {
+            LightKind::Point {
+                position,
+                intensity,
+            } => LightPoint {
+                p: *position,
+                n: Vec3::ZERO,
+                pdf_area: 1.0,
+                le: *intensity,
+            },
+            LightKind::Triangle { shape, prim } => {
+                let s = &scene.shapes[*shape as usize];
+                let Geometry::Mesh(m) = &s.geometry else {
+                    return None;
+                };
+                let [a, b, c] = m.triangle(*prim as usize);
+                let bc = sampling::uniform_triangle(u);
+                let n = (b - a).cross(c - a);
+                let area = 0.5 * n.length();
+                let p = a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1];
+                LightPoint {
+                    p,
+                    n: n.normalize(),
+                    pdf_area: 1.0 / area,
+                    le: s.emission,
+                }
+            }
+            LightKind::Sphere { shape } => {
+                let s = &scene.shapes[*shape as usize];
+                let Geometry::Sphere { center, radius } = s.geometry else {
+                    return None;
+                };
+                let n = sampling::uniform_sphere(u);
+                LightPoint {
+                    p: center + n * radius,
+                    n,
+                    pdf_area: 1.0 / (4.0 * PI * radius * radius),
+                    le: s.emission,
+                }
+            }
+        })
+    }
+
     /// Emits a photon: light chosen by power, position uniform on it, direction uniform (point) or cosine.
+    /// The returned power is Φ_light / p_choice; divide by the number of photons shot.
     pub fn emit(
         &self,
         scene: &Scene,
@@ -224,45 +271,32 @@ impl Lights {
         }
         let (i, p_sel) = sampling::sample_cdf(&self.cdf, u_sel);
         let phi = self.power[i] / p_sel;
-        let (o, n, d) = match &self.list[i] {
-            LightKind::Point { position, .. } => {
-                let d = sampling::uniform_sphere(u_dir);
-                (*position, d, d)
-            }
-            LightKind::Triangle { shape, prim } => {
-                let Geometry::Mesh(m) = &scene.shapes[*shape as usize].geometry else {
-                    return None;
-                };
-                let [a, b, c] = m.triangle(*prim as usize);
-                let bc = sampling::uniform_triangle(u_pos);
-                let y = a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1];
-                let n = (b - a).cross(c - a).normalize();
-                (
-                    y,
-                    n,
-                    Frame::from_normal(n).to_world(sampling::cosine_hemisphere(u_dir)),
-                )
-            }
-            LightKind::Sphere { shape } => {
-                let Geometry::Sphere { center, radius } = scene.shapes[*shape as usize].geometry
-                else {
-                    return None;
-                };
-                let n = sampling::uniform_sphere(u_pos);
-                (
-                    center + n * radius,
-                    n,
-                    Frame::from_normal(n).to_world(sampling::cosine_hemisphere(u_dir)),
-                )
-            }
+        let lp = self.sample_point(scene, i, u_pos)?;
+        let (n, d) = if lp.n == Vec3::ZERO {
+            let d = sampling::uniform_sphere(u_dir);
+            (d, d)
+        } else {
+            (
+                lp.n,
+                Frame::from_normal(lp.n).to_world(sampling::cosine_hemisphere(u_dir)),
+            )
         };
-        let o = crate::math::offset_ray_origin(o, n, d);
+        let o = crate::math::offset_ray_origin(lp.p, n, d);
         Some(EmittedRay {
             ray: Ray::new(o, d),
             normal: n,
             phi,
         })
     }
+}
+
+/// A sampled point on a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightPoint {
+    pub p: Vec3,
+    pub n: Vec3,
+    pub pdf_area: f32,
+    pub le: Rgb,
 }
 
 /// Nearest positive distance along the unit direction `d` from `o` to a sphere, if any.

@@ -1,0 +1,319 @@
+//! Photon mapping: trace and build the three maps, then the eye pass. Camera rays follow mirrors and
+//! glass by sampling until a diffuse hit, where direct light (shadow rays or the direct map), caustics
+//! (caustic map) and indirect light (indirect map, or a final gather that reads the maps one bounce
+//! further) are added. Also the map views: photon splats and single-map estimates.
+use super::direct::estimate_direct;
+use super::Counters;
+use crate::accel::Tracer;
+use crate::color::{luminance, Rgb};
+use crate::film::Image;
+use crate::math::{offset_ray_origin, sampling, Frame, Ray, Rng};
+use crate::photon::estimate::{Gather, PhotonMap};
+use crate::photon::kdtree::KnnResult;
+use crate::photon::trace::{
+    run_pass, PassSettings, PassStats, Targets, CAUSTIC, DIRECT, INDIRECT, MAP_NAMES,
+};
+use crate::scene::file::DirectLight;
+use crate::scene::{Scene, SurfaceHit};
+use serde::Serialize;
+use std::cell::RefCell;
+
+/// The built maps (None = not built) and what it took.
+pub struct PhotonMaps {
+    pub maps: [Option<PhotonMap>; 3],
+    pub stats: MapsStats,
+}
+
+#[derive(Debug, Default, Clone, Serialize)]
+pub struct MapsStats {
+    pub global_pass: Option<PassStats>,
+    pub caustic_pass: Option<PassStats>,
+    pub caustic_targeted: bool,
+    pub stored: [u64; 3],
+    pub n_emitted: [u64; 3],
+    pub complete: [bool; 3],
+    pub bytes_per_photon: [f64; 3],
+    pub build_seconds: f64,
+    pub photons_per_second: f64,
+}
+
+/// What to trace: photons wanted per map, and whether caustic photons are aimed at specular shapes.
+pub struct MapRequest {
+    pub want: [u64; 3],
+    pub targeted: bool,
+    /// Restrict caustic targets to these shapes (the planner's list); None = every specular shape.
+    pub targets: Option<Vec<u32>>,
+}
+
+pub fn build_maps(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    req: &MapRequest,
+    quiet: bool,
+) -> anyhow::Result<PhotonMaps> {
+    let ps = &scene.render.photons;
+    let total: u64 = req.want.iter().sum();
+    let pb = crate::render::progress(total, "photons", quiet);
+    let mut stats = MapsStats::default();
+    let mut maps: [Option<PhotonMap>; 3] = Default::default();
+    let t0 = std::time::Instant::now();
+    let mut collected: [Option<crate::photon::trace::MapPhotons>; 3] = Default::default();
+    if req.want[DIRECT] + req.want[INDIRECT] > 0 {
+        let want = [req.want[DIRECT], req.want[INDIRECT], 0];
+        let s = PassSettings {
+            want,
+            max_bounces: ps.max_bounces,
+            max_shots: want
+                .iter()
+                .max()
+                .copied()
+                .unwrap_or(0)
+                .saturating_mul(ps.max_shots_factor),
+            seed: scene.render.seed,
+            pass: 1,
+        };
+        let (m, st) = run_pass(scene, tracer, &s, None, &pb);
+        let [d, i, _] = m;
+        collected[DIRECT] = (want[DIRECT] > 0).then_some(d);
+        collected[INDIRECT] = (want[INDIRECT] > 0).then_some(i);
+        stats.global_pass = Some(st);
+    }
+    if req.want[CAUSTIC] > 0 {
+        let targets = Targets::new(scene, req.targets.as_deref());
+        let targeted = req.targeted && !targets.is_empty();
+        let s = PassSettings {
+            want: [0, 0, req.want[CAUSTIC]],
+            max_bounces: ps.max_bounces,
+            max_shots: req.want[CAUSTIC].saturating_mul(ps.max_shots_factor),
+            seed: scene.render.seed,
+            pass: 2,
+        };
+        let (m, st) = run_pass(scene, tracer, &s, targeted.then_some(&targets), &pb);
+        let [_, _, c] = m;
+        collected[CAUSTIC] = Some(c);
+        stats.caustic_pass = Some(st);
+        stats.caustic_targeted = targeted;
+    }
+    pb.finish_and_clear();
+    let trace_s = t0.elapsed().as_secs_f64();
+    let t1 = std::time::Instant::now();
+    for (i, c) in collected.into_iter().enumerate() {
+        if let Some(c) = c {
+            if !c.complete && !quiet {
+                eprintln!("warning: the {} map got {} photons of {} requested before the shot budget ran out ({} shot)", MAP_NAMES[i], c.photons.len(), req.want[i], c.n_emitted);
+            }
+            let m =
+                PhotonMap::build(c).map_err(|e| anyhow::anyhow!("{} map: {e}", MAP_NAMES[i]))?;
+            stats.stored[i] = m.len() as u64;
+            stats.n_emitted[i] = m.n_emitted;
+            stats.complete[i] = m.complete;
+            stats.bytes_per_photon[i] = m.tree.bytes_per_point();
+            maps[i] = Some(m);
+        }
+    }
+    stats.build_seconds = t1.elapsed().as_secs_f64();
+    stats.photons_per_second = stats.stored.iter().sum::<u64>() as f64 / trace_s.max(1e-9);
+    Ok(PhotonMaps { maps, stats })
+}
+
+thread_local! {
+    static SCRATCH: RefCell<KnnResult> = RefCell::new(KnnResult::new());
+}
+
+/// The eye pass.
+pub struct PhotonMapper<'a> {
+    pub scene: &'a Scene,
+    pub tracer: &'a dyn Tracer,
+    pub maps: &'a PhotonMaps,
+    pub gather: [Gather; 3],
+    /// Show one map's estimate alone (the `map:` views).
+    pub only: Option<usize>,
+    /// Extra eye samples where the first hit is not diffuse (the planner may set 0).
+    pub specular_spp: u32,
+}
+
+impl<'a> PhotonMapper<'a> {
+    pub fn new(
+        scene: &'a Scene,
+        tracer: &'a dyn Tracer,
+        maps: &'a PhotonMaps,
+        only: Option<usize>,
+    ) -> PhotonMapper<'a> {
+        let g = &scene.render.gather;
+        let max_r = g.max_radius * scene.diagonal();
+        let mk = |k: u32| Gather {
+            k: k as usize,
+            max_r2: max_r * max_r,
+            cone_k: g.cone_k,
+        };
+        PhotonMapper {
+            scene,
+            tracer,
+            maps,
+            gather: [mk(g.direct), mk(g.indirect), mk(g.caustic)],
+            only,
+            specular_spp: scene.render.specular_spp,
+        }
+    }
+
+    fn map_radiance(&self, m: usize, si: &SurfaceHit, wo: glam::Vec3, rho: Rgb) -> Rgb {
+        let Some(map) = &self.maps.maps[m] else {
+            return Rgb::ZERO;
+        };
+        SCRATCH.with(|s| map.radiance(si.p, si.ng, wo, rho, self.gather[m], &mut s.borrow_mut()))
+    }
+
+    /// Radiance leaving a diffuse point: direct + caustic + indirect (`fg` final-gather rays, 0 = map).
+    fn diffuse_radiance(
+        &self,
+        si: &SurfaceHit,
+        wo: glam::Vec3,
+        rng: &mut Rng,
+        c: &mut Counters,
+        fg: u32,
+    ) -> Rgb {
+        let rho = self.scene.material_of(si.shape).albedo();
+        if let Some(m) = self.only {
+            return self.map_radiance(m, si, wo, rho);
+        }
+        let direct = match (&self.maps.maps[DIRECT], self.scene.render.direct_light) {
+            (Some(_), DirectLight::PhotonMap) => self.map_radiance(DIRECT, si, wo, rho),
+            _ => estimate_direct(self.scene, self.tracer, si, wo, rng, c, false),
+        };
+        let indirect = if fg == 0 {
+            self.map_radiance(INDIRECT, si, wo, rho)
+        } else {
+            self.final_gather(si, wo, rho, rng, c, fg)
+        };
+        direct + self.map_radiance(CAUSTIC, si, wo, rho) + indirect
+    }
+
+    /// Indirect light by `n` cosine-distributed rays that read the maps where they land.
+    fn final_gather(
+        &self,
+        si: &SurfaceHit,
+        wo: glam::Vec3,
+        rho: Rgb,
+        rng: &mut Rng,
+        c: &mut Counters,
+        n: u32,
+    ) -> Rgb {
+        let side = if wo.dot(si.ng) < 0.0 { -si.ng } else { si.ng };
+        let frame = Frame::from_normal(side);
+        let mut sum = Rgb::ZERO;
+        for _ in 0..n {
+            let wi = frame.to_world(sampling::cosine_hemisphere(rng.next_2d()));
+            let ray = Ray::new(offset_ray_origin(si.p, si.ng, wi), wi);
+            // Emission seen by gather rays is direct light or a caustic, already counted: skip it.
+            sum += self.follow(ray, Rgb::ONE, rng, c, false, 0);
+        }
+        sum * rho / n as f32
+    }
+
+    /// Follows a ray through specular surfaces to a diffuse one; `emission` adds lights seen on the way.
+    fn follow(
+        &self,
+        mut ray: Ray,
+        mut beta: Rgb,
+        rng: &mut Rng,
+        c: &mut Counters,
+        emission: bool,
+        fg: u32,
+    ) -> Rgb {
+        let scene = self.scene;
+        let mut l = Rgb::ZERO;
+        for _ in 0..=scene.render.max_depth {
+            c.rays += 1;
+            let Some(hit) = self.tracer.intersect(&ray) else {
+                break;
+            };
+            let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
+            let wo = -ray.d.normalize();
+            let shape = &scene.shapes[hit.shape as usize];
+            if emission && self.only.is_none() && shape.emission != Rgb::ZERO && wo.dot(si.ng) > 0.0
+            {
+                l += beta * shape.emission;
+            }
+            let mat = scene.material_of(hit.shape);
+            if mat.is_diffuse() {
+                l += beta * self.diffuse_radiance(&si, wo, rng, c, fg);
+                break;
+            }
+            let u = rng.next_2d();
+            let Some(bs) = mat.sample(wo, si.ns, u, rng.next_f32(), true) else {
+                break;
+            };
+            if (bs.wi.dot(si.ng) * wo.dot(si.ng) > 0.0) == bs.transmitted {
+                break;
+            }
+            beta *= bs.weight;
+            if beta == Rgb::ZERO {
+                break;
+            }
+            ray = Ray::new(offset_ray_origin(si.p, si.ng, bs.wi), bs.wi);
+        }
+        l
+    }
+
+    /// One camera sample. Pixels whose first hit is not diffuse take `specular_spp` extra chains.
+    pub fn li(&self, ray: Ray, rng: &mut Rng, c: &mut Counters) -> Rgb {
+        let fg = self.scene.render.final_gather;
+        let first = self.tracer.intersect(&ray);
+        let extra = match first {
+            Some(h) if !self.scene.material_of(h.shape).is_diffuse() => self.specular_spp,
+            _ => 0,
+        };
+        let mut sum = Rgb::ZERO;
+        for _ in 0..=extra {
+            sum += self.follow(ray, Rgb::ONE, rng, c, true, fg);
+        }
+        sum / (extra + 1) as f32
+    }
+}
+
+/// Photon positions splatted onto the film (visible ones only), coloured by normalised power.
+pub fn splat_photons(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    maps: &PhotonMaps,
+    which: &[usize],
+) -> Image {
+    let cam = &scene.camera;
+    let mut img = Image::new(cam.width, cam.height);
+    let total: usize = which
+        .iter()
+        .filter_map(|&m| maps.maps[m].as_ref())
+        .map(|m| m.len())
+        .sum();
+    // Dots stay distinguishable whatever the photon count: about two photons' worth saturates a pixel.
+    let weight = (2.0 * img.pixels.len() as f32 / total.max(1) as f32).clamp(0.02, 0.5);
+    for &m in which {
+        let Some(map) = &maps.maps[m] else { continue };
+        let tint = [
+            Rgb::new(1.0, 0.9, 0.6),
+            Rgb::new(0.5, 0.7, 1.0),
+            Rgb::new(1.0, 0.4, 0.9),
+        ][m];
+        for i in 0..map.len() as u32 {
+            let p = glam::Vec3::from_array(map.tree.position(i));
+            let Some((x, y)) = cam.project(p) else {
+                continue;
+            };
+            let d = p - cam.origin;
+            let mut r = Ray::new(cam.origin, d);
+            r.tmax = 1.0 - 1e-3;
+            if tracer.occluded(&r) {
+                continue;
+            }
+            let phi = map.tree.item(i).phi();
+            let lum = luminance(phi).max(1e-30);
+            let px = img.get(x as u32, y as u32);
+            img.set(
+                x as u32,
+                y as u32,
+                px + tint * (phi / lum).min(glam::Vec3::splat(4.0)) * weight,
+            );
+        }
+    }
+    img
+}

@@ -1,0 +1,332 @@
+//! Photon tracing: emission from the lights (uniform, or aimed at specular surfaces for caustics),
+//! bounces through Embree, storage into the direct / indirect / caustic maps, Russian roulette at
+//! diffuse hits. Photon i's random numbers are keyed by (seed, pass, i), and batches are merged in index
+//! order, so the maps are identical for any thread count. Each map counts its own `n_emitted`: the
+//! number of photons shot up to the batch in which it reached its requested size.
+use crate::accel::Tracer;
+use crate::color::Rgb;
+use crate::math::{max_component, offset_ray_origin, sampling, Frame, Ray, Rng};
+use crate::photon::photon::Photon;
+use crate::scene::{Geometry, Scene};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Map indices.
+pub const DIRECT: usize = 0;
+pub const INDIRECT: usize = 1;
+pub const CAUSTIC: usize = 2;
+pub const MAP_NAMES: [&str; 3] = ["direct", "indirect", "caustic"];
+
+const BATCH: u64 = 4096;
+
+/// Photons gathered for one map, before the tree is built.
+#[derive(Debug, Default, Clone)]
+pub struct MapPhotons {
+    pub photons: Vec<Photon>,
+    /// Photons shot (stored or not) that this map's estimate is normalised by.
+    pub n_emitted: u64,
+    /// False when the shot budget ran out before the requested count was reached.
+    pub complete: bool,
+}
+
+/// What a tracing pass did.
+#[derive(Debug, Default, Clone, Copy, serde::Serialize)]
+pub struct PassStats {
+    pub shot: u64,
+    pub segments: u64,
+    pub seconds: f64,
+    pub budget_exhausted: bool,
+}
+
+/// Specular surfaces that caustic photons are aimed at, chosen by area.
+pub struct Targets {
+    shapes: Vec<u32>,
+    cdf: Vec<f32>,
+    /// Per target: cumulative triangle areas (meshes only).
+    tri_cdf: Vec<Vec<f32>>,
+    pub total_area: f32,
+}
+
+impl Targets {
+    /// Every non-diffuse, non-emissive shape is a target.
+    pub fn new(scene: &Scene, only: Option<&[u32]>) -> Targets {
+        let mut t = Targets {
+            shapes: Vec::new(),
+            cdf: Vec::new(),
+            tri_cdf: Vec::new(),
+            total_area: 0.0,
+        };
+        for (i, s) in scene.shapes.iter().enumerate() {
+            if scene.materials[s.material as usize].is_diffuse()
+                || only.is_some_and(|o| !o.contains(&(i as u32)))
+            {
+                continue;
+            }
+            let tri = match &s.geometry {
+                Geometry::Mesh(m) => {
+                    let mut acc = 0.0;
+                    (0..m.indices.len())
+                        .map(|k| {
+                            acc += m.area(k);
+                            acc
+                        })
+                        .collect()
+                }
+                Geometry::Sphere { .. } => Vec::new(),
+            };
+            let a = s.area();
+            if a <= 0.0 {
+                continue;
+            }
+            t.total_area += a;
+            t.shapes.push(i as u32);
+            t.cdf.push(t.total_area);
+            t.tri_cdf.push(tri);
+        }
+        t
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.shapes.is_empty()
+    }
+
+    /// A uniform point (by area over all targets): (shape, position, unit normal).
+    fn sample(&self, scene: &Scene, u_sel: f32, u_tri: f32, u: [f32; 2]) -> (u32, Vec3, Vec3) {
+        let (i, _) = sampling::sample_cdf(&self.cdf, u_sel);
+        let shape = self.shapes[i];
+        match &scene.shapes[shape as usize].geometry {
+            Geometry::Mesh(m) => {
+                let (k, _) = sampling::sample_cdf(&self.tri_cdf[i], u_tri);
+                let [a, b, c] = m.triangle(k);
+                let bc = sampling::uniform_triangle(u);
+                (
+                    shape,
+                    a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1],
+                    (b - a).cross(c - a).normalize(),
+                )
+            }
+            Geometry::Sphere { center, radius } => {
+                let n = sampling::uniform_sphere(u);
+                (shape, *center + n * *radius, n)
+            }
+        }
+    }
+}
+
+/// Settings of one tracing pass.
+pub struct PassSettings {
+    /// Requested stored photons per map (0 = map not built in this pass).
+    pub want: [u64; 3],
+    pub max_bounces: u32,
+    /// Give up after this many photons shot.
+    pub max_shots: u64,
+    pub seed: u64,
+    /// Distinguishes the random streams of different passes.
+    pub pass: u64,
+}
+
+/// One photon's flight: where it starts, with what power, and (targeted emission) which surface it was
+/// aimed at, at what distance; if it hits anything else first it is dropped.
+struct Launch {
+    ray: Ray,
+    phi: Rgb,
+    aim: Option<(u32, f32)>,
+}
+
+fn trace_one(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    l: Launch,
+    rng: &mut Rng,
+    s: &PassSettings,
+    out: &mut [Vec<Photon>; 3],
+    segs: &mut u64,
+) {
+    let (mut ray, mut phi) = (l.ray, l.phi);
+    let mut diffuse_bounces = 0u32;
+    let mut specular_bounces = 0u32;
+    for bounce in 0..s.max_bounces {
+        *segs += 1;
+        let Some(hit) = tracer.intersect(&ray) else {
+            return;
+        };
+        if bounce == 0 {
+            if let Some((shape, dist)) = l.aim {
+                if hit.shape != shape || hit.t < dist * (1.0 - 1e-3) {
+                    return;
+                }
+            }
+        }
+        let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
+        let mat = scene.material_of(hit.shape);
+        let wo = -ray.d.normalize();
+        if mat.is_diffuse() {
+            let map = if diffuse_bounces > 0 {
+                INDIRECT
+            } else if specular_bounces > 0 {
+                CAUSTIC
+            } else {
+                DIRECT
+            };
+            if s.want[map] > 0 {
+                out[map].push(Photon {
+                    p: si.p,
+                    wi: ray.d.normalize(),
+                    phi,
+                    flags: map as u8,
+                });
+            }
+            // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
+            if s.want[INDIRECT] == 0 {
+                return;
+            }
+            let rho = mat.albedo();
+            let p = max_component(rho);
+            if p <= 0.0 || rng.next_f32() >= p {
+                return;
+            }
+            phi *= rho / p;
+            let side = if wo.dot(si.ns) < 0.0 { -si.ns } else { si.ns };
+            let wi = Frame::from_normal(side).to_world(sampling::cosine_hemisphere(rng.next_2d()));
+            if wi.dot(si.ng) * wo.dot(si.ng) <= 0.0 {
+                return;
+            }
+            diffuse_bounces += 1;
+            ray = Ray::new(offset_ray_origin(si.p, si.ng, wi), wi);
+        } else {
+            let u = rng.next_2d();
+            let Some(bs) = mat.sample(wo, si.ns, u, rng.next_f32(), false) else {
+                return;
+            };
+            if (bs.wi.dot(si.ng) * wo.dot(si.ng) > 0.0) == bs.transmitted {
+                return;
+            }
+            phi *= bs.weight;
+            if max_component(phi) <= 0.0 {
+                return;
+            }
+            specular_bounces += 1;
+            ray = Ray::new(offset_ray_origin(si.p, si.ng, bs.wi), bs.wi);
+        }
+    }
+}
+
+/// Uniform emission from the lights (power-weighted choice, then position and direction on the light).
+fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
+    let e = scene
+        .lights
+        .emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d())?;
+    Some(Launch {
+        ray: e.ray,
+        phi: e.phi,
+        aim: None,
+    })
+}
+
+/// Emission aimed at a point drawn uniformly by area on the specular targets. The power is the flux
+/// that reaches that surface element, L·cosθx·cosθy/d² (I·cosθy/d² for point lights), divided by the
+/// densities of the light choice, the light point and the target point, so the caustic estimate has the
+/// same expectation as with uniform emission.
+fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<Launch> {
+    let lights = &scene.lights;
+    let (li, p_sel) = sampling::sample_cdf(&lights.cdf, rng.next_f32());
+    let lp = lights.sample_point(scene, li, rng.next_2d())?;
+    let (u_sel, u_tri, u) = (rng.next_f32(), rng.next_f32(), rng.next_2d());
+    let (shape, y, ny) = targets.sample(scene, u_sel, u_tri, u);
+    let d = y - lp.p;
+    let dist2 = d.length_squared();
+    if dist2 <= 0.0 {
+        return None;
+    }
+    let dist = dist2.sqrt();
+    let w = d / dist;
+    let cos_x = if lp.n == Vec3::ZERO { 1.0 } else { lp.n.dot(w) };
+    if cos_x <= 0.0 {
+        return None;
+    }
+    let cos_y = ny.dot(w).abs();
+    let phi = lp.le * (cos_x * cos_y / dist2 * targets.total_area / (lp.pdf_area * p_sel));
+    let o = if lp.n == Vec3::ZERO {
+        lp.p
+    } else {
+        offset_ray_origin(lp.p, lp.n, w)
+    };
+    let travelled = (o - lp.p).length();
+    Some(Launch {
+        ray: Ray::new(o, w),
+        phi,
+        aim: Some((shape, dist - travelled)),
+    })
+}
+
+/// Runs one pass until every wanted map has its photons or `max_shots` photons were shot.
+pub fn run_pass(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    s: &PassSettings,
+    targets: Option<&Targets>,
+    progress: &indicatif::ProgressBar,
+) -> ([MapPhotons; 3], PassStats) {
+    let t0 = std::time::Instant::now();
+    let mut maps: [MapPhotons; 3] = Default::default();
+    let mut done = [s.want[0] == 0, s.want[1] == 0, s.want[2] == 0];
+    let mut stats = PassStats::default();
+    let threads = rayon::current_num_threads() as u64;
+    let mut next = 0u64;
+    while done.iter().any(|d| !d) && next < s.max_shots {
+        let batches = (threads * 4).max(1);
+        let results: Vec<([Vec<Photon>; 3], u64, u64)> = (0..batches)
+            .into_par_iter()
+            .map(|b| {
+                let start = next + b * BATCH;
+                let end = (start + BATCH).min(s.max_shots);
+                let mut out: [Vec<Photon>; 3] = Default::default();
+                let mut segs = 0u64;
+                for i in start..end.max(start) {
+                    let mut rng = Rng::new(s.seed, s.pass, i);
+                    let launch = match targets {
+                        Some(t) => launch_targeted(scene, t, &mut rng),
+                        None => launch_uniform(scene, &mut rng),
+                    };
+                    if let Some(l) = launch {
+                        trace_one(scene, tracer, l, &mut rng, s, &mut out, &mut segs);
+                    }
+                }
+                (out, end.max(start), segs)
+            })
+            .collect();
+        for (out, end, segs) in results {
+            if end <= next {
+                continue;
+            }
+            stats.segments += segs;
+            for (m, photons) in out.into_iter().enumerate() {
+                if done[m] {
+                    continue;
+                }
+                maps[m].photons.extend(photons);
+                maps[m].n_emitted = end;
+                if maps[m].photons.len() as u64 >= s.want[m] {
+                    done[m] = true;
+                    maps[m].complete = true;
+                }
+            }
+            next = end;
+            if done.iter().all(|d| *d) {
+                break;
+            }
+        }
+        let stored: u64 = maps.iter().map(|m| m.photons.len() as u64).sum();
+        progress.set_position(stored.min(progress.length().unwrap_or(u64::MAX)));
+    }
+    stats.shot = next;
+    stats.budget_exhausted = done.iter().any(|d| !d);
+    stats.seconds = t0.elapsed().as_secs_f64();
+    for m in maps.iter_mut() {
+        let scale = 1.0 / m.n_emitted.max(1) as f32;
+        for p in m.photons.iter_mut() {
+            p.phi *= scale;
+        }
+    }
+    (maps, stats)
+}
