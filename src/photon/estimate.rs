@@ -66,7 +66,7 @@ impl PhotonMap {
             return Rgb::ZERO;
         }
         let r2 = self.tree.knn(p.to_array(), g.k, g.max_r2, res);
-        if !(r2 > 0.0) || !r2.is_finite() {
+        if r2.is_nan() || r2 <= 0.0 || !r2.is_finite() {
             return Rgb::ZERO;
         }
         let r = r2.sqrt();

@@ -33,6 +33,21 @@ pub fn load_scene_with(path: &Path, overrides: &[String]) -> Result<Scene, Scene
     Ok(scene)
 }
 
+/// Loads a scene from TOML text; relative mesh paths resolve against `dir`; errors name `shown`.
+pub fn load_scene_str(
+    text: &str,
+    shown: &str,
+    dir: &Path,
+    overrides: &[String],
+) -> Result<Scene, SceneError> {
+    let t0 = std::time::Instant::now();
+    let file = parse_scene_text(text, shown, overrides)?;
+    let mut scene = build(file, shown, dir)?;
+    scene.path = PathBuf::from(shown);
+    scene.load_seconds = t0.elapsed().as_secs_f64();
+    Ok(scene)
+}
+
 /// Parses and type-checks the TOML text, applying overrides; returns the effective settings.
 pub fn parse_scene_text(
     text: &str,
@@ -434,9 +449,10 @@ fn build_shape(
         } => {
             let path = dir.join(file);
             let shown_mesh = path.display().to_string();
-            let loaded = mesh::load_mesh_file(&path, &shown_mesh)?;
+            let in_scene = |e: SceneError| cx.err(&format!("{key}.file"), e.to_string());
+            let loaded = mesh::load_mesh_file(&path, &shown_mesh).map_err(in_scene)?;
             for lm in loaded {
-                lm.mesh.validate(&shown_mesh)?;
+                lm.mesh.validate(&shown_mesh).map_err(in_scene)?;
                 let mat = match (material, lm.mtl_diffuse) {
                     (Some(m), _) => lookup(m)?,
                     (None, Some(kd)) => {

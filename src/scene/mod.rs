@@ -13,7 +13,7 @@ use std::path::PathBuf;
 pub use camera::Camera;
 pub use file::{RenderSettings, SceneFile};
 pub use light::Lights;
-pub use load::{load_scene, load_scene_with};
+pub use load::{load_scene, load_scene_str, load_scene_with};
 pub use material::Material;
 pub use mesh::TriMesh;
 

@@ -1,0 +1,163 @@
+//! Renders checked against closed-form answers: the furnace (a closed emitting, reflecting box gives
+//! Le/(1−a) everywhere), a point light over a diffuse plane (ρ/π · I cosθ/d²), and a glass slab
+//! (reflected + transmitted = incident, matching the two-interface Fresnel sum; TIR past the critical angle).
+mod common;
+use caustica::accel::{Accel, Tracer};
+use caustica::app::render_path;
+use caustica::integrator::path::PathTracer;
+use caustica::integrator::Counters;
+use caustica::math::{offset_ray_origin, Ray, Rng};
+use caustica::scene::material::{fresnel_dielectric, Material};
+use glam::Vec3;
+
+#[test]
+fn furnace_box_is_le_over_one_minus_albedo_everywhere() {
+    let (le, a) = (1.0f32, 0.6f32);
+    let text = format!(
+        "[camera]\norigin = [0.0, 0.0, 0.0]\ntarget = [0.3, 0.2, -1.0]\nfov = 90\nresolution = [4, 4]\n\
+         [materials]\nwall = {{ type = \"diffuse\", reflectance = [{a}, {a}, {a}] }}\n\
+         [render]\nspp = 40000\nmax_depth = 100000\nrr_depth = 2\n{}",
+        common::inward_box(-1.0, 1.0, "wall", Some(le))
+    );
+    let scene = common::scene(&text);
+    let accel = Accel::new(&scene).unwrap();
+    let img = render_path(&scene, &accel, scene.render.spp, true).image;
+    let expect = le / (1.0 - a);
+    for (i, p) in img.pixels.iter().enumerate() {
+        for k in 0..3 {
+            assert!(
+                (p[k] - expect).abs() <= 0.01 * expect,
+                "pixel {i} channel {k}: {} vs {expect}",
+                p[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn point_light_over_diffuse_plane_matches_inverse_square_cosine_law() {
+    let (rho, power, h) = (0.7f32, 100.0f32, 1.5f32);
+    let text = format!(
+        "[camera]\norigin = [0.4, 3.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 60\nresolution = [16, 16]\n\
+         [materials]\nm = {{ type = \"diffuse\", reflectance = [{rho}, {rho}, {rho}] }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-5.0, 0.0, -5.0]\nedge_u = [0.0, 0.0, 10.0]\nedge_v = [10.0, 0.0, 0.0]\nmaterial = \"m\"\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.2, {h}, -0.3]\npower = [{power}, {power}, {power}]\n"
+    );
+    let scene = common::scene(&text);
+    let accel = Accel::new(&scene).unwrap();
+    let pt = PathTracer {
+        scene: &scene,
+        tracer: &accel,
+        max_depth: 8,
+        rr_depth: 100,
+    };
+    let light = Vec3::new(0.2, h, -0.3);
+    let intensity = power / (4.0 * std::f32::consts::PI);
+    let mut checked = 0;
+    for y in 0..16 {
+        for x in 0..16 {
+            let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+            let Some(hit) = accel.intersect(&ray) else {
+                continue;
+            };
+            let p = ray.at(hit.t);
+            let d = light - p;
+            let expect =
+                rho / std::f32::consts::PI * intensity * (d.normalize().y) / d.length_squared();
+            let got = pt.li(ray, &mut Rng::new(0, x, y), &mut Counters::default());
+            assert!(
+                (got.x - expect).abs() <= 1e-3 * expect,
+                "pixel ({x},{y}): {} vs {expect}",
+                got.x
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 200);
+}
+
+/// Traces `n` flux carriers into a glass slab (y in [0, t]) at incidence `theta`; returns the fractions
+/// that leave upwards (reflected) and downwards (transmitted).
+fn slab(theta: f32, n: usize) -> (f64, f64) {
+    let text = "[camera]\norigin = [0.0, 5.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\n\
+        [materials]\nglass = { type = \"dielectric\", ior = 1.5 }\n\
+        [[shapes]]\ntype = \"box\"\nmin = [-1000.0, 0.0, -1000.0]\nmax = [1000.0, 0.2, 1000.0]\nmaterial = \"glass\"\n\
+        [[lights]]\ntype = \"point\"\nposition = [0.0, 3.0, 0.0]\npower = [1.0, 1.0, 1.0]\n";
+    let scene = common::scene(text);
+    let accel = Accel::new(&scene).unwrap();
+    let glass = &scene.materials[0];
+    let (mut up, mut down) = (0.0f64, 0.0f64);
+    let mut rng = Rng::new(5, 0, 0);
+    for _ in 0..n {
+        let mut ray = Ray::new(
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(theta.sin(), -theta.cos(), 0.0),
+        );
+        let mut w = 1.0f32;
+        for _ in 0..1000 {
+            let Some(hit) = accel.intersect(&ray) else {
+                break;
+            };
+            let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
+            let wo = -ray.d;
+            let s = glass
+                .sample(wo, si.ns, rng.next_2d(), rng.next_f32(), false)
+                .unwrap();
+            w *= s.weight.x;
+            ray = Ray::new(offset_ray_origin(si.p, si.ng, s.wi), s.wi);
+        }
+        if ray.d.y > 0.0 {
+            up += w as f64
+        } else {
+            down += w as f64
+        }
+    }
+    (up / n as f64, down / n as f64)
+}
+
+#[test]
+fn glass_slab_conserves_energy_and_matches_fresnel() {
+    for theta_deg in [0.0f32, 30.0, 60.0, 80.0] {
+        let theta = theta_deg.to_radians();
+        let (r, t) = slab(theta, 200_000);
+        assert!((r + t - 1.0).abs() < 1e-6, "θ={theta_deg}: R+T = {}", r + t);
+        let (f, _) = fresnel_dielectric(theta.cos(), 1.5);
+        let expect = 2.0 * f as f64 / (1.0 + f as f64);
+        let sigma = (expect * (1.0 - expect) / 200_000.0).sqrt();
+        assert!(
+            (r - expect).abs() < 5.0 * sigma + 1e-4,
+            "θ={theta_deg}: R = {r}, expected {expect}"
+        );
+    }
+}
+
+#[test]
+fn total_internal_reflection_past_the_critical_angle() {
+    let glass = Material::Dielectric {
+        ior: 1.5,
+        tint: Vec3::ONE,
+    };
+    let n = Vec3::Y; // outward normal; the ray travels inside (below) towards it
+    let crit = (1.0f32 / 1.5).asin();
+    let mut rng = Rng::new(1, 0, 0);
+    for (angle, must_reflect) in [
+        (crit + 0.02, true),
+        (crit + 0.3, true),
+        (crit - 0.05, false),
+    ] {
+        let wo = Vec3::new(angle.sin(), -angle.cos(), 0.0); // points back into the glass
+        let mut transmitted = 0;
+        for _ in 0..2000 {
+            let s = glass
+                .sample(wo, n, rng.next_2d(), rng.next_f32(), false)
+                .unwrap();
+            transmitted += s.transmitted as u32;
+        }
+        assert_eq!(
+            transmitted == 0,
+            must_reflect,
+            "angle {} rad: {transmitted} transmitted",
+            angle
+        );
+    }
+}

@@ -1,0 +1,59 @@
+//! Helpers shared by the integration tests: scenes built in code or from TOML text.
+#![allow(dead_code)]
+use caustica::scene::file::FovAxis;
+use caustica::scene::{load_scene_str, Camera, Lights, Scene, Shape};
+use glam::Vec3;
+use std::path::Path;
+
+/// A scene holding just `shapes` (for ray-query tests), with one diffuse material.
+pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
+    Scene {
+        path: "test".into(),
+        camera: Camera::new(
+            Vec3::new(0.0, 0.0, 5.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            40.0,
+            FovAxis::X,
+            [8, 8],
+        ),
+        materials: vec![caustica::scene::Material::Diffuse {
+            reflectance: Vec3::splat(0.5),
+        }],
+        material_names: vec!["m".into()],
+        shapes,
+        lights: Lights::default(),
+        render: Default::default(),
+        bounds: (Vec3::splat(-1.0), Vec3::splat(1.0)),
+        load_seconds: 0.0,
+    }
+}
+
+/// Loads a scene from TOML text (paths resolve against the crate root).
+pub fn scene(text: &str) -> Scene {
+    load_scene_str(
+        text,
+        "test.toml",
+        Path::new(env!("CARGO_MANIFEST_DIR")),
+        &[],
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Six inward-facing quads forming the box [lo, hi]³ (for closed-room tests).
+pub fn inward_box(lo: f32, hi: f32, material: &str, emission: Option<f32>) -> String {
+    let s = hi - lo;
+    let e = emission.map_or(String::new(), |e| format!("emission = [{e}, {e}, {e}]\n"));
+    let quads = [
+        ([lo, lo, lo], [0.0, 0.0, s], [s, 0.0, 0.0]), // floor, normal +y
+        ([lo, hi, lo], [s, 0.0, 0.0], [0.0, 0.0, s]), // ceiling, normal -y
+        ([lo, lo, lo], [s, 0.0, 0.0], [0.0, s, 0.0]), // z = lo, normal +z
+        ([lo, lo, hi], [0.0, s, 0.0], [s, 0.0, 0.0]), // z = hi, normal -z
+        ([lo, lo, lo], [0.0, s, 0.0], [0.0, 0.0, s]), // x = lo, normal +x
+        ([hi, lo, lo], [0.0, 0.0, s], [0.0, s, 0.0]), // x = hi, normal -x
+    ];
+    quads
+        .iter()
+        .map(|(c, u, v)| format!("[[shapes]]\ntype = \"quad\"\ncorner = {c:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{material}\"\n{e}\n"))
+        .collect()
+}
