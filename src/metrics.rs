@@ -1,6 +1,8 @@
 //! Image error metrics against a reference: RMSE, relative MSE, MAE, mean-luminance ratio.
+use crate::accel::Tracer;
 use crate::color::luminance;
 use crate::film::Image;
+use crate::scene::Scene;
 use serde::Serialize;
 
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -13,12 +15,49 @@ pub struct Errors {
 
 /// Errors of `a` against reference `r` over all channels; None if sizes differ.
 pub fn compare(a: &Image, r: &Image) -> Option<Errors> {
-    if a.width != r.width || a.height != r.height {
+    compare_below(a, r, f32::INFINITY)
+}
+
+/// As `compare`, over the pixels whose reference luminance is at most `limit`.
+pub fn compare_below(a: &Image, r: &Image, limit: f32) -> Option<Errors> {
+    let keep: Vec<bool> = r.pixels.iter().map(|q| luminance(*q) <= limit).collect();
+    compare_masked(a, r, &keep)
+}
+
+/// Pixels in which no camera ray (of a `sub`×`sub` grid) sees an emitter directly. Error metrics leave
+/// the others out: a light's edge pixels measure only anti-aliasing noise and swamp every other error.
+pub fn light_free_pixels(scene: &Scene, tracer: &dyn Tracer, sub: u32) -> Vec<bool> {
+    let cam = &scene.camera;
+    let mut keep = Vec::with_capacity((cam.width * cam.height) as usize);
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let sees_light = (0..sub * sub).any(|i| {
+                let (fx, fy) = ((i % sub) as f32 + 0.5, (i / sub) as f32 + 0.5);
+                let ray = cam.ray(x as f32 + fx / sub as f32, y as f32 + fy / sub as f32);
+                tracer
+                    .intersect(&ray)
+                    .is_some_and(|h| scene.shapes[h.shape as usize].emission != glam::Vec3::ZERO)
+            });
+            keep.push(!sees_light);
+        }
+    }
+    keep
+}
+
+/// As `compare`, over the pixels where `keep` is true.
+pub fn compare_masked(a: &Image, r: &Image, keep: &[bool]) -> Option<Errors> {
+    if a.width != r.width || a.height != r.height || keep.len() != r.pixels.len() {
         return None;
     }
-    let n = (a.pixels.len() * 3) as f64;
+    let n = (keep.iter().filter(|k| **k).count().max(1) * 3) as f64;
     let (mut se, mut rel, mut ae, mut la, mut lr) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    for (p, q) in a.pixels.iter().zip(&r.pixels) {
+    for ((p, q), _) in a
+        .pixels
+        .iter()
+        .zip(&r.pixels)
+        .zip(keep.iter())
+        .filter(|(_, k)| **k)
+    {
         for k in 0..3 {
             let d = (p[k] - q[k]) as f64;
             se += d * d;
@@ -51,5 +90,11 @@ mod tests {
         assert!((e.rmse - (2.4f64 * 2.4 / 24.0).sqrt()).abs() < 1e-6);
         assert!((e.mae - 2.4 / 24.0).abs() < 1e-6);
         assert!(compare(&a, &Image::new(3, 2)).is_none());
+        // Leaving out the bright pixel leaves nothing to differ.
+        let mut r = Image::new(4, 2);
+        r.set(1, 1, Vec3::splat(10.0));
+        a.set(1, 1, Vec3::splat(12.0));
+        assert!(compare(&a, &r).unwrap().rmse > 1.0);
+        assert_eq!(compare_below(&a, &r, 5.0).unwrap().rmse, 0.0);
     }
 }

@@ -1,7 +1,7 @@
 //! Photon maps and the radiance estimate: k nearest photons within a maximum radius,
 //! L ≈ C/(π r²) Σ f_r ΔΦ_p w_p with the cone filter w_p = max(0, 1 − d_p/(k r)), C = 1/(1 − 2/(3k))
-//! (k < 1 disables it), counting only photons that arrived from the viewer's side of the surface and lie
-//! on its tangent disc (so light does not leak through thin walls or around corners).
+//! (k < 1 disables it), counting only photons that arrived from the viewer's side of the surface, landed
+//! on a surface facing the same way and lie on its tangent disc (so light does not leak through thin walls or around corners).
 use crate::color::Rgb;
 use crate::photon::kdtree::{KdError, KdTree, KnnResult};
 use crate::photon::photon::{Photon, PhotonPayload};
@@ -75,8 +75,9 @@ impl PhotonMap {
         let mut sum = Rgb::ZERO;
         for &(d2, i) in res.items() {
             let item = self.tree.item(i);
-            // Arrived from the viewer's side: the photon travelled against the surface normal.
-            if item.wi().dot(n_side) >= 0.0 {
+            // Arrived from the viewer's side (travelled against the normal), on a surface facing the same
+            // way (not the other side of a thin wall, not the next wall round a corner).
+            if item.wi().dot(n_side) >= 0.0 || item.n().dot(n_side) < 0.6 {
                 continue;
             }
             // On this surface's tangent disc, not on a nearby surface facing elsewhere.

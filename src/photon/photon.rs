@@ -1,5 +1,6 @@
 //! The stored photon: position (f32×3, kept by the k-d tree in structure-of-arrays form), power in
-//! shared-exponent RGBE (4 bytes), incoming direction octahedral-encoded (2 bytes), flags (1 byte).
+//! shared-exponent RGBE (4 bytes), incoming direction octahedral-encoded (2 bytes), and the normal of
+//! the surface it landed on, facing where it came from, in one byte (4+4-bit octahedral, within 20°).
 //! 19 bytes per photon plus the tree's split planes (≈ 0.3 byte per photon), no per-node pointers.
 use crate::color::Rgb;
 use glam::Vec3;
@@ -10,7 +11,7 @@ use glam::Vec3;
 pub struct PhotonPayload {
     pub power: [u8; 4],
     pub dir: [u8; 2],
-    pub flags: u8,
+    pub normal: u8,
 }
 
 /// A photon before it goes into a tree.
@@ -20,7 +21,8 @@ pub struct Photon {
     /// Direction of travel (towards the surface), unit length.
     pub wi: Vec3,
     pub phi: Rgb,
-    pub flags: u8,
+    /// Unit normal of the surface it landed on, on the side it arrived from.
+    pub n: Vec3,
 }
 
 impl Photon {
@@ -28,7 +30,7 @@ impl Photon {
         PhotonPayload {
             power: rgbe_encode(self.phi),
             dir: oct_encode(self.wi),
-            flags: self.flags,
+            normal: oct_encode_coarse(self.n),
         }
     }
 }
@@ -39,6 +41,9 @@ impl PhotonPayload {
     }
     pub fn wi(&self) -> Vec3 {
         oct_decode(self.dir)
+    }
+    pub fn n(&self) -> Vec3 {
+        oct_decode_coarse(self.normal)
     }
 }
 
@@ -81,25 +86,36 @@ fn frexp(x: f32) -> (f32, i32) {
     (mant, exp)
 }
 
-/// Octahedral encoding of a unit vector in two bytes.
-pub fn oct_encode(v: Vec3) -> [u8; 2] {
-    let l1 = v.x.abs() + v.y.abs() + v.z.abs();
-    if l1 == 0.0 || !l1.is_finite() {
-        return [128, 128];
-    }
-    let (mut x, mut y) = (v.x / l1, v.y / l1);
-    if v.z < 0.0 {
-        let (ox, oy) = (x, y);
-        x = (1.0 - oy.abs()) * ox.signum();
-        y = (1.0 - ox.abs()) * oy.signum();
-    }
-    let q = |t: f32| (((t * 0.5 + 0.5) * 255.0).round()).clamp(0.0, 255.0) as u8;
-    [q(x), q(y)]
+/// Octahedral encoding in one byte (4 bits per coordinate): enough to tell surfaces apart.
+pub fn oct_encode_coarse(v: Vec3) -> u8 {
+    let (x, y) = oct_square(v);
+    // 15 levels (0..=14) so that −1, 0 and 1 are exact: axis-aligned walls keep exact normals.
+    let q = |t: f32| (((t * 0.5 + 0.5) * 14.0).round()).clamp(0.0, 14.0) as u8;
+    q(x) << 4 | q(y)
 }
 
-pub fn oct_decode(e: [u8; 2]) -> Vec3 {
-    let x = e[0] as f32 / 255.0 * 2.0 - 1.0;
-    let y = e[1] as f32 / 255.0 * 2.0 - 1.0;
+pub fn oct_decode_coarse(e: u8) -> Vec3 {
+    oct_unsquare(
+        (e >> 4) as f32 / 14.0 * 2.0 - 1.0,
+        (e & 15) as f32 / 14.0 * 2.0 - 1.0,
+    )
+}
+
+/// The unit vector folded onto the octahedral square [−1, 1]².
+fn oct_square(v: Vec3) -> (f32, f32) {
+    let l1 = v.x.abs() + v.y.abs() + v.z.abs();
+    if l1 == 0.0 || !l1.is_finite() {
+        return (0.0, 0.0);
+    }
+    let (x, y) = (v.x / l1, v.y / l1);
+    if v.z < 0.0 {
+        ((1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum())
+    } else {
+        (x, y)
+    }
+}
+
+fn oct_unsquare(x: f32, y: f32) -> Vec3 {
     let z = 1.0 - x.abs() - y.abs();
     let (x, y) = if z < 0.0 {
         ((1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum())
@@ -107,6 +123,20 @@ pub fn oct_decode(e: [u8; 2]) -> Vec3 {
         (x, y)
     };
     Vec3::new(x, y, z).normalize()
+}
+
+/// Octahedral encoding of a unit vector in two bytes.
+pub fn oct_encode(v: Vec3) -> [u8; 2] {
+    let (x, y) = oct_square(v);
+    let q = |t: f32| (((t * 0.5 + 0.5) * 255.0).round()).clamp(0.0, 255.0) as u8;
+    [q(x), q(y)]
+}
+
+pub fn oct_decode(e: [u8; 2]) -> Vec3 {
+    oct_unsquare(
+        e[0] as f32 / 255.0 * 2.0 - 1.0,
+        e[1] as f32 / 255.0 * 2.0 - 1.0,
+    )
 }
 
 #[cfg(test)]
@@ -132,6 +162,19 @@ mod tests {
             );
         }
         assert_eq!(rgbe_decode(rgbe_encode(Rgb::ZERO)), Rgb::ZERO);
+    }
+
+    #[test]
+    fn coarse_normal_round_trip_within_twenty_degrees() {
+        let mut r = Rng::new(3, 0, 0);
+        for _ in 0..10_000 {
+            let v = uniform_sphere(r.next_2d());
+            let d = oct_decode_coarse(oct_encode_coarse(v));
+            assert!(v.dot(d) > 20f32.to_radians().cos(), "{v} -> {d}");
+        }
+        for v in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z] {
+            assert!(oct_decode_coarse(oct_encode_coarse(v)).dot(v) > 0.999);
+        }
     }
 
     #[test]

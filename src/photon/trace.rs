@@ -169,11 +169,12 @@ fn trace_one(
                 DIRECT
             };
             if s.want[map] > 0 {
+                let n = if wo.dot(si.ng) < 0.0 { -si.ng } else { si.ng };
                 out[map].push(Photon {
                     p: si.p,
                     wi: ray.d.normalize(),
                     phi,
-                    flags: map as u8,
+                    n,
                 });
             }
             // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
@@ -278,11 +279,11 @@ pub fn run_pass(
         let results: Vec<([Vec<Photon>; 3], u64, u64)> = (0..batches)
             .into_par_iter()
             .map(|b| {
-                let start = next + b * BATCH;
+                let start = (next + b * BATCH).min(s.max_shots);
                 let end = (start + BATCH).min(s.max_shots);
                 let mut out: [Vec<Photon>; 3] = Default::default();
                 let mut segs = 0u64;
-                for i in start..end.max(start) {
+                for i in start..end {
                     let mut rng = Rng::new(s.seed, s.pass, i);
                     let launch = match targets {
                         Some(t) => launch_targeted(scene, t, &mut rng),
@@ -292,7 +293,7 @@ pub fn run_pass(
                         trace_one(scene, tracer, l, &mut rng, s, &mut out, &mut segs);
                     }
                 }
-                (out, end.max(start), segs)
+                (out, end, segs)
             })
             .collect();
         for (out, end, segs) in results {
