@@ -16,12 +16,7 @@ fn build(c: &mut Criterion) {
         g.throughput(Throughput::Elements(n as u64));
         g.bench_with_input(BenchmarkId::new("ours", n), &pts, |b, pts| {
             b.iter_batched(
-                || {
-                    pts.iter()
-                        .enumerate()
-                        .map(|(i, p)| (*p, i as u32))
-                        .collect::<Vec<_>>()
-                },
+                || pts.iter().enumerate().map(|(i, p)| (*p, i as u32)).collect::<Vec<_>>(),
                 |v| KdTree::build(v).unwrap(),
                 criterion::BatchSize::LargeInput,
             )
@@ -34,23 +29,11 @@ fn build(c: &mut Criterion) {
 }
 
 fn knn(c: &mut Criterion) {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
-    for (dist, name) in [
-        (Distribution::Uniform, "uniform"),
-        (Distribution::Caustic, "caustic"),
-    ] {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    for (dist, name) in [(Distribution::Uniform, "uniform"), (Distribution::Caustic, "caustic")] {
         let pts = points(dist, 1_000_000, 1);
         let qs = queries(dist, 10_000, 2);
-        let ours = KdTree::build(
-            pts.iter()
-                .enumerate()
-                .map(|(i, p)| (*p, i as u32))
-                .collect(),
-        )
-        .unwrap();
+        let ours = KdTree::build(pts.iter().enumerate().map(|(i, p)| (*p, i as u32)).collect()).unwrap();
         let theirs = ImmutableKdTree::<f32, 3>::new_from_slice(&pts).unwrap();
         let mut g = c.benchmark_group(format!("knn_{name}"));
         g.throughput(Throughput::Elements(qs.len() as u64));
@@ -82,16 +65,9 @@ fn knn(c: &mut Criterion) {
                         let mut s = 0usize;
                         for q in &qs {
                             let f = if capped {
-                                theirs
-                                    .query(q)
-                                    .nearest_n::<SquaredEuclidean<f32>>(kk)
-                                    .within(r2)
-                                    .execute()
+                                theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(kk).within(r2).execute()
                             } else {
-                                theirs
-                                    .query(q)
-                                    .nearest_n::<SquaredEuclidean<f32>>(kk)
-                                    .execute()
+                                theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(kk).execute()
                             };
                             s += f.len();
                         }

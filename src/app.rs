@@ -3,9 +3,7 @@ use crate::accel::{Accel, Tracer};
 use crate::cli::{BenchCommand, Cli, Command, InfoArgs, RenderArgs};
 use crate::film::Image;
 use crate::integrator::path::PathTracer;
-use crate::integrator::photon_map::{
-    build_maps, splat_photons, MapRequest, PhotonMapper, PhotonMaps,
-};
+use crate::integrator::photon_map::{build_maps, splat_photons, MapRequest, PhotonMapper, PhotonMaps};
 use crate::integrator::Counters;
 use crate::math::Ray;
 use crate::output;
@@ -24,6 +22,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => cmd_render(a),
         Command::Info(a) => cmd_info(a),
         Command::Bench(BenchCommand::Rays { scene, rounds }) => crate::bench::rays(&scene, rounds),
+        Command::Bench(BenchCommand::Photons { scene, photons }) => crate::bench::photons(&scene, photons),
         Command::KnnCheck(a) => crate::bench::knn_check(&a),
     }
 }
@@ -31,22 +30,11 @@ pub fn run(cli: Cli) -> Result<()> {
 /// Renders with the path tracer.
 pub fn render_path(scene: &Scene, tracer: &dyn Tracer, spp: u32, quiet: bool) -> RenderOutput {
     let r = &scene.render;
-    let pt = PathTracer {
-        scene,
-        tracer,
-        max_depth: r.max_depth,
-        rr_depth: r.rr_depth,
-    };
+    let pt = PathTracer { scene, tracer, max_depth: r.max_depth, rr_depth: r.rr_depth };
     let cam = &scene.camera;
-    render(
-        cam.width,
-        cam.height,
-        spp,
-        r.seed,
-        "path",
-        quiet,
-        |x, y, rng, c: &mut Counters| pt.li(cam.ray(x, y), rng, c),
-    )
+    render(cam.width, cam.height, spp, r.seed, "path", quiet, |x, y, rng, c: &mut Counters| {
+        pt.li(cam.ray(x, y), rng, c)
+    })
 }
 
 fn overrides(a: &RenderArgs) -> Vec<String> {
@@ -68,16 +56,10 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         if n == 0 {
             bail!("--threads must be ≥ 1");
         }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .context("cannot set up the thread pool")?;
+        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot set up the thread pool")?;
     }
     let scene = load_scene_with(&a.scene, &overrides(&a))?;
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("out").join(a.scene.file_stem().unwrap_or_default()));
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("out").join(a.scene.file_stem().unwrap_or_default()));
     let t0 = Instant::now();
     let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
     let bvh_s = t0.elapsed().as_secs_f64();
@@ -107,11 +89,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         stats["mode"] = json!("path");
         stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "render": r.seconds });
         add_counters(&mut stats, &r);
-        let o = if mode == Mode::Both {
-            suffixed(&out, "-pt")
-        } else {
-            out.clone()
-        };
+        let o = if mode == Mode::Both { suffixed(&out, "-pt") } else { out.clone() };
         write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
         println!("{}", describe(&o, &r.image));
         images.push(r.image);
@@ -133,36 +111,26 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         stats["mode"] = json!("photon_map");
         stats["plan"] = json!(plan);
         stats["photon_maps"] = json!(maps.stats);
-        let trace_s = maps.stats.global_pass.map_or(0.0, |p| p.seconds)
-            + maps.stats.caustic_pass.map_or(0.0, |p| p.seconds);
+        let trace_s =
+            maps.stats.global_pass.map_or(0.0, |p| p.seconds) + maps.stats.caustic_pass.map_or(0.0, |p| p.seconds);
         stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "photon_trace": trace_s, "kdtree_build": maps.stats.build_seconds, "eye_pass": r.seconds });
         add_counters(&mut stats, &r);
-        let o = if mode == Mode::Both {
-            suffixed(&out, "-pm")
-        } else {
-            out.clone()
-        };
+        let o = if mode == Mode::Both { suffixed(&out, "-pm") } else { out.clone() };
         write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
         println!("{}", describe(&o, &r.image));
         images.push(r.image);
     }
     if images.len() == 2 {
         let side = Image::side_by_side(&[&images[0], &images[1]], 4);
-        let p = out.with_extension("png");
+        let p = out.with_added("png");
         output::write_png(&p, &side, scene.render.exposure)?;
-        println!(
-            "wrote {} (left: path tracing, right: photon mapping)",
-            p.display()
-        );
+        println!("wrote {} (left: path tracing, right: photon mapping)", p.display());
     }
     Ok(())
 }
 
 fn suffixed(out: &Path, suffix: &str) -> PathBuf {
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_default();
+    let name = out.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
     out.with_file_name(format!("{name}{suffix}"))
 }
 
@@ -181,13 +149,7 @@ pub fn plan_for(scene: &Scene, tracer: &dyn Tracer) -> Plan {
         !tracer.occluded(&r)
     };
     let first = |r: Ray| tracer.intersect(&r).map(|h| h.shape);
-    crate::plan::plan(
-        scene,
-        &Probe {
-            visible: &visible,
-            first_shape: &first,
-        },
-    )
+    crate::plan::plan(scene, &Probe { visible: &visible, first_shape: &first })
 }
 
 /// The photon-map eye pass over the whole film; `only` shows a single map's estimate.
@@ -232,9 +194,8 @@ fn render_view(
     mut stats: serde_json::Value,
     quiet: bool,
 ) -> Result<()> {
-    let (kind, map) = view
-        .split_once(':')
-        .ok_or_else(|| anyhow::anyhow!("--view {view}: expected image, photons:MAP or map:MAP"))?;
+    let (kind, map) =
+        view.split_once(':').ok_or_else(|| anyhow::anyhow!("--view {view}: expected image, photons:MAP or map:MAP"))?;
     let which = parse_map(map)?;
     if kind == "map" && which.len() != 1 {
         bail!("--view map:{map}: choose one of direct, indirect, caustic");
@@ -248,11 +209,7 @@ fn render_view(
     let maps = build_maps(
         scene,
         accel,
-        &MapRequest {
-            want,
-            targeted: ps.caustic_targeting,
-            targets: Some(plan.caustic_targets.clone()),
-        },
+        &MapRequest { want, targeted: ps.caustic_targeting, targets: Some(plan.caustic_targets.clone()) },
         quiet,
     )?;
     let img = match kind {
@@ -268,26 +225,35 @@ fn render_view(
 }
 
 /// Writes OUT.exr, OUT.png and OUT.json.
-pub fn write_outputs(
-    out: &Path,
-    img: &Image,
-    exposure: f32,
-    stats: &serde_json::Value,
-) -> Result<()> {
-    output::write_exr(&out.with_extension("exr"), img)?;
-    output::write_png(&out.with_extension("png"), img, exposure)?;
-    output::write_json(&out.with_extension("json"), stats)?;
+pub fn write_outputs(out: &Path, img: &Image, exposure: f32, stats: &serde_json::Value) -> Result<()> {
+    output::write_exr(&out.with_added("exr"), img)?;
+    output::write_png(&out.with_added("png"), img, exposure)?;
+    output::write_json(&out.with_added("json"), stats)?;
     Ok(())
+}
+
+/// `out` + "." + `ext` (unlike `with_extension`, keeps dots in names such as `glass-egg-1.1`).
+trait WithAdded {
+    fn with_added(&self, ext: &str) -> PathBuf;
+}
+
+impl WithAdded for Path {
+    fn with_added(&self, ext: &str) -> PathBuf {
+        let mut s = self.as_os_str().to_owned();
+        s.push(".");
+        s.push(ext);
+        PathBuf::from(s)
+    }
 }
 
 pub fn describe(out: &Path, img: &Image) -> String {
     format!(
         "wrote {} ({}×{}), {} and {}",
-        out.with_extension("exr").display(),
+        out.with_added("exr").display(),
         img.width,
         img.height,
-        out.with_extension("png").display(),
-        out.with_extension("json").display()
+        out.with_added("png").display(),
+        out.with_added("json").display()
     )
 }
 
@@ -298,30 +264,12 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     let bvh_s = t0.elapsed().as_secs_f64();
     drop(accel);
     let tris = scene.triangle_count();
-    let spheres = scene
-        .shapes
-        .iter()
-        .filter(|s| matches!(s.geometry, Geometry::Sphere { .. }))
-        .count();
-    let mesh_bytes: usize = scene
-        .shapes
-        .iter()
-        .map(|s| {
-            if let Geometry::Mesh(m) = &s.geometry {
-                m.bytes()
-            } else {
-                0
-            }
-        })
-        .sum();
+    let spheres = scene.shapes.iter().filter(|s| matches!(s.geometry, Geometry::Sphere { .. })).count();
+    let mesh_bytes: usize =
+        scene.shapes.iter().map(|s| if let Geometry::Mesh(m) = &s.geometry { m.bytes() } else { 0 }).sum();
     println!("scene       {}", a.scene.display());
     println!("camera      {}×{}", scene.camera.width, scene.camera.height);
-    println!(
-        "shapes      {} ({} triangles, {} analytic spheres)",
-        scene.shapes.len(),
-        tris,
-        spheres
-    );
+    println!("shapes      {} ({} triangles, {} analytic spheres)", scene.shapes.len(), tris, spheres);
     for s in &scene.shapes {
         let kind = match &s.geometry {
             Geometry::Mesh(m) => format!("mesh, {} triangles", m.indices.len()),
@@ -333,38 +281,23 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             kind,
             scene.material_names[s.material as usize],
             s.area(),
-            if s.emission != glam::Vec3::ZERO {
-                " (emissive)"
-            } else {
-                ""
-            }
+            if s.emission != glam::Vec3::ZERO { " (emissive)" } else { "" }
         );
     }
-    let n_points = scene
-        .lights
-        .list
-        .iter()
-        .filter(|l| matches!(l, crate::scene::light::LightKind::Point { .. }))
-        .count();
+    let n_points =
+        scene.lights.list.iter().filter(|l| matches!(l, crate::scene::light::LightKind::Point { .. })).count();
     println!(
         "lights      {} point, {} emissive primitives, total power {:?} W",
         n_points,
         scene.lights.list.len() - n_points,
         scene.lights.total_power().to_array()
     );
-    println!(
-        "bounds      {:?} .. {:?}",
-        scene.bounds.0.to_array(),
-        scene.bounds.1.to_array()
-    );
+    println!("bounds      {:?} .. {:?}", scene.bounds.0.to_array(), scene.bounds.1.to_array());
     println!(
         "memory      meshes {:.1} MiB, BVH about {:.1} MiB (estimate: 64 B per triangle)",
         mesh_bytes as f64 / 1048576.0,
         tris as f64 * 64.0 / 1048576.0
     );
-    println!(
-        "times       load {:.3} s, BVH build {:.3} s",
-        scene.load_seconds, bvh_s
-    );
+    println!("times       load {:.3} s, BVH build {:.3} s", scene.load_seconds, bvh_s);
     Ok(())
 }

@@ -50,11 +50,7 @@ pub fn rays(path: &Path, rounds: u32) -> Result<()> {
         }
         best_pkt = best_pkt.min(t.elapsed().as_secs_f64());
         let t = Instant::now();
-        hits_one = packets
-            .iter()
-            .flat_map(|p| p.iter())
-            .filter(|r| accel.intersect(r).is_some())
-            .count();
+        hits_one = packets.iter().flat_map(|p| p.iter()).filter(|r| accel.intersect(r).is_some()).count();
         best_one = best_one.min(t.elapsed().as_secs_f64());
     }
     if hits_raw != hits_pkt || hits_raw != hits_one {
@@ -68,24 +64,72 @@ pub fn rays(path: &Path, rounds: u32) -> Result<()> {
         bvh_s,
         load_s + bvh_s
     );
+    println!("{} camera rays, {} hits, 1 thread, best of {} rounds", n_rays as u64, hits_raw, rounds);
+    println!("bare rtcIntersect16 loop   {:8.2} Mrays/s  (baseline)", n_rays / best_raw / 1e6);
+    println!("accel packet path (16)     {:8.2} Mrays/s  ratio {:.3}", n_rays / best_pkt / 1e6, best_raw / best_pkt);
+    println!("accel single rays          {:8.2} Mrays/s  ratio {:.3}", n_rays / best_one / 1e6, best_raw / best_one);
+    Ok(())
+}
+
+/// Wraps a tracer and keeps every ray it is asked to intersect (to replay them through bare Embree).
+struct Recorder<'a> {
+    inner: &'a Accel,
+    rays: std::sync::Mutex<Vec<Ray>>,
+}
+
+impl Tracer for Recorder<'_> {
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if let Ok(mut v) = self.rays.lock() {
+            v.push(*ray);
+        }
+        self.inner.intersect(ray)
+    }
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.inner.occluded(ray)
+    }
+}
+
+/// Photon tracing throughput against a bare `rtcIntersect1` loop over the very same rays (recorded in a
+/// second, identical run), both on one thread: the ratio is what the photon pipeline costs beyond Embree.
+pub fn photons(path: &Path, photons: u64) -> Result<()> {
+    use crate::integrator::photon_map::{build_maps, MapRequest};
+    let scene = load_scene(path)?;
+    let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let req = MapRequest {
+        want: [photons, photons, photons],
+        targeted: scene.render.photons.caustic_targeting,
+        targets: None,
+    };
+    let maps = pool.install(|| build_maps(&scene, &accel, &req, true))?;
+    let passes = [maps.stats.global_pass, maps.stats.caustic_pass];
+    let segments: u64 = passes.iter().flatten().map(|p| p.segments).sum();
+    let trace_s: f64 = passes.iter().flatten().map(|p| p.seconds).sum();
+    let rec = Recorder { inner: &accel, rays: std::sync::Mutex::new(Vec::new()) };
+    pool.install(|| build_maps(&scene, &rec, &req, true))?;
+    let rays = rec.rays.into_inner().map_err(|_| anyhow::anyhow!("recorder poisoned"))?;
+    let prepared = Accel::prepare_single(&rays);
+    let t = Instant::now();
+    let hits = accel.raw_intersect1(&prepared);
+    let raw_s = t.elapsed().as_secs_f64();
+    let ours = segments as f64 / trace_s;
+    let bare = rays.len() as f64 / raw_s;
     println!(
-        "{} camera rays, {} hits, 1 thread, best of {} rounds",
-        n_rays as u64, hits_raw, rounds
+        "scene {}: {} photons stored, {} shot, {} segments traced in {:.3} s (1 thread)",
+        path.display(),
+        maps.stats.stored.iter().sum::<u64>(),
+        passes.iter().flatten().map(|p| p.shot).sum::<u64>(),
+        segments,
+        trace_s
     );
+    println!("photon tracing                   {:8.2} M segments/s", ours / 1e6);
     println!(
-        "bare rtcIntersect16 loop   {:8.2} Mrays/s  (baseline)",
-        n_rays / best_raw / 1e6
+        "bare rtcIntersect1, same rays    {:8.2} M rays/s ({} rays, {} hits)  (baseline)",
+        bare / 1e6,
+        rays.len(),
+        hits
     );
-    println!(
-        "accel packet path (16)     {:8.2} Mrays/s  ratio {:.3}",
-        n_rays / best_pkt / 1e6,
-        best_raw / best_pkt
-    );
-    println!(
-        "accel single rays          {:8.2} Mrays/s  ratio {:.3}",
-        n_rays / best_one / 1e6,
-        best_raw / best_one
-    );
+    println!("ratio                            {:8.3}", ours / bare);
     Ok(())
 }
 
@@ -103,17 +147,12 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     let pts = points(dist, a.points, a.seed);
     let qs = queries(dist, a.queries, a.seed);
     let t = Instant::now();
-    let ours = KdTree::build(
-        pts.iter()
-            .enumerate()
-            .map(|(i, p)| (*p, i as u32))
-            .collect(),
-    )
-    .map_err(anyhow::Error::msg)?;
+    let ours =
+        KdTree::build(pts.iter().enumerate().map(|(i, p)| (*p, i as u32)).collect()).map_err(anyhow::Error::msg)?;
     let our_build = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let theirs: ImmutableKdTree<f32, 3> = ImmutableKdTree::new_from_slice_parallel(&pts)
-        .map_err(|e| anyhow::anyhow!("kiddo: {e:?}"))?;
+    let theirs: ImmutableKdTree<f32, 3> =
+        ImmutableKdTree::new_from_slice_parallel(&pts).map_err(|e| anyhow::anyhow!("kiddo: {e:?}"))?;
     let their_build = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mutable: kiddo::MutableKdTree<f32, 3> =
@@ -122,16 +161,9 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     let t = Instant::now();
     for q in &qs {
         let found = if r2.is_finite() {
-            mutable
-                .query(q)
-                .nearest_n::<SquaredEuclidean<f32>>(k)
-                .within(r2)
-                .execute()
+            mutable.query(q).nearest_n::<SquaredEuclidean<f32>>(k).within(r2).execute()
         } else {
-            mutable
-                .query(q)
-                .nearest_n::<SquaredEuclidean<f32>>(k)
-                .execute()
+            mutable.query(q).nearest_n::<SquaredEuclidean<f32>>(k).execute()
         };
         std::hint::black_box(found);
     }
@@ -147,16 +179,9 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     let t = Instant::now();
     for q in &qs {
         let found = if r2.is_finite() {
-            theirs
-                .query(q)
-                .nearest_n::<SquaredEuclidean<f32>>(k)
-                .within(r2)
-                .execute()
+            theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(k).within(r2).execute()
         } else {
-            theirs
-                .query(q)
-                .nearest_n::<SquaredEuclidean<f32>>(k)
-                .execute()
+            theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(k).execute()
         };
         sum_theirs += found.len() as f64;
     }
@@ -164,16 +189,9 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     for q in qs.iter().take(20_000) {
         ours.knn(*q, a.k, r2, &mut res);
         let found = if r2.is_finite() {
-            theirs
-                .query(q)
-                .nearest_n::<SquaredEuclidean<f32>>(k)
-                .within(r2)
-                .execute()
+            theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(k).within(r2).execute()
         } else {
-            theirs
-                .query(q)
-                .nearest_n::<SquaredEuclidean<f32>>(k)
-                .execute()
+            theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(k).execute()
         };
         let mut d: Vec<f32> = found.iter().map(|r| r.distance).collect();
         d.sort_by(f32::total_cmp);
@@ -192,18 +210,20 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     println!(
         "agreement (first {} queries, sorted squared distances): {}",
         qs.len().min(20_000),
-        if bad == 0 {
-            "all equal".to_string()
-        } else {
-            format!("{bad} DIFFER")
-        }
+        if bad == 0 { "all equal".to_string() } else { format!("{bad} DIFFER") }
     );
     println!(
         "mean neighbours found: ours {:.1}, kiddo {:.1}",
         sum_ours / qs.len().max(1) as f64,
         sum_theirs / qs.len().max(1) as f64
     );
-    println!("vs kiddo ImmutableKdTree:\nbuild ({} threads): ours {:.3} s, kiddo {:.3} s, ratio ours/kiddo {:.2}", rayon::current_num_threads(), our_build, their_build, our_build / their_build);
+    println!(
+        "vs kiddo ImmutableKdTree:\nbuild ({} threads): ours {:.3} s, kiddo {:.3} s, ratio ours/kiddo {:.2}",
+        rayon::current_num_threads(),
+        our_build,
+        their_build,
+        our_build / their_build
+    );
     println!(
         "queries (1 thread): ours {:.0}/s, kiddo {:.0}/s, speed-up {:.2}x",
         qs.len() as f64 / our_q,
@@ -217,10 +237,7 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
         qs.len() as f64 / mutable_q,
         mutable_q / our_q
     );
-    println!(
-        "memory: {:.1} bytes per photon in our tree (positions, item, split planes)",
-        ours.bytes_per_point()
-    );
+    println!("memory: {:.1} bytes per photon in our tree (positions, item, split planes)", ours.bytes_per_point());
     if bad > 0 {
         anyhow::bail!("{bad} queries disagree with kiddo");
     }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
     name = "caustica",
     version,
     about = "Photon mapping and path tracing side by side, through Embree, measured against each other",
-    after_help = "Examples:\n  caustica render scenes/cornell-glass.toml --mode both -o out/glass\n  caustica render scenes/cornell-box.toml --spp 256 --set render.max_depth=8\n  caustica info scenes/dragon.toml\n  caustica bench rays scenes/dragon.toml\n  caustica knn-check --points 1000000 --queries 100000 --k 50 --distribution clustered"
+    after_help = "Examples:\n  caustica render scenes/cornell-glass.toml --mode both -o out/glass\n  caustica bench photons scenes/cornell-glass.toml\n  caustica render scenes/cornell-box.toml --spp 256 --set render.max_depth=8\n  caustica info scenes/dragon.toml\n  caustica bench rays scenes/dragon.toml\n  caustica knn-check --points 1000000 --queries 100000 --k 50 --distribution clustered"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -73,6 +73,13 @@ pub enum BenchCommand {
         /// Rounds of the whole camera-ray set per variant (best round is reported).
         #[arg(long, default_value_t = 5)]
         rounds: u32,
+    },
+    /// Photon tracing (segments/s, 1 thread) vs a bare rtcIntersect1 loop over as many incoherent rays.
+    Photons {
+        scene: PathBuf,
+        /// Photons to store per map for the measurement.
+        #[arg(long, default_value_t = 100_000)]
+        photons: u64,
     },
 }
 

@@ -8,16 +8,8 @@ pub fn luminance(c: Rgb) -> f32 {
 
 /// Linear → sRGB-encoded 8-bit value, clamped.
 pub fn srgb_encode(x: f32) -> u8 {
-    let x = if x.is_finite() {
-        x.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let s = if x <= 0.003_130_8 {
-        12.92 * x
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    };
+    let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
+    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
     (s * 255.0 + 0.5) as u8
 }
 

@@ -10,11 +10,7 @@ pub struct Image {
 
 impl Image {
     pub fn new(width: u32, height: u32) -> Image {
-        Image {
-            width,
-            height,
-            pixels: vec![Rgb::ZERO; width as usize * height as usize],
-        }
+        Image { width, height, pixels: vec![Rgb::ZERO; width as usize * height as usize] }
     }
 
     pub fn get(&self, x: u32, y: u32) -> Rgb {
@@ -28,8 +24,7 @@ impl Image {
     /// Images placed left to right with a `gap`-pixel black separator (heights must match).
     pub fn side_by_side(images: &[&Image], gap: u32) -> Image {
         let h = images.iter().map(|i| i.height).max().unwrap_or(0);
-        let w = images.iter().map(|i| i.width).sum::<u32>()
-            + gap * images.len().saturating_sub(1) as u32;
+        let w = images.iter().map(|i| i.width).sum::<u32>() + gap * images.len().saturating_sub(1) as u32;
         let mut out = Image::new(w, h);
         let mut x0 = 0;
         for img in images {

@@ -34,9 +34,7 @@ pub fn light_free_pixels(scene: &Scene, tracer: &dyn Tracer, sub: u32) -> Vec<bo
             let sees_light = (0..sub * sub).any(|i| {
                 let (fx, fy) = ((i % sub) as f32 + 0.5, (i / sub) as f32 + 0.5);
                 let ray = cam.ray(x as f32 + fx / sub as f32, y as f32 + fy / sub as f32);
-                tracer
-                    .intersect(&ray)
-                    .is_some_and(|h| scene.shapes[h.shape as usize].emission != glam::Vec3::ZERO)
+                tracer.intersect(&ray).is_some_and(|h| scene.shapes[h.shape as usize].emission != glam::Vec3::ZERO)
             });
             keep.push(!sees_light);
         }
@@ -51,13 +49,7 @@ pub fn compare_masked(a: &Image, r: &Image, keep: &[bool]) -> Option<Errors> {
     }
     let n = (keep.iter().filter(|k| **k).count().max(1) * 3) as f64;
     let (mut se, mut rel, mut ae, mut la, mut lr) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    for ((p, q), _) in a
-        .pixels
-        .iter()
-        .zip(&r.pixels)
-        .zip(keep.iter())
-        .filter(|(_, k)| **k)
-    {
+    for ((p, q), _) in a.pixels.iter().zip(&r.pixels).zip(keep.iter()).filter(|(_, k)| **k) {
         for k in 0..3 {
             let d = (p[k] - q[k]) as f64;
             se += d * d;

@@ -6,24 +6,18 @@ use anyhow::{anyhow, Context, Result};
 use std::path::{Path, PathBuf};
 
 fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_default();
+    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp{}", std::process::id()))
 }
 
 /// Writes via `write` into a temporary file, then renames it over `path`.
 pub fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create folder {}", dir.display()))?;
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create folder {}", dir.display()))?;
     }
     let tmp = temp_path(path);
-    let r = write(&tmp).and_then(|_| {
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("cannot rename onto {}", path.display()))
-    });
+    let r = write(&tmp)
+        .and_then(|_| std::fs::rename(&tmp, path).with_context(|| format!("cannot rename onto {}", path.display())));
     if r.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
@@ -56,22 +50,12 @@ pub fn read_exr(path: &Path) -> Result<Image> {
 /// 8-bit sRGB encoding of an image scaled by 2^exposure.
 pub fn to_srgb8(img: &Image, exposure: f32) -> Vec<u8> {
     let k = 2f32.powf(exposure);
-    img.pixels
-        .iter()
-        .flat_map(|c| {
-            [
-                srgb_encode(c.x * k),
-                srgb_encode(c.y * k),
-                srgb_encode(c.z * k),
-            ]
-        })
-        .collect()
+    img.pixels.iter().flat_map(|c| [srgb_encode(c.x * k), srgb_encode(c.y * k), srgb_encode(c.z * k)]).collect()
 }
 
 pub fn write_png_rgb8(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<()> {
     atomic_write(path, |tmp| {
-        let f = std::fs::File::create(tmp)
-            .with_context(|| format!("cannot create {}", tmp.display()))?;
+        let f = std::fs::File::create(tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
         let mut enc = png::Encoder::new(std::io::BufWriter::new(f), width, height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);

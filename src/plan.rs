@@ -34,10 +34,7 @@ fn point_on(scene: &Scene, s: usize, rng: &mut Rng) -> (Vec3, Vec3) {
             let i = (rng.next_u32() as usize) % m.indices.len().max(1);
             let [a, b, c] = m.triangle(i);
             let bc = sampling::uniform_triangle(rng.next_2d());
-            (
-                a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1],
-                (b - a).cross(c - a).normalize_or_zero(),
-            )
+            (a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1], (b - a).cross(c - a).normalize_or_zero())
         }
         Geometry::Sphere { center, radius } => {
             let n = sampling::uniform_sphere(rng.next_2d());
@@ -51,9 +48,7 @@ fn planar(scene: &Scene, s: usize) -> bool {
         Geometry::Mesh(m) if !m.indices.is_empty() => {
             let [a, b, c] = m.triangle(0);
             let n = (b - a).cross(c - a).normalize_or_zero();
-            m.positions
-                .iter()
-                .all(|p| (*p - a).dot(n).abs() <= 1e-5 * (1.0 + p.length()))
+            m.positions.iter().all(|p| (*p - a).dot(n).abs() <= 1e-5 * (1.0 + p.length()))
         }
         _ => false,
     }
@@ -88,34 +83,20 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     let mut reasons = Vec::new();
     let is_diffuse = |s: usize| scene.materials[scene.shapes[s].material as usize].is_diffuse();
     let lit_diffuse: Vec<usize> = (0..scene.shapes.len())
-        .filter(|&s| {
-            is_diffuse(s)
-                && scene.materials[scene.shapes[s].material as usize]
-                    .albedo()
-                    .max_element()
-                    > 0.0
-        })
+        .filter(|&s| is_diffuse(s) && scene.materials[scene.shapes[s].material as usize].albedo().max_element() > 0.0)
         .collect();
-    let specular: Vec<usize> = (0..scene.shapes.len())
-        .filter(|&s| !is_diffuse(s))
-        .collect();
+    let specular: Vec<usize> = (0..scene.shapes.len()).filter(|&s| !is_diffuse(s)).collect();
 
     let mut targets = Vec::new();
     for &s in &specular {
         if light_sees(scene, s, probe, 256) {
             targets.push(s as u32);
         } else {
-            reasons.push(format!(
-                "{}: specular but no light reaches it: not a caustic target",
-                scene.shapes[s].name
-            ));
+            reasons.push(format!("{}: specular but no light reaches it: not a caustic target", scene.shapes[s].name));
         }
     }
     let caustic = if r.force_all_passes || !targets.is_empty() {
-        reasons.push(format!(
-            "caustic map: {} specular shape(s) lit by a light",
-            targets.len()
-        ));
+        reasons.push(format!("caustic map: {} specular shape(s) lit by a light", targets.len()));
         r.photons.caustic
     } else {
         reasons.push("no caustic map: no specular surface that a light can reach".into());
@@ -126,15 +107,11 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
         reasons.push("indirect map: diffuse surfaces can light each other".into());
         r.photons.indirect
     } else {
-        reasons
-            .push("no indirect map: no diffuse surface can light another diffuse surface".into());
+        reasons.push("no indirect map: no diffuse surface can light another diffuse surface".into());
         0
     };
     let direct = if r.force_all_passes || r.direct_light == DirectLight::PhotonMap {
-        reasons.push(
-            "direct map: direct light read from photons (render.direct_light = \"photon_map\")"
-                .into(),
-        );
+        reasons.push("direct map: direct light read from photons (render.direct_light = \"photon_map\")".into());
         r.photons.direct
     } else {
         reasons.push("no direct map: direct light uses shadow rays".into());
@@ -145,10 +122,8 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     let (gx, gy) = (48u32, 48u32);
     'grid: for j in 0..gy {
         for i in 0..gx {
-            let ray = cam.ray(
-                (i as f32 + 0.5) / gx as f32 * cam.width as f32,
-                (j as f32 + 0.5) / gy as f32 * cam.height as f32,
-            );
+            let ray = cam
+                .ray((i as f32 + 0.5) / gx as f32 * cam.width as f32, (j as f32 + 0.5) / gy as f32 * cam.height as f32);
             if let Some(s) = (probe.first_shape)(ray) {
                 if !is_diffuse(s as usize) {
                     sees_specular = true;
@@ -158,19 +133,11 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
         }
     }
     let specular_spp = if r.force_all_passes || sees_specular {
-        reasons.push(format!(
-            "{} extra eye samples where the first hit is specular",
-            r.specular_spp
-        ));
+        reasons.push(format!("{} extra eye samples where the first hit is specular", r.specular_spp));
         r.specular_spp
     } else {
         reasons.push("no extra eye samples: the camera sees no specular surface".into());
         0
     };
-    Plan {
-        photons: [direct, indirect, caustic],
-        caustic_targets: targets,
-        specular_spp,
-        reasons,
-    }
+    Plan { photons: [direct, indirect, caustic], caustic_targets: targets, specular_spp, reasons }
 }

@@ -34,22 +34,13 @@ pub struct RenderOutput {
 
 /// Renders `spp` samples per pixel with `sample(x, y, rng, counters)` returning one radiance sample for
 /// a film position; the sampler for (pixel, sample) is keyed by `seed`, so threads never change the result.
-pub fn render<F>(
-    width: u32,
-    height: u32,
-    spp: u32,
-    seed: u64,
-    label: &str,
-    quiet: bool,
-    sample: F,
-) -> RenderOutput
+pub fn render<F>(width: u32, height: u32, spp: u32, seed: u64, label: &str, quiet: bool, sample: F) -> RenderOutput
 where
     F: Fn(f32, f32, &mut Rng, &mut Counters) -> Rgb + Sync,
 {
     let t0 = Instant::now();
-    let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
-        .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx, ty)))
-        .collect();
+    let tiles: Vec<(u32, u32)> =
+        (0..height.div_ceil(TILE)).flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
     let pb = progress(tiles.len() as u64, label, quiet);
     let rays = AtomicU64::new(0);
     let results: Vec<(Vec<Rgb>, Counters)> = tiles
@@ -94,9 +85,5 @@ where
             }
         }
     }
-    RenderOutput {
-        image,
-        counters,
-        seconds: t0.elapsed().as_secs_f64(),
-    }
+    RenderOutput { image, counters, seconds: t0.elapsed().as_secs_f64() }
 }

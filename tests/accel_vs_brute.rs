@@ -31,10 +31,7 @@ fn random_scene(seed: u64, tris: usize, spheres: usize) -> caustica::scene::Scen
         let rad = 0.02 + 0.2 * (i as f32 / spheres as f32);
         shapes.push(Shape {
             name: format!("sphere{i}"),
-            geometry: Geometry::Sphere {
-                center: c,
-                radius: rad,
-            },
+            geometry: Geometry::Sphere { center: c, radius: rad },
             material: 0,
             emission: Vec3::ZERO,
         });
@@ -85,19 +82,10 @@ fn embree_matches_brute_force_on_random_soups_and_spheres() {
         }
     }
     assert!(rays >= 100_000);
-    assert!(
-        hits > rays / 10,
-        "too few hits ({hits}) for a meaningful test"
-    );
+    assert!(hits > rays / 10, "too few hits ({hits}) for a meaningful test");
     // Rays grazing a shared edge within float precision may legitimately pick either side; allow 1e-4.
-    assert!(
-        mismatched as f64 <= 1e-4 * rays as f64,
-        "{mismatched} of {rays} closest hits differ"
-    );
-    assert!(
-        occl_mismatch as f64 <= 1e-4 * rays as f64,
-        "{occl_mismatch} of {rays} occlusion answers differ"
-    );
+    assert!(mismatched as f64 <= 1e-4 * rays as f64, "{mismatched} of {rays} closest hits differ");
+    assert!(occl_mismatch as f64 <= 1e-4 * rays as f64, "{occl_mismatch} of {rays} occlusion answers differ");
     eprintln!("{rays} rays, {hits} hits, {mismatched} closest-hit and {occl_mismatch} occlusion differences");
 }
 
@@ -105,10 +93,7 @@ fn embree_matches_brute_force_on_random_soups_and_spheres() {
 fn rays_from_inside_a_sphere_hit_its_far_side_exactly() {
     let scene = common::shapes_scene(vec![Shape {
         name: "s".into(),
-        geometry: Geometry::Sphere {
-            center: Vec3::new(0.3, -0.2, 0.1),
-            radius: 0.7,
-        },
+        geometry: Geometry::Sphere { center: Vec3::new(0.3, -0.2, 0.1), radius: 0.7 },
         material: 0,
         emission: Vec3::ZERO,
     }]);
@@ -116,9 +101,7 @@ fn rays_from_inside_a_sphere_hit_its_far_side_exactly() {
     let mut r = Rng::new(3, 0, 0);
     for _ in 0..10_000 {
         let d = uniform_sphere(r.next_2d());
-        let h = a
-            .intersect(&Ray::new(Vec3::new(0.3, -0.2, 0.1), d))
-            .expect("must hit from inside");
+        let h = a.intersect(&Ray::new(Vec3::new(0.3, -0.2, 0.1), d)).expect("must hit from inside");
         assert!((h.t - 0.7).abs() < 1e-5, "t = {}", h.t);
     }
 }

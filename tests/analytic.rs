@@ -25,11 +25,7 @@ fn furnace_box_is_le_over_one_minus_albedo_everywhere() {
     let expect = le / (1.0 - a);
     for (i, p) in img.pixels.iter().enumerate() {
         for k in 0..3 {
-            assert!(
-                (p[k] - expect).abs() <= 0.01 * expect,
-                "pixel {i} channel {k}: {} vs {expect}",
-                p[k]
-            );
+            assert!((p[k] - expect).abs() <= 0.01 * expect, "pixel {i} channel {k}: {} vs {expect}", p[k]);
         }
     }
 }
@@ -45,12 +41,7 @@ fn point_light_over_diffuse_plane_matches_inverse_square_cosine_law() {
     );
     let scene = common::scene(&text);
     let accel = Accel::new(&scene).unwrap();
-    let pt = PathTracer {
-        scene: &scene,
-        tracer: &accel,
-        max_depth: 8,
-        rr_depth: 100,
-    };
+    let pt = PathTracer { scene: &scene, tracer: &accel, max_depth: 8, rr_depth: 100 };
     let light = Vec3::new(0.2, h, -0.3);
     let intensity = power / (4.0 * std::f32::consts::PI);
     let mut checked = 0;
@@ -62,14 +53,9 @@ fn point_light_over_diffuse_plane_matches_inverse_square_cosine_law() {
             };
             let p = ray.at(hit.t);
             let d = light - p;
-            let expect =
-                rho / std::f32::consts::PI * intensity * (d.normalize().y) / d.length_squared();
+            let expect = rho / std::f32::consts::PI * intensity * (d.normalize().y) / d.length_squared();
             let got = pt.li(ray, &mut Rng::new(0, x, y), &mut Counters::default());
-            assert!(
-                (got.x - expect).abs() <= 1e-3 * expect,
-                "pixel ({x},{y}): {} vs {expect}",
-                got.x
-            );
+            assert!((got.x - expect).abs() <= 1e-3 * expect, "pixel ({x},{y}): {} vs {expect}", got.x);
             checked += 1;
         }
     }
@@ -89,10 +75,7 @@ fn slab(theta: f32, n: usize) -> (f64, f64) {
     let (mut up, mut down) = (0.0f64, 0.0f64);
     let mut rng = Rng::new(5, 0, 0);
     for _ in 0..n {
-        let mut ray = Ray::new(
-            Vec3::new(0.0, 1.0, 0.0),
-            Vec3::new(theta.sin(), -theta.cos(), 0.0),
-        );
+        let mut ray = Ray::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(theta.sin(), -theta.cos(), 0.0));
         let mut w = 1.0f32;
         for _ in 0..1000 {
             let Some(hit) = accel.intersect(&ray) else {
@@ -100,9 +83,7 @@ fn slab(theta: f32, n: usize) -> (f64, f64) {
             };
             let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
             let wo = -ray.d;
-            let s = glass
-                .sample(wo, si.ns, rng.next_2d(), rng.next_f32(), false)
-                .unwrap();
+            let s = glass.sample(wo, si.ns, rng.next_2d(), rng.next_f32(), false).unwrap();
             w *= s.weight.x;
             ray = Ray::new(offset_ray_origin(si.p, si.ng, s.wi), s.wi);
         }
@@ -124,40 +105,23 @@ fn glass_slab_conserves_energy_and_matches_fresnel() {
         let (f, _) = fresnel_dielectric(theta.cos(), 1.5);
         let expect = 2.0 * f as f64 / (1.0 + f as f64);
         let sigma = (expect * (1.0 - expect) / 200_000.0).sqrt();
-        assert!(
-            (r - expect).abs() < 5.0 * sigma + 1e-4,
-            "θ={theta_deg}: R = {r}, expected {expect}"
-        );
+        assert!((r - expect).abs() < 5.0 * sigma + 1e-4, "θ={theta_deg}: R = {r}, expected {expect}");
     }
 }
 
 #[test]
 fn total_internal_reflection_past_the_critical_angle() {
-    let glass = Material::Dielectric {
-        ior: 1.5,
-        tint: Vec3::ONE,
-    };
+    let glass = Material::Dielectric { ior: 1.5, tint: Vec3::ONE };
     let n = Vec3::Y; // outward normal; the ray travels inside (below) towards it
     let crit = (1.0f32 / 1.5).asin();
     let mut rng = Rng::new(1, 0, 0);
-    for (angle, must_reflect) in [
-        (crit + 0.02, true),
-        (crit + 0.3, true),
-        (crit - 0.05, false),
-    ] {
+    for (angle, must_reflect) in [(crit + 0.02, true), (crit + 0.3, true), (crit - 0.05, false)] {
         let wo = Vec3::new(angle.sin(), -angle.cos(), 0.0); // points back into the glass
         let mut transmitted = 0;
         for _ in 0..2000 {
-            let s = glass
-                .sample(wo, n, rng.next_2d(), rng.next_f32(), false)
-                .unwrap();
+            let s = glass.sample(wo, n, rng.next_2d(), rng.next_f32(), false).unwrap();
             transmitted += s.transmitted as u32;
         }
-        assert_eq!(
-            transmitted == 0,
-            must_reflect,
-            "angle {} rad: {transmitted} transmitted",
-            angle
-        );
+        assert_eq!(transmitted == 0, must_reflect, "angle {} rad: {transmitted} transmitted", angle);
     }
 }

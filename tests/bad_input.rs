@@ -35,20 +35,11 @@ fn dir() -> PathBuf {
 fn run(scene_path: &Path, extra: &[&str]) -> (i32, String) {
     let out = dir().join("out/img");
     let o = Command::new(env!("CARGO_BIN_EXE_caustica"))
-        .args([
-            "render",
-            scene_path.to_str().unwrap(),
-            "-q",
-            "-o",
-            out.to_str().unwrap(),
-        ])
+        .args(["render", scene_path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()])
         .args(extra)
         .output()
         .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&o.stderr).to_string(),
-    )
+    (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stderr).to_string())
 }
 
 fn check(name: &str, text: &str, extra: &[&str], expect: &[&str]) {
@@ -57,10 +48,7 @@ fn check(name: &str, text: &str, extra: &[&str], expect: &[&str]) {
     let (code, err) = run(&p, extra);
     assert_ne!(code, 0, "{name}: expected failure, got success");
     assert!(!err.contains("panicked"), "{name}: panicked: {err}");
-    assert!(
-        err.contains(&format!("{name}.toml")),
-        "{name}: message does not name the file: {err}"
-    );
+    assert!(err.contains(&format!("{name}.toml")), "{name}: message does not name the file: {err}");
     for e in expect {
         assert!(err.contains(e), "{name}: message lacks `{e}`: {err}");
     }
@@ -77,33 +65,122 @@ fn the_good_scene_renders() {
 #[test]
 fn each_malformed_scene_gets_its_own_message() {
     let d = dir();
-    std::fs::write(
-        d.join("nan.obj"),
-        "v 0 0 0\nv 1 0 nan\nv 0 1 0\nv inf 1 1\nf 1 2 3\nf 1 3 4\n",
-    )
-    .unwrap();
+    std::fs::write(d.join("nan.obj"), "v 0 0 0\nv 1 0 nan\nv 0 1 0\nv inf 1 1\nf 1 2 3\nf 1 3 4\n").unwrap();
     std::fs::write(d.join("short.ply"), "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n").unwrap();
     let cases: Vec<(&str, String, Vec<&str>, Vec<&str>)> = vec![
         ("syntax", GOOD.replace("fov = 40", "fov = = 40"), vec![], vec!["line 5"]),
         ("unknown_key", GOOD.replace("fov = 40", "fovv = 40"), vec![], vec!["unknown field `fovv`", "line 5"]),
         ("wrong_type", GOOD.replace("fov = 40", "fov = \"wide\""), vec![], vec!["invalid type", "line 5"]),
-        ("unknown_material", GOOD.replace("material = \"white\"", "material = \"gold\""), vec![], vec!["shapes[0].material", "unknown material `gold`"]),
-        ("missing_mesh", GOOD.replace("type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]", "type = \"mesh\"\nfile = \"nowhere.ply\""), vec![], vec!["nowhere.ply", "not found"]),
+        (
+            "unknown_material",
+            GOOD.replace("material = \"white\"", "material = \"gold\""),
+            vec![],
+            vec!["shapes[0].material", "unknown material `gold`"],
+        ),
+        (
+            "missing_mesh",
+            GOOD.replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+                "type = \"mesh\"\nfile = \"nowhere.ply\"",
+            ),
+            vec![],
+            vec!["nowhere.ply", "not found"],
+        ),
         ("not_finite", GOOD.replace("fov = 40", "fov = nan"), vec![], vec!["camera.fov", "not finite"]),
-        ("degenerate_transform", GOOD.replace("material = \"white\"", "material = \"white\"\ntransform = { scale = [1.0, 0.0, 1.0] }"), vec![], vec!["shapes[0].transform", "degenerate"]),
-        ("zero_area_light", GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]", "type = \"quad\"\ncorner = [0.0, 1.9, 0.0]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [2.0, 0.0, 0.0]"), vec![], vec!["lights[0]", "zero area"]),
-        ("negative_reflectance", GOOD.replace("[0.5, 0.5, 0.5]", "[0.5, -0.5, 0.5]"), vec![], vec!["materials.white.reflectance", "negative"]),
-        ("reflectance_above_one", GOOD.replace("[0.5, 0.5, 0.5]", "[0.5, 1.5, 0.5]"), vec![], vec!["materials.white.reflectance", "exceeds"]),
-        ("no_light", GOOD.replace("power = [10.0, 10.0, 10.0]", "power = [0.0, 0.0, 0.0]"), vec![], vec!["lights", "no light"]),
-        ("camera_degenerate", GOOD.replace("target = [0.0, 1.0, 0.0]", "target = [0.0, 1.0, 3.0]"), vec![], vec!["camera.target", "equals camera.origin"]),
-        ("nan_mesh", GOOD.replace("type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]", "type = \"mesh\"\nfile = \"nan.obj\""), vec![], vec!["nan.obj", "2 vertices have NaN or infinite"]),
-        ("truncated_ply", GOOD.replace("type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]", "type = \"mesh\"\nfile = \"short.ply\""), vec![], vec!["short.ply", "header says 3"]),
-        ("unknown_preset", GOOD.replace("white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }", "white = { type = \"conductor\", preset = \"Unobtainium\" }"), vec![], vec!["materials.white.preset", "unknown metal"]),
-        ("huge_resolution", GOOD.replace("resolution = [8, 8]", "resolution = [100000, 100000]"), vec![], vec!["camera.resolution", "MiB"]),
-        ("unknown_shape", GOOD.replace("type = \"quad\"", "type = \"teapot\""), vec![], vec!["unknown variant `teapot`"]),
-        ("sphere_radius", GOOD.replace("type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]", "type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.0"), vec![], vec!["shapes[0].radius", "must be > 0"]),
+        (
+            "degenerate_transform",
+            GOOD.replace("material = \"white\"", "material = \"white\"\ntransform = { scale = [1.0, 0.0, 1.0] }"),
+            vec![],
+            vec!["shapes[0].transform", "degenerate"],
+        ),
+        (
+            "zero_area_light",
+            GOOD.replace(
+                "type = \"point\"\nposition = [0.0, 1.5, 0.0]",
+                "type = \"quad\"\ncorner = [0.0, 1.9, 0.0]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [2.0, 0.0, 0.0]",
+            ),
+            vec![],
+            vec!["lights[0]", "zero area"],
+        ),
+        (
+            "negative_reflectance",
+            GOOD.replace("[0.5, 0.5, 0.5]", "[0.5, -0.5, 0.5]"),
+            vec![],
+            vec!["materials.white.reflectance", "negative"],
+        ),
+        (
+            "reflectance_above_one",
+            GOOD.replace("[0.5, 0.5, 0.5]", "[0.5, 1.5, 0.5]"),
+            vec![],
+            vec!["materials.white.reflectance", "exceeds"],
+        ),
+        (
+            "no_light",
+            GOOD.replace("power = [10.0, 10.0, 10.0]", "power = [0.0, 0.0, 0.0]"),
+            vec![],
+            vec!["lights", "no light"],
+        ),
+        (
+            "camera_degenerate",
+            GOOD.replace("target = [0.0, 1.0, 0.0]", "target = [0.0, 1.0, 3.0]"),
+            vec![],
+            vec!["camera.target", "equals camera.origin"],
+        ),
+        (
+            "nan_mesh",
+            GOOD.replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+                "type = \"mesh\"\nfile = \"nan.obj\"",
+            ),
+            vec![],
+            vec!["nan.obj", "2 vertices have NaN or infinite"],
+        ),
+        (
+            "truncated_ply",
+            GOOD.replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+                "type = \"mesh\"\nfile = \"short.ply\"",
+            ),
+            vec![],
+            vec!["short.ply", "header says 3"],
+        ),
+        (
+            "unknown_preset",
+            GOOD.replace(
+                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+                "white = { type = \"conductor\", preset = \"Unobtainium\" }",
+            ),
+            vec![],
+            vec!["materials.white.preset", "unknown metal"],
+        ),
+        (
+            "huge_resolution",
+            GOOD.replace("resolution = [8, 8]", "resolution = [100000, 100000]"),
+            vec![],
+            vec!["camera.resolution", "MiB"],
+        ),
+        (
+            "unknown_shape",
+            GOOD.replace("type = \"quad\"", "type = \"teapot\""),
+            vec![],
+            vec!["unknown variant `teapot`"],
+        ),
+        (
+            "sphere_radius",
+            GOOD.replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+                "type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.0",
+            ),
+            vec![],
+            vec!["shapes[0].radius", "must be > 0"],
+        ),
         ("bad_override", GOOD.to_string(), vec!["--set", "render.sppp=4"], vec!["unknown field `sppp`"]),
-        ("too_many_photons", GOOD.to_string(), vec!["--set", "render.photons.caustic=100000000000"], vec!["render.photons", "GiB"]),
+        (
+            "too_many_photons",
+            GOOD.to_string(),
+            vec!["--set", "render.photons.caustic=100000000000"],
+            vec!["render.photons", "GiB"],
+        ),
     ];
     assert!(cases.len() >= 12);
     for (name, text, extra, expect) in &cases {
@@ -115,10 +192,7 @@ fn each_malformed_scene_gets_its_own_message() {
 fn missing_scene_file_is_named() {
     let (code, err) = run(Path::new("/definitely/not/here.toml"), &[]);
     assert_ne!(code, 0);
-    assert!(
-        err.contains("/definitely/not/here.toml") && err.contains("cannot read"),
-        "{err}"
-    );
+    assert!(err.contains("/definitely/not/here.toml") && err.contains("cannot read"), "{err}");
 }
 
 #[test]
@@ -130,19 +204,10 @@ fn a_failed_run_leaves_existing_outputs_alone() {
     let p = dir().join("broken.toml");
     std::fs::write(&p, GOOD.replace("fov = 40", "fov = 400")).unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_caustica"))
-        .args([
-            "render",
-            p.to_str().unwrap(),
-            "-q",
-            "-o",
-            d.join("img").to_str().unwrap(),
-        ])
+        .args(["render", p.to_str().unwrap(), "-q", "-o", d.join("img").to_str().unwrap()])
         .output()
         .unwrap();
     assert_ne!(o.status.code(), Some(0));
     assert_eq!(std::fs::read(&img).unwrap(), b"precious");
-    assert!(
-        std::fs::read_dir(&d).unwrap().count() == 1,
-        "a temporary file was left behind"
-    );
+    assert!(std::fs::read_dir(&d).unwrap().count() == 1, "a temporary file was left behind");
 }

@@ -20,11 +20,7 @@ fn scene() -> caustica::scene::Scene {
 }
 
 fn with_threads<T: Send>(n: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(n)
-        .build()
-        .unwrap()
-        .install(f)
+    rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap().install(f)
 }
 
 #[test]
@@ -47,17 +43,9 @@ fn photon_mapper_is_bit_identical_for_1_and_2_threads() {
     let a = Accel::new(&s).unwrap();
     let run = || {
         let plan = plan_for(&s, &a);
-        let req = MapRequest {
-            want: plan.photons,
-            targeted: true,
-            targets: Some(plan.caustic_targets.clone()),
-        };
+        let req = MapRequest { want: plan.photons, targeted: true, targets: Some(plan.caustic_targets.clone()) };
         let maps = build_maps(&s, &a, &req, true).unwrap();
-        (
-            maps.stats.stored,
-            maps.stats.n_emitted,
-            render_photon_map(&s, &a, &maps, &plan, None, true).image,
-        )
+        (maps.stats.stored, maps.stats.n_emitted, render_photon_map(&s, &a, &maps, &plan, None, true).image)
     };
     let one = with_threads(1, run);
     let two = with_threads(2, run);

@@ -22,10 +22,7 @@ fn brute_knn(pts: &[[f32; 3]], q: [f32; 3], k: usize, r2: f32) -> Vec<f32> {
 fn kiddo_knn(t: &ImmutableKdTree<f32, 3>, q: [f32; 3], k: usize, r2: f32) -> Vec<f32> {
     let k = NonZeroUsize::new(k).unwrap();
     let found = if r2.is_finite() {
-        t.query(&q)
-            .nearest_n::<SquaredEuclidean<f32>>(k)
-            .within(r2)
-            .execute()
+        t.query(&q).nearest_n::<SquaredEuclidean<f32>>(k).within(r2).execute()
     } else {
         t.query(&q).nearest_n::<SquaredEuclidean<f32>>(k).execute()
     };
@@ -36,13 +33,8 @@ fn kiddo_knn(t: &ImmutableKdTree<f32, 3>, q: [f32; 3], k: usize, r2: f32) -> Vec
 
 /// Checks every query kind on one point set; returns an error message on the first disagreement.
 fn check(pts: &[[f32; 3]], queries: &[[f32; 3]], k: usize, r2: f32) -> Result<(), String> {
-    let tree = KdTree::build(
-        pts.iter()
-            .enumerate()
-            .map(|(i, p)| (*p, i as u32))
-            .collect(),
-    )
-    .map_err(|e| e.to_string())?;
+    let tree =
+        KdTree::build(pts.iter().enumerate().map(|(i, p)| (*p, i as u32)).collect()).map_err(|e| e.to_string())?;
     if tree.len() != pts.len() {
         return Err(format!("tree holds {} of {} points", tree.len(), pts.len()));
     }
@@ -55,9 +47,7 @@ fn check(pts: &[[f32; 3]], queries: &[[f32; 3]], k: usize, r2: f32) -> Result<()
         let ours = res.sorted_d2();
         let want = brute_knn(pts, q, k, r2);
         if ours != want {
-            return Err(format!(
-                "knn k={k} r2={r2} q={q:?}: ours {ours:?} brute {want:?}"
-            ));
+            return Err(format!("knn k={k} r2={r2} q={q:?}: ours {ours:?} brute {want:?}"));
         }
         // Every returned index must really be at the distance reported.
         for &(dd, i) in res.items() {
@@ -79,9 +69,7 @@ fn check(pts: &[[f32; 3]], queries: &[[f32; 3]], k: usize, r2: f32) -> Result<()
             if k > 0 {
                 let theirs = kiddo_knn(kt, q, k, r2);
                 if theirs != want {
-                    return Err(format!(
-                        "kiddo disagrees with brute force: {theirs:?} vs {want:?}"
-                    ));
+                    return Err(format!("kiddo disagrees with brute force: {theirs:?} vs {want:?}"));
                 }
             }
         }
@@ -131,15 +119,9 @@ fn gen_points(shape: Shape, n: usize, scale: f32, seed: u64) -> Vec<[f32; 3]> {
             })
             .collect(),
         Shape::Identical => vec![[0.3 * scale, 0.3 * scale, 0.3 * scale]; n],
-        Shape::Duplicates => (0..n)
-            .map(|_| {
-                [
-                    (u() * 4.0 / scale).floor() * scale / 4.0,
-                    0.0,
-                    (u() * 4.0 / scale).floor(),
-                ]
-            })
-            .collect(),
+        Shape::Duplicates => {
+            (0..n).map(|_| [(u() * 4.0 / scale).floor() * scale / 4.0, 0.0, (u() * 4.0 / scale).floor()]).collect()
+        }
     }
 }
 
@@ -180,20 +162,10 @@ proptest! {
 #[test]
 fn large_clustered_and_caustic_sets_agree() {
     use caustica::photon::distributions::{points, queries, Distribution};
-    for d in [
-        Distribution::Uniform,
-        Distribution::Clustered,
-        Distribution::Plane,
-        Distribution::Caustic,
-    ] {
+    for d in [Distribution::Uniform, Distribution::Clustered, Distribution::Plane, Distribution::Caustic] {
         let pts = points(d, 50_000, 3);
         let qs = queries(d, 200, 4);
-        for (k, r2) in [
-            (1, f32::INFINITY),
-            (50, f32::INFINITY),
-            (200, 1e-4),
-            (1000, f32::INFINITY),
-        ] {
+        for (k, r2) in [(1, f32::INFINITY), (50, f32::INFINITY), (200, 1e-4), (1000, f32::INFINITY)] {
             check(&pts, &qs, k, r2).unwrap_or_else(|e| panic!("{d:?}: {e}"));
         }
     }

@@ -14,17 +14,7 @@ use caustica::scene::Scene;
 use glam::Vec3;
 
 fn maps(scene: &Scene, accel: &Accel, want: [u64; 3], targeted: bool) -> PhotonMaps {
-    build_maps(
-        scene,
-        accel,
-        &MapRequest {
-            want,
-            targeted,
-            targets: None,
-        },
-        true,
-    )
-    .unwrap()
+    build_maps(scene, accel, &MapRequest { want, targeted, targets: None }, true).unwrap()
 }
 
 #[test]
@@ -43,15 +33,9 @@ fn closed_box_maps_hold_the_light_power_and_its_interreflections() {
     let direct = m.maps[DIRECT].as_ref().unwrap().total_power();
     let indirect = m.maps[INDIRECT].as_ref().unwrap().total_power();
     // Every photon lands on a wall once (direct), then a fraction a keeps bouncing: a + a² + … = a/(1−a).
-    assert!(
-        (direct.x - 20.0).abs() < 0.01 * 20.0,
-        "direct map holds {direct}"
-    );
+    assert!((direct.x - 20.0).abs() < 0.01 * 20.0, "direct map holds {direct}");
     let expect = 20.0 * a / (1.0 - a);
-    assert!(
-        (indirect.x - expect).abs() < 0.02 * expect,
-        "indirect map holds {indirect}, expected {expect}"
-    );
+    assert!((indirect.x - expect).abs() < 0.02 * expect, "indirect map holds {indirect}, expected {expect}");
     // What the walls absorb, (1 − a)·(all arriving power), is what the light emitted.
     assert!(((1.0 - a) * (direct.x + indirect.x) - 20.0).abs() < 0.02 * 20.0);
 }
@@ -73,11 +57,7 @@ fn no_light_leaks_through_a_thin_wall() {
     let accel = Accel::new(&scene).unwrap();
     let m = maps(&scene, &accel, [100_000, 100_000, 100_000], true);
     let mut res = KnnResult::new();
-    let g = caustica::photon::estimate::Gather {
-        k: 100,
-        max_r2: 0.09,
-        cone_k: 1.1,
-    };
+    let g = caustica::photon::estimate::Gather { k: 100, max_r2: 0.09, cone_k: 1.1 };
     let (mut dark, mut bright) = (0usize, 0usize);
     for (mi, map) in m.maps.iter().enumerate() {
         let map = map.as_ref().unwrap();
@@ -93,10 +73,7 @@ fn no_light_leaks_through_a_thin_wall() {
         }
     }
     assert_eq!(dark, 0, "{dark} points on the dark face received light");
-    assert!(
-        bright > 3 * 400,
-        "only {bright} points on the lit face are lit"
-    );
+    assert!(bright > 3 * 400, "only {bright} points on the lit face are lit");
 }
 
 /// Caustic irradiance (up to a constant) on the sphere's axis, on a floor at `depth` below the centre.
@@ -113,20 +90,8 @@ fn axis_caustic(depth: f32, n: f32, r: f32) -> f32 {
     let m = maps(&scene, &accel, [0, 0, 200_000], true);
     let map = m.maps[CAUSTIC].as_ref().unwrap();
     let mut res = KnnResult::new();
-    let g = caustica::photon::estimate::Gather {
-        k: 400,
-        max_r2: f32::INFINITY,
-        cone_k: 0.0,
-    };
-    map.radiance(
-        Vec3::new(0.0, -depth, 0.0),
-        Vec3::Y,
-        Vec3::Y,
-        Rgb::ONE,
-        g,
-        &mut res,
-    )
-    .x
+    let g = caustica::photon::estimate::Gather { k: 400, max_r2: f32::INFINITY, cone_k: 0.0 };
+    map.radiance(Vec3::new(0.0, -depth, 0.0), Vec3::Y, Vec3::Y, Rgb::ONE, g, &mut res).x
 }
 
 #[test]
@@ -147,35 +112,19 @@ fn ball_lens_focuses_near_the_paraxial_focus() {
         let hit = accel.intersect(&ray).unwrap();
         let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
         // uc = 1: always refract (Fresnel reflection is not the path being checked).
-        let s = glass
-            .sample(-ray.d, si.ns, [0.0, 0.0], 0.999_999, false)
-            .unwrap();
+        let s = glass.sample(-ray.d, si.ns, [0.0, 0.0], 0.999_999, false).unwrap();
         assert!(s.transmitted);
         ray = Ray::new(offset_ray_origin(si.p, si.ng, s.wi), s.wi);
     }
     let crossing = ray.o.y - ray.o.x * ray.d.y / ray.d.x;
-    assert!(
-        (-crossing - focus).abs() < 0.01 * focus,
-        "paraxial crossing at {}, focus {focus}",
-        -crossing
-    );
+    assert!((-crossing - focus).abs() < 0.01 * focus, "paraxial crossing at {}, focus {focus}", -crossing);
     // The photon-map caustic on the axis peaks near there (spherical aberration pulls the peak in a little).
     let depths: Vec<f32> = (0..12).map(|i| 1.05 * r + i as f32 * 0.1 * r).collect();
     let vals: Vec<f32> = depths.iter().map(|&d| axis_caustic(d, n, r)).collect();
-    let (best, _) = vals
-        .iter()
-        .enumerate()
-        .max_by(|a, b| a.1.total_cmp(b.1))
-        .unwrap();
+    let (best, _) = vals.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).unwrap();
     let peak = depths[best];
-    eprintln!(
-        "caustic on axis by depth: {:?}",
-        depths.iter().zip(&vals).collect::<Vec<_>>()
-    );
-    assert!(
-        (peak - focus).abs() <= 0.2 * focus,
-        "brightest at {peak}, paraxial focus {focus}"
-    );
+    eprintln!("caustic on axis by depth: {:?}", depths.iter().zip(&vals).collect::<Vec<_>>());
+    assert!((peak - focus).abs() <= 0.2 * focus, "brightest at {peak}, paraxial focus {focus}");
     assert!(vals[best] > 5.0 * vals[0], "no focusing: {vals:?}");
 }
 
@@ -183,10 +132,8 @@ fn ball_lens_focuses_near_the_paraxial_focus() {
 /// the photons shot. `shots` = Some(n): uniform emission with exactly n photons shot (equal work).
 fn caustic_flux(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64) {
     let mut s = common::scene(
-        &std::fs::read_to_string(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-glass.toml"),
-        )
-        .unwrap(),
+        &std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-glass.toml"))
+            .unwrap(),
     );
     s.render.seed = seed;
     let accel = Accel::new(&s).unwrap();
@@ -203,53 +150,33 @@ fn caustic_flux(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64) {
 
 fn mean_std(v: &[f64]) -> (f64, f64) {
     let m = v.iter().sum::<f64>() / v.len() as f64;
-    (
-        m,
-        (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64).sqrt(),
-    )
+    (m, (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64).sqrt())
 }
 
 #[test]
 fn targeted_caustics_match_uniform_emission_with_less_noise() {
     let runs = 8;
-    let targeted: Vec<(f64, u64)> = (0..runs)
-        .map(|i| caustic_flux(20_000, None, 10 + i))
-        .collect();
+    let targeted: Vec<(f64, u64)> = (0..runs).map(|i| caustic_flux(20_000, None, 10 + i)).collect();
     let shots = targeted[0].1;
-    let uniform: Vec<f64> = (0..runs)
-        .map(|i| caustic_flux(0, Some(shots), 100 + i).0)
-        .collect();
+    let uniform: Vec<f64> = (0..runs).map(|i| caustic_flux(0, Some(shots), 100 + i).0).collect();
     let (mt, st) = mean_std(&targeted.iter().map(|t| t.0).collect::<Vec<_>>());
     let (mu, su) = mean_std(&uniform);
     // Uniform emission at 16× the work: the expectation both must share.
     let (reference, _) = caustic_flux(0, Some(16 * shots), 7);
     eprintln!("{shots} shots: targeted {mt:.5} ± {st:.5}, uniform {mu:.5} ± {su:.5}, uniform×16 {reference:.5}");
     let sigma = (st * st / runs as f64 + su * su / 16.0).sqrt();
-    assert!(
-        (mt - reference).abs() < 4.0 * sigma,
-        "targeted mean {mt} vs uniform {reference} (σ {sigma})"
-    );
-    assert!(
-        st < 0.5 * su,
-        "targeted spread {st} vs uniform {su} at equal shots"
-    );
+    assert!((mt - reference).abs() < 4.0 * sigma, "targeted mean {mt} vs uniform {reference} (σ {sigma})");
+    assert!(st < 0.5 * su, "targeted spread {st} vs uniform {su} at equal shots");
 }
 
 #[test]
 fn photon_mapping_converges_to_the_path_traced_reference() {
     let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
-    let base = [
-        "camera.resolution=[40, 40]",
-        "render.pm_spp=64",
-        "render.direct_light=\"shadow_rays\"",
-    ];
+    let base = ["camera.resolution=[40, 40]", "render.pm_spp=64", "render.direct_light=\"shadow_rays\""];
     let (reference, keep) = {
         let s = caustica::scene::load_scene_with(&p, &base.map(String::from)).unwrap();
         let a = Accel::new(&s).unwrap();
-        (
-            render_path(&s, &a, 4096, true).image,
-            light_free_pixels(&s, &a, 8),
-        )
+        (render_path(&s, &a, 4096, true).image, light_free_pixels(&s, &a, 8))
     };
     let mut errors = Vec::new();
     for photons in [5_000u64, 20_000, 80_000, 320_000] {
@@ -261,11 +188,7 @@ fn photon_mapping_converges_to_the_path_traced_reference() {
         let m = build_maps(
             &s,
             &a,
-            &MapRequest {
-                want: plan.photons,
-                targeted: true,
-                targets: Some(plan.caustic_targets.clone()),
-            },
+            &MapRequest { want: plan.photons, targeted: true, targets: Some(plan.caustic_targets.clone()) },
             true,
         )
         .unwrap();
@@ -273,10 +196,7 @@ fn photon_mapping_converges_to_the_path_traced_reference() {
         errors.push(compare_masked(&img, &reference, &keep).unwrap().rmse);
     }
     eprintln!("RMSE against the path-traced reference by indirect photons: {errors:?}");
-    assert!(
-        errors.windows(2).all(|w| w[1] < w[0]),
-        "RMSE does not fall: {errors:?}"
-    );
+    assert!(errors.windows(2).all(|w| w[1] < w[0]), "RMSE does not fall: {errors:?}");
     // The box's mean radiance is about 0.3; the remaining error is mostly the eye pass's own
     // shadow-ray noise (64 samples per pixel against the reference's 4096).
     assert!(errors[3] < 0.04, "final RMSE {} too large", errors[3]);

@@ -61,52 +61,23 @@ impl Tracer for Brute {
             if let Some((t, u, v)) = tri_hit(r, *tri) {
                 if t > r.tmin && t < tmax {
                     tmax = t;
-                    best = Some(Hit {
-                        t,
-                        u,
-                        v,
-                        shape: *s,
-                        prim: *p,
-                    });
+                    best = Some(Hit { t, u, v, shape: *s, prim: *p });
                 }
             }
         }
         for (c, rad, s) in &self.spheres {
-            if let Some(t) = sphere_root(
-                r.o.to_array(),
-                r.d.to_array(),
-                c.to_array(),
-                *rad,
-                r.tmin,
-                tmax,
-            ) {
+            if let Some(t) = sphere_root(r.o.to_array(), r.d.to_array(), c.to_array(), *rad, r.tmin, tmax) {
                 tmax = t;
-                best = Some(Hit {
-                    t,
-                    u: 0.0,
-                    v: 0.0,
-                    shape: *s,
-                    prim: 0,
-                });
+                best = Some(Hit { t, u: 0.0, v: 0.0, shape: *s, prim: 0 });
             }
         }
         best
     }
 
     fn occluded(&self, r: &Ray) -> bool {
-        self.tris
-            .iter()
-            .any(|(tri, _, _)| tri_hit(r, *tri).is_some_and(|(t, _, _)| t > r.tmin && t < r.tmax))
+        self.tris.iter().any(|(tri, _, _)| tri_hit(r, *tri).is_some_and(|(t, _, _)| t > r.tmin && t < r.tmax))
             || self.spheres.iter().any(|(c, rad, _)| {
-                sphere_root(
-                    r.o.to_array(),
-                    r.d.to_array(),
-                    c.to_array(),
-                    *rad,
-                    r.tmin,
-                    r.tmax,
-                )
-                .is_some()
+                sphere_root(r.o.to_array(), r.d.to_array(), c.to_array(), *rad, r.tmin, r.tmax).is_some()
             })
     }
 }

@@ -38,11 +38,7 @@ unsafe impl Sync for Accel {}
 struct Packet16(RTCRayHit16);
 
 fn context() -> RTCIntersectContext {
-    RTCIntersectContext {
-        flags: RTCIntersectContextFlags::INCOHERENT,
-        filter: None,
-        instID: [INVALID],
-    }
+    RTCIntersectContext { flags: RTCIntersectContextFlags::INCOHERENT, filter: None, instID: [INVALID] }
 }
 
 /// Lane accessors for Embree's SoA ray layout (`RTCRayHitN`): field k of lane i is at k·N + i.
@@ -164,40 +160,21 @@ impl Accel {
                             12,
                             m.positions.len(),
                         ) as *mut f32;
-                        let ib = rtcSetNewGeometryBuffer(
-                            g,
-                            RTCBufferType::INDEX,
-                            0,
-                            RTCFormat::UINT3,
-                            12,
-                            m.indices.len(),
-                        ) as *mut u32;
+                        let ib =
+                            rtcSetNewGeometryBuffer(g, RTCBufferType::INDEX, 0, RTCFormat::UINT3, 12, m.indices.len())
+                                as *mut u32;
                         if vb.is_null() || ib.is_null() {
                             rtcReleaseGeometry(g);
                             rtcReleaseScene(rscene);
                             rtcReleaseDevice(device);
-                            return Err(format!(
-                                "Embree: cannot allocate buffers for {}",
-                                shape.name
-                            ));
+                            return Err(format!("Embree: cannot allocate buffers for {}", shape.name));
                         }
-                        ptr::copy_nonoverlapping(
-                            m.positions.as_ptr() as *const f32,
-                            vb,
-                            m.positions.len() * 3,
-                        );
-                        ptr::copy_nonoverlapping(
-                            m.indices.as_ptr() as *const u32,
-                            ib,
-                            m.indices.len() * 3,
-                        );
+                        ptr::copy_nonoverlapping(m.positions.as_ptr() as *const f32, vb, m.positions.len() * 3);
+                        ptr::copy_nonoverlapping(m.indices.as_ptr() as *const u32, ib, m.indices.len() * 3);
                         g
                     }
                     Geometry::Sphere { center, radius } => {
-                        let data = Box::new(SphereData {
-                            center: center.to_array(),
-                            radius: *radius,
-                        });
+                        let data = Box::new(SphereData { center: center.to_array(), radius: *radius });
                         let g = rtcNewGeometry(device, RTCGeometryType::USER);
                         rtcSetGeometryUserPrimitiveCount(g, 1);
                         let up = &*data as *const SphereData as *mut c_void;
@@ -222,12 +199,7 @@ impl Accel {
                 rtcReleaseDevice(device);
                 return Err(format!("Embree error {err:?} while building the scene"));
             }
-            Ok(Accel {
-                device,
-                scene: rscene,
-                _spheres: spheres,
-                build_seconds,
-            })
+            Ok(Accel { device, scene: rscene, _spheres: spheres, build_seconds })
         }
     }
 
@@ -244,6 +216,40 @@ impl Accel {
             hits += q.0.hit.geomID.iter().filter(|&&g| g != INVALID).count();
         }
         hits
+    }
+}
+
+impl Accel {
+    /// The baseline for `caustica bench photons`: bare `rtcIntersect1` calls on prepared rays.
+    pub fn raw_intersect1(&self, rays: &[RTCRayHit]) -> usize {
+        let mut hits = 0;
+        for r in rays {
+            let mut rh = *r;
+            let mut ctx = context();
+            // SAFETY: committed scene; rh and ctx are valid for the call.
+            unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
+            hits += (rh.hit.geomID != INVALID) as usize;
+        }
+        hits
+    }
+
+    /// Rays in Embree's single-ray layout, prepared outside the timed loop.
+    pub fn prepare_single(rays: &[Ray]) -> Vec<RTCRayHit> {
+        rays.iter()
+            .map(|r| RTCRayHit {
+                ray: rtc_ray(r),
+                hit: RTCHit {
+                    Ng_x: 0.0,
+                    Ng_y: 0.0,
+                    Ng_z: 0.0,
+                    u: 0.0,
+                    v: 0.0,
+                    primID: INVALID,
+                    geomID: INVALID,
+                    instID: [INVALID],
+                },
+            })
+            .collect()
     }
 }
 

@@ -34,19 +34,8 @@ pub trait Tracer: Sync + Send {
 
 /// Exact ray–sphere roots in f64 (shared by Embree's user geometry and the brute-force twin):
 /// returns the smallest root in (tmin, tmax).
-pub fn sphere_root(
-    o: [f32; 3],
-    d: [f32; 3],
-    c: [f32; 3],
-    r: f32,
-    tmin: f32,
-    tmax: f32,
-) -> Option<f32> {
-    let oc = [
-        o[0] as f64 - c[0] as f64,
-        o[1] as f64 - c[1] as f64,
-        o[2] as f64 - c[2] as f64,
-    ];
+pub fn sphere_root(o: [f32; 3], d: [f32; 3], c: [f32; 3], r: f32, tmin: f32, tmax: f32) -> Option<f32> {
+    let oc = [o[0] as f64 - c[0] as f64, o[1] as f64 - c[1] as f64, o[2] as f64 - c[2] as f64];
     let dd = [d[0] as f64, d[1] as f64, d[2] as f64];
     let a = dd[0] * dd[0] + dd[1] * dd[1] + dd[2] * dd[2];
     let b = oc[0] * dd[0] + oc[1] * dd[1] + oc[2] * dd[2];

@@ -40,10 +40,6 @@ pub fn estimate_direct(
     if tracer.occluded(&shadow) {
         return Rgb::ZERO;
     }
-    let w = if ls.delta || !mis {
-        1.0
-    } else {
-        power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns))
-    };
+    let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns)) };
     f * ls.li * (w / ls.pdf)
 }

@@ -35,12 +35,7 @@ impl PathTracer<'_> {
                 let w = if specular {
                     1.0
                 } else {
-                    power_heuristic(
-                        prev_pdf,
-                        scene
-                            .lights
-                            .pdf(scene, hit.shape, hit.prim, prev_p, si.p, si.ng),
-                    )
+                    power_heuristic(prev_pdf, scene.lights.pdf(scene, hit.shape, hit.prim, prev_p, si.p, si.ng))
                 };
                 l += beta * shape.emission * w;
             }

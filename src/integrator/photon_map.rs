@@ -10,9 +10,7 @@ use crate::film::Image;
 use crate::math::{offset_ray_origin, sampling, Frame, Ray, Rng};
 use crate::photon::estimate::{Gather, PhotonMap};
 use crate::photon::kdtree::KnnResult;
-use crate::photon::trace::{
-    run_pass, PassSettings, PassStats, Targets, CAUSTIC, DIRECT, INDIRECT, MAP_NAMES,
-};
+use crate::photon::trace::{run_pass, PassSettings, PassStats, Targets, CAUSTIC, DIRECT, INDIRECT, MAP_NAMES};
 use crate::scene::file::DirectLight;
 use crate::scene::{Scene, SurfaceHit};
 use serde::Serialize;
@@ -45,12 +43,7 @@ pub struct MapRequest {
     pub targets: Option<Vec<u32>>,
 }
 
-pub fn build_maps(
-    scene: &Scene,
-    tracer: &dyn Tracer,
-    req: &MapRequest,
-    quiet: bool,
-) -> anyhow::Result<PhotonMaps> {
+pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: bool) -> anyhow::Result<PhotonMaps> {
     let ps = &scene.render.photons;
     let total: u64 = req.want.iter().sum();
     let pb = crate::render::progress(total, "photons", quiet);
@@ -63,12 +56,7 @@ pub fn build_maps(
         let s = PassSettings {
             want,
             max_bounces: ps.max_bounces,
-            max_shots: want
-                .iter()
-                .max()
-                .copied()
-                .unwrap_or(0)
-                .saturating_mul(ps.max_shots_factor),
+            max_shots: want.iter().max().copied().unwrap_or(0).saturating_mul(ps.max_shots_factor),
             seed: scene.render.seed,
             pass: 1,
         };
@@ -100,10 +88,15 @@ pub fn build_maps(
     for (i, c) in collected.into_iter().enumerate() {
         if let Some(c) = c {
             if !c.complete && !quiet {
-                eprintln!("warning: the {} map got {} photons of {} requested before the shot budget ran out ({} shot)", MAP_NAMES[i], c.photons.len(), req.want[i], c.n_emitted);
+                eprintln!(
+                    "warning: the {} map got {} photons of {} requested before the shot budget ran out ({} shot)",
+                    MAP_NAMES[i],
+                    c.photons.len(),
+                    req.want[i],
+                    c.n_emitted
+                );
             }
-            let m =
-                PhotonMap::build(c).map_err(|e| anyhow::anyhow!("{} map: {e}", MAP_NAMES[i]))?;
+            let m = PhotonMap::build(c).map_err(|e| anyhow::anyhow!("{} map: {e}", MAP_NAMES[i]))?;
             stats.stored[i] = m.len() as u64;
             stats.n_emitted[i] = m.n_emitted;
             stats.complete[i] = m.complete;
@@ -141,11 +134,7 @@ impl<'a> PhotonMapper<'a> {
     ) -> PhotonMapper<'a> {
         let g = &scene.render.gather;
         let max_r = g.max_radius * scene.diagonal();
-        let mk = |k: u32| Gather {
-            k: k as usize,
-            max_r2: max_r * max_r,
-            cone_k: g.cone_k,
-        };
+        let mk = |k: u32| Gather { k: k as usize, max_r2: max_r * max_r, cone_k: g.cone_k };
         PhotonMapper {
             scene,
             tracer,
@@ -164,14 +153,7 @@ impl<'a> PhotonMapper<'a> {
     }
 
     /// Radiance leaving a diffuse point: direct + caustic + indirect (`fg` final-gather rays, 0 = map).
-    fn diffuse_radiance(
-        &self,
-        si: &SurfaceHit,
-        wo: glam::Vec3,
-        rng: &mut Rng,
-        c: &mut Counters,
-        fg: u32,
-    ) -> Rgb {
+    fn diffuse_radiance(&self, si: &SurfaceHit, wo: glam::Vec3, rng: &mut Rng, c: &mut Counters, fg: u32) -> Rgb {
         let rho = self.scene.material_of(si.shape).albedo();
         if let Some(m) = self.only {
             return self.map_radiance(m, si, wo, rho);
@@ -180,24 +162,13 @@ impl<'a> PhotonMapper<'a> {
             (Some(_), DirectLight::PhotonMap) => self.map_radiance(DIRECT, si, wo, rho),
             _ => estimate_direct(self.scene, self.tracer, si, wo, rng, c, false),
         };
-        let indirect = if fg == 0 {
-            self.map_radiance(INDIRECT, si, wo, rho)
-        } else {
-            self.final_gather(si, wo, rho, rng, c, fg)
-        };
+        let indirect =
+            if fg == 0 { self.map_radiance(INDIRECT, si, wo, rho) } else { self.final_gather(si, wo, rho, rng, c, fg) };
         direct + self.map_radiance(CAUSTIC, si, wo, rho) + indirect
     }
 
     /// Indirect light by `n` cosine-distributed rays that read the maps where they land.
-    fn final_gather(
-        &self,
-        si: &SurfaceHit,
-        wo: glam::Vec3,
-        rho: Rgb,
-        rng: &mut Rng,
-        c: &mut Counters,
-        n: u32,
-    ) -> Rgb {
+    fn final_gather(&self, si: &SurfaceHit, wo: glam::Vec3, rho: Rgb, rng: &mut Rng, c: &mut Counters, n: u32) -> Rgb {
         let side = if wo.dot(si.ng) < 0.0 { -si.ng } else { si.ng };
         let frame = Frame::from_normal(side);
         let mut sum = Rgb::ZERO;
@@ -211,15 +182,7 @@ impl<'a> PhotonMapper<'a> {
     }
 
     /// Follows a ray through specular surfaces to a diffuse one; `emission` adds lights seen on the way.
-    fn follow(
-        &self,
-        mut ray: Ray,
-        mut beta: Rgb,
-        rng: &mut Rng,
-        c: &mut Counters,
-        emission: bool,
-        fg: u32,
-    ) -> Rgb {
+    fn follow(&self, mut ray: Ray, mut beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32) -> Rgb {
         let scene = self.scene;
         let mut l = Rgb::ZERO;
         for _ in 0..=scene.render.max_depth {
@@ -230,8 +193,7 @@ impl<'a> PhotonMapper<'a> {
             let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
             let wo = -ray.d.normalize();
             let shape = &scene.shapes[hit.shape as usize];
-            if emission && self.only.is_none() && shape.emission != Rgb::ZERO && wo.dot(si.ng) > 0.0
-            {
+            if emission && self.only.is_none() && shape.emission != Rgb::ZERO && wo.dot(si.ng) > 0.0 {
                 l += beta * shape.emission;
             }
             let mat = scene.material_of(hit.shape);
@@ -272,28 +234,15 @@ impl<'a> PhotonMapper<'a> {
 }
 
 /// Photon positions splatted onto the film (visible ones only), coloured by normalised power.
-pub fn splat_photons(
-    scene: &Scene,
-    tracer: &dyn Tracer,
-    maps: &PhotonMaps,
-    which: &[usize],
-) -> Image {
+pub fn splat_photons(scene: &Scene, tracer: &dyn Tracer, maps: &PhotonMaps, which: &[usize]) -> Image {
     let cam = &scene.camera;
     let mut img = Image::new(cam.width, cam.height);
-    let total: usize = which
-        .iter()
-        .filter_map(|&m| maps.maps[m].as_ref())
-        .map(|m| m.len())
-        .sum();
+    let total: usize = which.iter().filter_map(|&m| maps.maps[m].as_ref()).map(|m| m.len()).sum();
     // Dots stay distinguishable whatever the photon count: about two photons' worth saturates a pixel.
     let weight = (2.0 * img.pixels.len() as f32 / total.max(1) as f32).clamp(0.02, 0.5);
     for &m in which {
         let Some(map) = &maps.maps[m] else { continue };
-        let tint = [
-            Rgb::new(1.0, 0.9, 0.6),
-            Rgb::new(0.5, 0.7, 1.0),
-            Rgb::new(1.0, 0.4, 0.9),
-        ][m];
+        let tint = [Rgb::new(1.0, 0.9, 0.6), Rgb::new(0.5, 0.7, 1.0), Rgb::new(1.0, 0.4, 0.9)][m];
         for i in 0..map.len() as u32 {
             let p = glam::Vec3::from_array(map.tree.position(i));
             let Some((x, y)) = cam.project(p) else {
@@ -308,11 +257,7 @@ pub fn splat_photons(
             let phi = map.tree.item(i).phi();
             let lum = luminance(phi).max(1e-30);
             let px = img.get(x as u32, y as u32);
-            img.set(
-                x as u32,
-                y as u32,
-                px + tint * (phi / lum).min(glam::Vec3::splat(4.0)) * weight,
-            );
+            img.set(x as u32, y as u32, px + tint * (phi / lum).min(glam::Vec3::splat(4.0)) * weight);
         }
     }
     img

@@ -16,12 +16,7 @@ pub struct Ray {
 
 impl Ray {
     pub fn new(o: Vec3, d: Vec3) -> Ray {
-        Ray {
-            o,
-            d,
-            tmin: 0.0,
-            tmax: f32::INFINITY,
-        }
+        Ray { o, d, tmin: 0.0, tmax: f32::INFINITY }
     }
     pub fn at(&self, t: f32) -> Vec3 {
         self.o + self.d * t
@@ -61,11 +56,7 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
     const FLOAT_SCALE: f32 = 1.0 / 65536.0;
     const INT_SCALE: f32 = 256.0;
     let n = if ng.dot(w) < 0.0 { -ng } else { ng };
-    let of_i = [
-        (INT_SCALE * n.x) as i32,
-        (INT_SCALE * n.y) as i32,
-        (INT_SCALE * n.z) as i32,
-    ];
+    let of_i = [(INT_SCALE * n.x) as i32, (INT_SCALE * n.y) as i32, (INT_SCALE * n.z) as i32];
     let pa = p.to_array();
     let na = n.to_array();
     let mut out = [0.0f32; 3];
@@ -73,11 +64,7 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
         let bits = pa[k].to_bits() as i32;
         let delta = if pa[k] < 0.0 { -of_i[k] } else { of_i[k] };
         let p_i = f32::from_bits(bits.wrapping_add(delta) as u32);
-        out[k] = if pa[k].abs() < ORIGIN {
-            pa[k] + FLOAT_SCALE * na[k]
-        } else {
-            p_i
-        };
+        out[k] = if pa[k].abs() < ORIGIN { pa[k] + FLOAT_SCALE * na[k] } else { p_i };
     }
     Vec3::from_array(out)
 }
@@ -103,9 +90,7 @@ mod tests {
             let n = sampling::uniform_sphere(rng.next_2d());
             let f = Frame::from_normal(n);
             assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5);
-            assert!(
-                f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5
-            );
+            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(n).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5);
             let v = sampling::uniform_sphere(rng.next_2d());
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
         }

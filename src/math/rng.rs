@@ -30,9 +30,7 @@ impl Rng {
 
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
-        self.state = old
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(self.inc);
+        self.state = old.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(self.inc);
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         let rot = (old >> 59) as u32;
         xorshifted.rotate_right(rot)
@@ -71,18 +69,9 @@ mod tests {
 
     #[test]
     fn keys_give_different_streams() {
-        let a: Vec<u32> = (0..8)
-            .map(|_| 0)
-            .scan(Rng::new(1, 0, 0), |r, _| Some(r.next_u32()))
-            .collect();
-        let b: Vec<u32> = (0..8)
-            .map(|_| 0)
-            .scan(Rng::new(1, 0, 1), |r, _| Some(r.next_u32()))
-            .collect();
-        let c: Vec<u32> = (0..8)
-            .map(|_| 0)
-            .scan(Rng::new(1, 0, 0), |r, _| Some(r.next_u32()))
-            .collect();
+        let a: Vec<u32> = (0..8).map(|_| 0).scan(Rng::new(1, 0, 0), |r, _| Some(r.next_u32())).collect();
+        let b: Vec<u32> = (0..8).map(|_| 0).scan(Rng::new(1, 0, 1), |r, _| Some(r.next_u32())).collect();
+        let c: Vec<u32> = (0..8).map(|_| 0).scan(Rng::new(1, 0, 0), |r, _| Some(r.next_u32())).collect();
         assert_ne!(a, b);
         assert_eq!(a, c);
     }

@@ -16,11 +16,7 @@ pub fn concentric_disk(u: [f32; 2]) -> [f32; 2] {
     if a == 0.0 && b == 0.0 {
         return [0.0, 0.0];
     }
-    let (r, theta) = if a.abs() > b.abs() {
-        (a, PI / 4.0 * (b / a))
-    } else {
-        (b, PI / 2.0 - PI / 4.0 * (a / b))
-    };
+    let (r, theta) = if a.abs() > b.abs() { (a, PI / 4.0 * (b / a)) } else { (b, PI / 2.0 - PI / 4.0 * (a / b)) };
     [r * theta.cos(), r * theta.sin()]
 }
 
@@ -61,9 +57,7 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
 pub fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
     let total = *cdf.last().unwrap_or(&0.0);
     let x = u * total;
-    let i = cdf
-        .partition_point(|&c| c <= x)
-        .min(cdf.len().saturating_sub(1));
+    let i = cdf.partition_point(|&c| c <= x).min(cdf.len().saturating_sub(1));
     let lo = if i == 0 { 0.0 } else { cdf[i - 1] };
     (i, (cdf[i] - lo) / total)
 }
@@ -79,10 +73,7 @@ mod tests {
         // E[cos θ] under pdf cosθ/π equals ∫cos²θ dω / π = 2/3.
         let mut r = Rng::new(3, 0, 0);
         let n = 100_000;
-        let mean: f64 = (0..n)
-            .map(|_| cosine_hemisphere(r.next_2d()).z as f64)
-            .sum::<f64>()
-            / n as f64;
+        let mean: f64 = (0..n).map(|_| cosine_hemisphere(r.next_2d()).z as f64).sum::<f64>() / n as f64;
         assert!((mean - 2.0 / 3.0).abs() < 0.005, "{mean}");
     }
 

@@ -19,11 +19,7 @@ impl FromStr for Distribution {
             "clustered" => Distribution::Clustered,
             "plane" => Distribution::Plane,
             "caustic" => Distribution::Caustic,
-            _ => {
-                return Err(format!(
-                    "unknown distribution `{s}` (accepted: uniform, clustered, plane, caustic)"
-                ))
-            }
+            _ => return Err(format!("unknown distribution `{s}` (accepted: uniform, clustered, plane, caustic)")),
         })
     }
 }

@@ -24,16 +24,8 @@ pub struct Gather {
 
 impl PhotonMap {
     pub fn build(m: MapPhotons) -> Result<PhotonMap, KdError> {
-        let pts = m
-            .photons
-            .iter()
-            .map(|p: &Photon| (p.p.to_array(), p.payload()))
-            .collect();
-        Ok(PhotonMap {
-            tree: KdTree::build(pts)?,
-            n_emitted: m.n_emitted,
-            complete: m.complete,
-        })
+        let pts = m.photons.iter().map(|p: &Photon| (p.p.to_array(), p.payload())).collect();
+        Ok(PhotonMap { tree: KdTree::build(pts)?, n_emitted: m.n_emitted, complete: m.complete })
     }
 
     pub fn len(&self) -> usize {
@@ -46,22 +38,12 @@ impl PhotonMap {
 
     /// Sum of stored photon powers (W), for conservation checks.
     pub fn total_power(&self) -> Rgb {
-        (0..self.tree.len() as u32)
-            .map(|i| self.tree.item(i).phi())
-            .sum()
+        (0..self.tree.len() as u32).map(|i| self.tree.item(i).phi()).sum()
     }
 
     /// Reflected radiance towards `wo` at `p` (normal `n`, geometric) of a Lambertian surface with
     /// reflectance `rho`, estimated from this map.
-    pub fn radiance(
-        &self,
-        p: Vec3,
-        n: Vec3,
-        wo: Vec3,
-        rho: Rgb,
-        g: Gather,
-        res: &mut KnnResult,
-    ) -> Rgb {
+    pub fn radiance(&self, p: Vec3, n: Vec3, wo: Vec3, rho: Rgb, g: Gather, res: &mut KnnResult) -> Rgb {
         if self.is_empty() || g.k == 0 {
             return Rgb::ZERO;
         }
@@ -85,18 +67,10 @@ impl PhotonMap {
             if (q - p).dot(n_side).abs() > 0.25 * r {
                 continue;
             }
-            let w = if cone {
-                (1.0 - d2.sqrt() / (g.cone_k * r)).max(0.0)
-            } else {
-                1.0
-            };
+            let w = if cone { (1.0 - d2.sqrt() / (g.cone_k * r)).max(0.0) } else { 1.0 };
             sum += item.phi() * w;
         }
-        let norm = if cone {
-            1.0 - 2.0 / (3.0 * g.cone_k)
-        } else {
-            1.0
-        };
+        let norm = if cone { 1.0 - 2.0 / (3.0 * g.cone_k) } else { 1.0 };
         sum * rho / (std::f32::consts::PI * std::f32::consts::PI * r2 * norm)
     }
 }

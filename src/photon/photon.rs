@@ -27,11 +27,7 @@ pub struct Photon {
 
 impl Photon {
     pub fn payload(&self) -> PhotonPayload {
-        PhotonPayload {
-            power: rgbe_encode(self.phi),
-            dir: oct_encode(self.wi),
-            normal: oct_encode_coarse(self.n),
-        }
+        PhotonPayload { power: rgbe_encode(self.phi), dir: oct_encode(self.wi), normal: oct_encode_coarse(self.n) }
     }
 }
 
@@ -64,11 +60,7 @@ pub fn rgbe_decode(e: [u8; 4]) -> Rgb {
         return Rgb::ZERO;
     }
     let f = 2f32.powi(e[3] as i32 - (128 + 8));
-    Rgb::new(
-        (e[0] as f32 + 0.5) * f,
-        (e[1] as f32 + 0.5) * f,
-        (e[2] as f32 + 0.5) * f,
-    )
+    Rgb::new((e[0] as f32 + 0.5) * f, (e[1] as f32 + 0.5) * f, (e[2] as f32 + 0.5) * f)
 }
 
 /// x = mant · 2^exp with mant in [0.5, 1).
@@ -95,10 +87,7 @@ pub fn oct_encode_coarse(v: Vec3) -> u8 {
 }
 
 pub fn oct_decode_coarse(e: u8) -> Vec3 {
-    oct_unsquare(
-        (e >> 4) as f32 / 14.0 * 2.0 - 1.0,
-        (e & 15) as f32 / 14.0 * 2.0 - 1.0,
-    )
+    oct_unsquare((e >> 4) as f32 / 14.0 * 2.0 - 1.0, (e & 15) as f32 / 14.0 * 2.0 - 1.0)
 }
 
 /// The unit vector folded onto the octahedral square [−1, 1]².
@@ -117,11 +106,7 @@ fn oct_square(v: Vec3) -> (f32, f32) {
 
 fn oct_unsquare(x: f32, y: f32) -> Vec3 {
     let z = 1.0 - x.abs() - y.abs();
-    let (x, y) = if z < 0.0 {
-        ((1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum())
-    } else {
-        (x, y)
-    };
+    let (x, y) = if z < 0.0 { ((1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum()) } else { (x, y) };
     Vec3::new(x, y, z).normalize()
 }
 
@@ -133,10 +118,7 @@ pub fn oct_encode(v: Vec3) -> [u8; 2] {
 }
 
 pub fn oct_decode(e: [u8; 2]) -> Vec3 {
-    oct_unsquare(
-        e[0] as f32 / 255.0 * 2.0 - 1.0,
-        e[1] as f32 / 255.0 * 2.0 - 1.0,
-    )
+    oct_unsquare(e[0] as f32 / 255.0 * 2.0 - 1.0, e[1] as f32 / 255.0 * 2.0 - 1.0)
 }
 
 #[cfg(test)]
@@ -156,10 +138,7 @@ mod tests {
             let s = 10f32.powf(r.next_f32() * 40.0 - 20.0);
             let c = Rgb::new(r.next_f32(), r.next_f32(), r.next_f32()) * s;
             let d = rgbe_decode(rgbe_encode(c));
-            assert!(
-                (d - c).abs().max_element() <= 0.01 * c.max_element(),
-                "{c} -> {d}"
-            );
+            assert!((d - c).abs().max_element() <= 0.01 * c.max_element(), "{c} -> {d}");
         }
         assert_eq!(rgbe_decode(rgbe_encode(Rgb::ZERO)), Rgb::ZERO);
     }

@@ -50,16 +50,9 @@ pub struct Targets {
 impl Targets {
     /// Every non-diffuse, non-emissive shape is a target.
     pub fn new(scene: &Scene, only: Option<&[u32]>) -> Targets {
-        let mut t = Targets {
-            shapes: Vec::new(),
-            cdf: Vec::new(),
-            tri_cdf: Vec::new(),
-            total_area: 0.0,
-        };
+        let mut t = Targets { shapes: Vec::new(), cdf: Vec::new(), tri_cdf: Vec::new(), total_area: 0.0 };
         for (i, s) in scene.shapes.iter().enumerate() {
-            if scene.materials[s.material as usize].is_diffuse()
-                || only.is_some_and(|o| !o.contains(&(i as u32)))
-            {
+            if scene.materials[s.material as usize].is_diffuse() || only.is_some_and(|o| !o.contains(&(i as u32))) {
                 continue;
             }
             let tri = match &s.geometry {
@@ -99,11 +92,7 @@ impl Targets {
                 let (k, _) = sampling::sample_cdf(&self.tri_cdf[i], u_tri);
                 let [a, b, c] = m.triangle(k);
                 let bc = sampling::uniform_triangle(u);
-                (
-                    shape,
-                    a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1],
-                    (b - a).cross(c - a).normalize(),
-                )
+                (shape, a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1], (b - a).cross(c - a).normalize())
             }
             Geometry::Sphere { center, radius } => {
                 let n = sampling::uniform_sphere(u);
@@ -170,12 +159,7 @@ fn trace_one(
             };
             if s.want[map] > 0 {
                 let n = if wo.dot(si.ng) < 0.0 { -si.ng } else { si.ng };
-                out[map].push(Photon {
-                    p: si.p,
-                    wi: ray.d.normalize(),
-                    phi,
-                    n,
-                });
+                out[map].push(Photon { p: si.p, wi: ray.d.normalize(), phi, n });
             }
             // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
             if s.want[INDIRECT] == 0 {
@@ -214,14 +198,8 @@ fn trace_one(
 
 /// Uniform emission from the lights (power-weighted choice, then position and direction on the light).
 fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
-    let e = scene
-        .lights
-        .emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d())?;
-    Some(Launch {
-        ray: e.ray,
-        phi: e.phi,
-        aim: None,
-    })
+    let e = scene.lights.emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d())?;
+    Some(Launch { ray: e.ray, phi: e.phi, aim: None })
 }
 
 /// Emission aimed at a point drawn uniformly by area on the specular targets. The power is the flux
@@ -247,17 +225,9 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     }
     let cos_y = ny.dot(w).abs();
     let phi = lp.le * (cos_x * cos_y / dist2 * targets.total_area / (lp.pdf_area * p_sel));
-    let o = if lp.n == Vec3::ZERO {
-        lp.p
-    } else {
-        offset_ray_origin(lp.p, lp.n, w)
-    };
+    let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w) };
     let travelled = (o - lp.p).length();
-    Some(Launch {
-        ray: Ray::new(o, w),
-        phi,
-        aim: Some((shape, dist - travelled)),
-    })
+    Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)) })
 }
 
 /// Runs one pass until every wanted map has its photons or `max_shots` photons were shot.

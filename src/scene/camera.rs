@@ -15,14 +15,7 @@ pub struct Camera {
 }
 
 impl Camera {
-    pub fn new(
-        origin: Vec3,
-        target: Vec3,
-        up: Vec3,
-        fov_deg: f32,
-        axis: FovAxis,
-        res: [u32; 2],
-    ) -> Camera {
+    pub fn new(origin: Vec3, target: Vec3, up: Vec3, fov_deg: f32, axis: FovAxis, res: [u32; 2]) -> Camera {
         let forward = (target - origin).normalize();
         let right = forward.cross(up).normalize();
         let up = right.cross(forward);
@@ -32,25 +25,14 @@ impl Camera {
             FovAxis::X => [t, t / aspect],
             FovAxis::Y => [t * aspect, t],
         };
-        Camera {
-            origin,
-            right,
-            up,
-            forward,
-            tan_half,
-            width: res[0],
-            height: res[1],
-        }
+        Camera { origin, right, up, forward, tan_half, width: res[0], height: res[1] }
     }
 
     /// Primary ray through film position (x, y) in pixels, (0,0) = top-left corner.
     pub fn ray(&self, x: f32, y: f32) -> Ray {
         let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half[0];
         let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half[1];
-        Ray::new(
-            self.origin,
-            (self.forward + sx * self.right + sy * self.up).normalize(),
-        )
+        Ray::new(self.origin, (self.forward + sx * self.right + sy * self.up).normalize())
     }
 
     /// Film position of a world point, if it is in front of the camera and on the film.
@@ -73,14 +55,7 @@ mod tests {
     use super::*;
     #[test]
     fn project_inverts_ray() {
-        let c = Camera::new(
-            Vec3::new(0.0, 1.0, 4.0),
-            Vec3::new(0.0, 1.0, 0.0),
-            Vec3::Y,
-            40.0,
-            FovAxis::X,
-            [320, 200],
-        );
+        let c = Camera::new(Vec3::new(0.0, 1.0, 4.0), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 40.0, FovAxis::X, [320, 200]);
         for (x, y) in [(10.5, 20.5), (160.0, 100.0), (300.2, 190.9)] {
             let r = c.ray(x, y);
             let (px, py) = c.project(r.at(3.0)).unwrap();

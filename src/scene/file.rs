@@ -189,6 +189,35 @@ pub enum ShapeSpec {
         #[serde(default)]
         emission: Option<V3>,
     },
+    /// Surface of revolution: `profile` points [r, y] revolved about the y axis, listed bottom to top
+    /// for outward normals (a closed solid goes up the outside and back down the inside).
+    Lathe {
+        profile: Vec<[f32; 2]>,
+        material: String,
+        #[serde(default = "default_lathe_segments")]
+        segments: u32,
+        /// Area-weighted vertex normals (smooth shading).
+        #[serde(default = "yes")]
+        smooth: bool,
+        #[serde(default)]
+        transform: TransformSpec,
+        #[serde(default)]
+        emission: Option<V3>,
+    },
+    /// Height field y = height + Σ waves over a `size[0]` × `size[1]` rectangle centred on the origin,
+    /// normals up; each wave is amplitude · sin(2π (x·cos a + z·sin a)/wavelength + phase).
+    Heightfield {
+        size: [f32; 2],
+        #[serde(default = "default_hf_resolution")]
+        resolution: [u32; 2],
+        #[serde(default)]
+        height: f32,
+        #[serde(default)]
+        waves: Vec<Wave>,
+        material: String,
+        #[serde(default)]
+        transform: TransformSpec,
+    },
     /// Axis-aligned box from `min` to `max` (then transformed), outward normals.
     Box {
         min: V3,
@@ -199,6 +228,28 @@ pub enum ShapeSpec {
         #[serde(default)]
         emission: Option<V3>,
     },
+}
+
+fn default_lathe_segments() -> u32 {
+    128
+}
+fn default_hf_resolution() -> [u32; 2] {
+    [256, 256]
+}
+fn yes() -> bool {
+    true
+}
+
+/// One sine wave of a height field; `angle` in degrees from the x axis.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wave {
+    pub amplitude: f32,
+    pub wavelength: f32,
+    #[serde(default)]
+    pub angle: f32,
+    #[serde(default)]
+    pub phase: f32,
 }
 
 fn default_normal() -> V3 {
@@ -336,12 +387,6 @@ pub struct GatherSettings {
 
 impl Default for GatherSettings {
     fn default() -> Self {
-        GatherSettings {
-            direct: 50,
-            indirect: 200,
-            caustic: 100,
-            cone_k: 1.1,
-            max_radius: 0.05,
-        }
+        GatherSettings { direct: 50, indirect: 200, caustic: 100, cone_k: 1.1, max_radius: 0.05 }
     }
 }

@@ -46,15 +46,9 @@ pub struct EmittedRay {
 
 impl Lights {
     pub fn build(scene: &Scene, points: &[(Vec3, Rgb)]) -> Lights {
-        let mut l = Lights {
-            shape_offset: vec![None; scene.shapes.len()],
-            ..Default::default()
-        };
+        let mut l = Lights { shape_offset: vec![None; scene.shapes.len()], ..Default::default() };
         for &(position, power) in points {
-            l.list.push(LightKind::Point {
-                position,
-                intensity: power / (4.0 * PI),
-            });
+            l.list.push(LightKind::Point { position, intensity: power / (4.0 * PI) });
             l.power.push(power);
         }
         for (si, shape) in scene.shapes.iter().enumerate() {
@@ -65,17 +59,13 @@ impl Lights {
             match &shape.geometry {
                 Geometry::Mesh(m) => {
                     for pi in 0..m.indices.len() {
-                        l.list.push(LightKind::Triangle {
-                            shape: si as u32,
-                            prim: pi as u32,
-                        });
+                        l.list.push(LightKind::Triangle { shape: si as u32, prim: pi as u32 });
                         l.power.push(shape.emission * PI * m.area(pi));
                     }
                 }
                 Geometry::Sphere { radius, .. } => {
                     l.list.push(LightKind::Sphere { shape: si as u32 });
-                    l.power
-                        .push(shape.emission * PI * 4.0 * PI * radius * radius);
+                    l.power.push(shape.emission * PI * 4.0 * PI * radius * radius);
                 }
             }
         }
@@ -112,20 +102,11 @@ impl Lights {
         }
         let (i, p_sel) = sampling::sample_cdf(&self.cdf, u_sel);
         match &self.list[i] {
-            LightKind::Point {
-                position,
-                intensity,
-            } => {
+            LightKind::Point { position, intensity } => {
                 let d = *position - x;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
-                Some(LightSample {
-                    wi: d / dist,
-                    dist,
-                    li: *intensity / dist2,
-                    pdf: p_sel,
-                    delta: true,
-                })
+                Some(LightSample { wi: d / dist, dist, li: *intensity / dist2, pdf: p_sel, delta: true })
             }
             LightKind::Triangle { shape, prim } => {
                 let s = &scene.shapes[*shape as usize];
@@ -147,13 +128,7 @@ impl Lights {
                     return None;
                 }
                 let pdf = p_sel * dist2 / (cos_l * area);
-                Some(LightSample {
-                    wi,
-                    dist,
-                    li: s.emission,
-                    pdf,
-                    delta: false,
-                })
+                Some(LightSample { wi, dist, li: s.emission, pdf, delta: false })
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];
@@ -172,13 +147,7 @@ impl Lights {
                 let wi = f.to_world(sampling::uniform_cone(u, cos_max));
                 let dist = sphere_hit(x, wi, center, radius).unwrap_or(dc - radius);
                 let pdf = p_sel / (2.0 * PI * (1.0 - cos_max));
-                Some(LightSample {
-                    wi,
-                    dist,
-                    li: s.emission,
-                    pdf,
-                    delta: false,
-                })
+                Some(LightSample { wi, dist, li: s.emission, pdf, delta: false })
             }
         }
     }
@@ -215,15 +184,9 @@ impl Lights {
     /// and emitted radiance (area lights) or intensity (point lights).
     pub fn sample_point(&self, scene: &Scene, i: usize, u: [f32; 2]) -> Option<LightPoint> {
         Some(match &self.list[i] {
-            LightKind::Point {
-                position,
-                intensity,
-            } => LightPoint {
-                p: *position,
-                n: Vec3::ZERO,
-                pdf_area: 1.0,
-                le: *intensity,
-            },
+            LightKind::Point { position, intensity } => {
+                LightPoint { p: *position, n: Vec3::ZERO, pdf_area: 1.0, le: *intensity }
+            }
             LightKind::Triangle { shape, prim } => {
                 let s = &scene.shapes[*shape as usize];
                 let Geometry::Mesh(m) = &s.geometry else {
@@ -234,12 +197,7 @@ impl Lights {
                 let n = (b - a).cross(c - a);
                 let area = 0.5 * n.length();
                 let p = a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1];
-                LightPoint {
-                    p,
-                    n: n.normalize(),
-                    pdf_area: 1.0 / area,
-                    le: s.emission,
-                }
+                LightPoint { p, n: n.normalize(), pdf_area: 1.0 / area, le: s.emission }
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];
@@ -247,25 +205,14 @@ impl Lights {
                     return None;
                 };
                 let n = sampling::uniform_sphere(u);
-                LightPoint {
-                    p: center + n * radius,
-                    n,
-                    pdf_area: 1.0 / (4.0 * PI * radius * radius),
-                    le: s.emission,
-                }
+                LightPoint { p: center + n * radius, n, pdf_area: 1.0 / (4.0 * PI * radius * radius), le: s.emission }
             }
         })
     }
 
     /// Emits a photon: light chosen by power, position uniform on it, direction uniform (point) or cosine.
     /// The returned power is Φ_light / p_choice; divide by the number of photons shot.
-    pub fn emit(
-        &self,
-        scene: &Scene,
-        u_sel: f32,
-        u_pos: [f32; 2],
-        u_dir: [f32; 2],
-    ) -> Option<EmittedRay> {
+    pub fn emit(&self, scene: &Scene, u_sel: f32, u_pos: [f32; 2], u_dir: [f32; 2]) -> Option<EmittedRay> {
         if self.is_empty() {
             return None;
         }
@@ -276,17 +223,10 @@ impl Lights {
             let d = sampling::uniform_sphere(u_dir);
             (d, d)
         } else {
-            (
-                lp.n,
-                Frame::from_normal(lp.n).to_world(sampling::cosine_hemisphere(u_dir)),
-            )
+            (lp.n, Frame::from_normal(lp.n).to_world(sampling::cosine_hemisphere(u_dir)))
         };
         let o = crate::math::offset_ray_origin(lp.p, n, d);
-        Some(EmittedRay {
-            ray: Ray::new(o, d),
-            normal: n,
-            phi,
-        })
+        Some(EmittedRay { ray: Ray::new(o, d), normal: n, phi })
     }
 }
 

@@ -21,10 +21,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 pub fn load_scene_with(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let shown = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
-        file: shown.clone(),
-        msg: e.to_string(),
-    })?;
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io { file: shown.clone(), msg: e.to_string() })?;
     let file = parse_scene_text(&text, &shown, overrides)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut scene = build(file, &shown, &dir)?;
@@ -34,12 +31,7 @@ pub fn load_scene_with(path: &Path, overrides: &[String]) -> Result<Scene, Scene
 }
 
 /// Loads a scene from TOML text; relative mesh paths resolve against `dir`; errors name `shown`.
-pub fn load_scene_str(
-    text: &str,
-    shown: &str,
-    dir: &Path,
-    overrides: &[String],
-) -> Result<Scene, SceneError> {
+pub fn load_scene_str(text: &str, shown: &str, dir: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let file = parse_scene_text(text, shown, overrides)?;
     let mut scene = build(file, shown, dir)?;
@@ -49,17 +41,9 @@ pub fn load_scene_str(
 }
 
 /// Parses and type-checks the TOML text, applying overrides; returns the effective settings.
-pub fn parse_scene_text(
-    text: &str,
-    shown: &str,
-    overrides: &[String],
-) -> Result<SceneFile, SceneError> {
-    let perr = |msg: String| SceneError::Parse {
-        file: shown.to_string(),
-        msg,
-    };
-    let mut value: toml::Table =
-        toml::from_str(text).map_err(|e| perr(e.to_string().trim_end().to_string()))?;
+pub fn parse_scene_text(text: &str, shown: &str, overrides: &[String]) -> Result<SceneFile, SceneError> {
+    let perr = |msg: String| SceneError::Parse { file: shown.to_string(), msg };
+    let mut value: toml::Table = toml::from_str(text).map_err(|e| perr(e.to_string().trim_end().to_string()))?;
     // Type-check against the original text first so errors carry line numbers.
     toml::from_str::<SceneFile>(text).map_err(|e| perr(e.to_string().trim_end().to_string()))?;
     for ov in overrides {
@@ -72,19 +56,12 @@ pub fn parse_scene_text(
     check_finite(&toml::Value::Table(value.clone()), "", shown)?;
     let file: SceneFile = toml::Value::Table(value)
         .try_into()
-        .map_err(|e: toml::de::Error| {
-            perr(format!(
-                "after --set overrides: {}",
-                e.to_string().trim_end()
-            ))
-        })?;
+        .map_err(|e: toml::de::Error| perr(format!("after --set overrides: {}", e.to_string().trim_end())))?;
     Ok(file)
 }
 
 fn apply_override(root: &mut toml::Table, ov: &str) -> Result<(), String> {
-    let (key, val) = ov
-        .split_once('=')
-        .ok_or("expected KEY=VALUE, e.g. render.spp=64")?;
+    let (key, val) = ov.split_once('=').ok_or("expected KEY=VALUE, e.g. render.spp=64")?;
     let val: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {val}")) {
         Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(val.into())),
         Err(_) => toml::Value::String(val.trim().to_string()),
@@ -96,9 +73,7 @@ fn apply_override(root: &mut toml::Table, ov: &str) -> Result<(), String> {
             cur.insert(part.to_string(), val);
             return Ok(());
         }
-        let entry = cur
-            .entry(part.to_string())
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        let entry = cur.entry(part.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
         cur = match entry {
             toml::Value::Table(t) => t,
             _ => return Err(format!("`{part}` is not a table")),
@@ -109,28 +84,17 @@ fn apply_override(root: &mut toml::Table, ov: &str) -> Result<(), String> {
 
 fn check_finite(v: &toml::Value, key: &str, shown: &str) -> Result<(), SceneError> {
     match v {
-        toml::Value::Float(f) if !f.is_finite() || f.abs() > f32::MAX as f64 => {
-            Err(SceneError::Invalid {
-                file: shown.into(),
-                key: key.into(),
-                msg: format!("number {f} is not finite (or does not fit in f32)"),
-            })
-        }
-        toml::Value::Table(t) => t.iter().try_for_each(|(k, v)| {
-            check_finite(
-                v,
-                &if key.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{key}.{k}")
-                },
-                shown,
-            )
+        toml::Value::Float(f) if !f.is_finite() || f.abs() > f32::MAX as f64 => Err(SceneError::Invalid {
+            file: shown.into(),
+            key: key.into(),
+            msg: format!("number {f} is not finite (or does not fit in f32)"),
         }),
-        toml::Value::Array(a) => a
-            .iter()
-            .enumerate()
-            .try_for_each(|(i, v)| check_finite(v, &format!("{key}[{i}]"), shown)),
+        toml::Value::Table(t) => t.iter().try_for_each(|(k, v)| {
+            check_finite(v, &if key.is_empty() { k.clone() } else { format!("{key}.{k}") }, shown)
+        }),
+        toml::Value::Array(a) => {
+            a.iter().enumerate().try_for_each(|(i, v)| check_finite(v, &format!("{key}[{i}]"), shown))
+        }
         _ => Ok(()),
     }
 }
@@ -141,11 +105,7 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn err(&self, key: &str, msg: impl Into<String>) -> SceneError {
-        SceneError::Invalid {
-            file: self.shown.into(),
-            key: key.into(),
-            msg: msg.into(),
-        }
+        SceneError::Invalid { file: self.shown.into(), key: key.into(), msg: msg.into() }
     }
     fn colour(&self, key: &str, c: V3, max: Option<f32>) -> Result<Rgb, SceneError> {
         let v = Vec3::from_array(c);
@@ -154,10 +114,7 @@ impl Ctx<'_> {
         }
         if let Some(m) = max {
             if v.max_element() > m {
-                return Err(self.err(
-                    key,
-                    format!("{c:?} exceeds {m} (reflectance must be in [0, 1])"),
-                ));
+                return Err(self.err(key, format!("{c:?} exceeds {m} (reflectance must be in [0, 1])")));
             }
         }
         Ok(v)
@@ -186,32 +143,14 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     }
     let mut shapes = Vec::new();
     for (i, spec) in file.shapes.iter().enumerate() {
-        build_shape(
-            &cx,
-            &format!("shapes[{i}]"),
-            spec,
-            dir,
-            &index,
-            &mut materials,
-            &mut names,
-            &mut shapes,
-        )?;
+        build_shape(&cx, &format!("shapes[{i}]"), spec, dir, &index, &mut materials, &mut names, &mut shapes)?;
     }
     let black = materials.len() as u32;
-    materials.push(Material::Diffuse {
-        reflectance: Rgb::ZERO,
-    });
+    materials.push(Material::Diffuse { reflectance: Rgb::ZERO });
     names.push("(light)".into());
     let mut points = Vec::new();
     for (i, spec) in file.lights.iter().enumerate() {
-        build_light(
-            &cx,
-            &format!("lights[{i}]"),
-            spec,
-            black,
-            &mut shapes,
-            &mut points,
-        )?;
+        build_light(&cx, &format!("lights[{i}]"), spec, black, &mut shapes, &mut points)?;
     }
     let bounds = scene_bounds(&shapes, &points);
     let mut scene = Scene {
@@ -227,20 +166,15 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     };
     scene.lights = Lights::build(&scene, &points);
     if scene.lights.is_empty() {
-        return Err(cx.err(
-            "lights",
-            "the scene has no light with positive power (add [[lights]] or an emissive shape)",
-        ));
+        return Err(
+            cx.err("lights", "the scene has no light with positive power (add [[lights]] or an emissive shape)")
+        );
     }
     Ok(scene)
 }
 
 fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
-    let (o, t, up) = (
-        Vec3::from_array(c.origin),
-        Vec3::from_array(c.target),
-        Vec3::from_array(c.up),
-    );
+    let (o, t, up) = (Vec3::from_array(c.origin), Vec3::from_array(c.target), Vec3::from_array(c.up));
     if (t - o).length() == 0.0 {
         return Err(cx.err("camera.target", "equals camera.origin"));
     }
@@ -248,10 +182,7 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         return Err(cx.err("camera.up", "is zero or parallel to the view direction"));
     }
     if !(c.fov > 0.0 && c.fov < 180.0) {
-        return Err(cx.err(
-            "camera.fov",
-            format!("must be in (0, 180) degrees, got {}", c.fov),
-        ));
+        return Err(cx.err("camera.fov", format!("must be in (0, 180) degrees, got {}", c.fov)));
     }
     let [w, h] = c.resolution;
     if w == 0 || h == 0 {
@@ -261,10 +192,7 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
     if px > MAX_PIXELS {
         return Err(cx.err(
             "camera.resolution",
-            format!(
-                "{w}×{h} needs about {} MiB of film; the limit is {MAX_PIXELS} pixels",
-                px * 40 / (1 << 20)
-            ),
+            format!("{w}×{h} needs about {} MiB of film; the limit is {MAX_PIXELS} pixels", px * 40 / (1 << 20)),
         ));
     }
     Ok(Camera::new(o, t, up, c.fov, c.fov_axis, c.resolution))
@@ -281,13 +209,9 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
     // 20 bytes per stored photon plus about as much again while tracing and building.
     let bytes = total.saturating_mul(48);
     if bytes > 16 << 30 {
-        return Err(cx.err(
-            "render.photons",
-            format!(
-                "{total} photons need about {} GiB; the limit is 16 GiB",
-                bytes >> 30
-            ),
-        ));
+        return Err(
+            cx.err("render.photons", format!("{total} photons need about {} GiB; the limit is 16 GiB", bytes >> 30))
+        );
     }
     if r.photons.max_shots_factor == 0 {
         return Err(cx.err("render.photons.max_shots_factor", "must be ≥ 1"));
@@ -303,72 +227,40 @@ fn build_material(cx: &Ctx, key: &str, spec: &MaterialSpec) -> Result<Material, 
         if (0.0..=1.0).contains(&r) {
             Ok(r)
         } else {
-            Err(cx.err(
-                &format!("{key}.roughness"),
-                format!("must be in [0, 1], got {r}"),
-            ))
+            Err(cx.err(&format!("{key}.roughness"), format!("must be in [0, 1], got {r}")))
         }
     };
     Ok(match spec {
-        MaterialSpec::Diffuse { reflectance } => Material::Diffuse {
-            reflectance: cx.colour(&format!("{key}.reflectance"), *reflectance, Some(1.0))?,
-        },
-        MaterialSpec::Mirror {
-            specular,
-            roughness,
-        } => Material::Conductor {
+        MaterialSpec::Diffuse { reflectance } => {
+            Material::Diffuse { reflectance: cx.colour(&format!("{key}.reflectance"), *reflectance, Some(1.0))? }
+        }
+        MaterialSpec::Mirror { specular, roughness } => Material::Conductor {
             f0: cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?,
             alpha: rough(*roughness)?,
             schlick: false,
         },
-        MaterialSpec::Conductor {
-            preset,
-            specular,
-            roughness,
-        } => {
+        MaterialSpec::Conductor { preset, specular, roughness } => {
             let f0 = match (preset, specular) {
                 (Some(p), None) => conductor_preset(p).ok_or_else(|| {
-                    cx.err(
-                        &format!("{key}.preset"),
-                        format!("unknown metal `{p}` (accepted: Au, Ag, Cu, Al, Cr)"),
-                    )
+                    cx.err(&format!("{key}.preset"), format!("unknown metal `{p}` (accepted: Au, Ag, Cu, Al, Cr)"))
                 })?,
                 (None, Some(s)) => cx.colour(&format!("{key}.specular"), *s, Some(1.0))?,
-                _ => {
-                    return Err(cx.err(
-                        key,
-                        "a conductor needs exactly one of `preset` or `specular`",
-                    ))
-                }
+                _ => return Err(cx.err(key, "a conductor needs exactly one of `preset` or `specular`")),
             };
-            Material::Conductor {
-                f0,
-                alpha: rough(*roughness)?,
-                schlick: true,
-            }
+            Material::Conductor { f0, alpha: rough(*roughness)?, schlick: true }
         }
         MaterialSpec::Dielectric { ior, tint } => {
             if !(*ior >= 1.0 / 4.0 && *ior <= 4.0) {
-                return Err(cx.err(
-                    &format!("{key}.ior"),
-                    format!("must be in [0.25, 4], got {ior}"),
-                ));
+                return Err(cx.err(&format!("{key}.ior"), format!("must be in [0.25, 4], got {ior}")));
             }
-            Material::Dielectric {
-                ior: *ior,
-                tint: cx.colour(&format!("{key}.tint"), *tint, Some(1.0))?,
-            }
+            Material::Dielectric { ior: *ior, tint: cx.colour(&format!("{key}.tint"), *tint, Some(1.0))? }
         }
     })
 }
 
 /// Transform to a matrix; refuses degenerate or non-finite ones.
 pub fn transform_matrix(cx_key: &str, t: &TransformSpec, shown: &str) -> Result<Mat4, SceneError> {
-    let err = |msg: String| SceneError::Invalid {
-        file: shown.into(),
-        key: format!("{cx_key}.transform"),
-        msg,
-    };
+    let err = |msg: String| SceneError::Invalid { file: shown.into(), key: format!("{cx_key}.transform"), msg };
     let m = if let Some(rows) = t.matrix {
         if t.translate.is_some()
             || t.scale.is_some()
@@ -376,9 +268,7 @@ pub fn transform_matrix(cx_key: &str, t: &TransformSpec, shown: &str) -> Result<
             || t.rotate_y.is_some()
             || t.rotate_z.is_some()
         {
-            return Err(err(
-                "give either `matrix` or translate/rotate/scale, not both".into(),
-            ));
+            return Err(err("give either `matrix` or translate/rotate/scale, not both".into()));
         }
         Mat4::from_cols_array_2d(&rows).transpose()
     } else {
@@ -414,39 +304,19 @@ fn build_shape(
     let lookup = |name: &str| -> Result<u32, SceneError> {
         index.get(name).copied().ok_or_else(|| {
             let known: Vec<&String> = index.keys().collect();
-            cx.err(
-                &format!("{key}.material"),
-                format!("unknown material `{name}` (defined: {known:?})"),
-            )
+            cx.err(&format!("{key}.material"), format!("unknown material `{name}` (defined: {known:?})"))
         })
     };
     let emission = |e: &Option<V3>| -> Result<Rgb, SceneError> {
-        e.map_or(Ok(Rgb::ZERO), |c| {
-            cx.colour(&format!("{key}.emission"), c, None)
-        })
+        e.map_or(Ok(Rgb::ZERO), |c| cx.colour(&format!("{key}.emission"), c, None))
     };
-    let mut push = |mut mesh: TriMesh,
-                    transform: &TransformSpec,
-                    material: u32,
-                    em: Rgb|
-     -> Result<(), SceneError> {
+    let mut push = |mut mesh: TriMesh, transform: &TransformSpec, material: u32, em: Rgb| -> Result<(), SceneError> {
         mesh.transform(&transform_matrix(key, transform, cx.shown)?);
-        shapes.push(Shape {
-            name: key.into(),
-            geometry: Geometry::Mesh(mesh),
-            material,
-            emission: em,
-        });
+        shapes.push(Shape { name: key.into(), geometry: Geometry::Mesh(mesh), material, emission: em });
         Ok(())
     };
     match spec {
-        ShapeSpec::Mesh {
-            file,
-            material,
-            transform,
-            emission: e,
-            smooth,
-        } => {
+        ShapeSpec::Mesh { file, material, transform, emission: e, smooth } => {
             let path = dir.join(file);
             let shown_mesh = path.display().to_string();
             let in_scene = |e: SceneError| cx.err(&format!("{key}.file"), e.to_string());
@@ -456,17 +326,13 @@ fn build_shape(
                 let mat = match (material, lm.mtl_diffuse) {
                     (Some(m), _) => lookup(m)?,
                     (None, Some(kd)) => {
-                        materials.push(Material::Diffuse {
-                            reflectance: Vec3::from_array(kd).clamp(Vec3::ZERO, Vec3::ONE),
-                        });
+                        materials
+                            .push(Material::Diffuse { reflectance: Vec3::from_array(kd).clamp(Vec3::ZERO, Vec3::ONE) });
                         names.push(format!("{file} (MTL)"));
                         materials.len() as u32 - 1
                     }
                     (None, None) => {
-                        return Err(cx.err(
-                            &format!("{key}.material"),
-                            "missing, and the mesh has no MTL colour",
-                        ))
+                        return Err(cx.err(&format!("{key}.material"), "missing, and the mesh has no MTL colour"))
                     }
                 };
                 let mut m = lm.mesh;
@@ -476,20 +342,10 @@ fn build_shape(
                 push(m, transform, mat, emission(e)?)?;
             }
         }
-        ShapeSpec::Sphere {
-            center,
-            radius,
-            material,
-            transform,
-            emission: e,
-        } => {
+        ShapeSpec::Sphere { center, radius, material, transform, emission: e } => {
             cx.positive(&format!("{key}.radius"), *radius)?;
             let m = transform_matrix(key, transform, cx.shown)?;
-            let (sx, sy, sz) = (
-                m.x_axis.truncate(),
-                m.y_axis.truncate(),
-                m.z_axis.truncate(),
-            );
+            let (sx, sy, sz) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
             let s = sx.length();
             let similar = (sy.length() - s).abs() < 1e-4 * s
                 && (sz.length() - s).abs() < 1e-4 * s
@@ -505,42 +361,19 @@ fn build_shape(
             let center = m.transform_point3(Vec3::from_array(*center));
             shapes.push(Shape {
                 name: key.into(),
-                geometry: Geometry::Sphere {
-                    center,
-                    radius: radius * s,
-                },
+                geometry: Geometry::Sphere { center, radius: radius * s },
                 material: lookup(material)?,
                 emission: emission(e)?,
             });
         }
-        ShapeSpec::Quad {
-            corner,
-            edge_u,
-            edge_v,
-            material,
-            transform,
-            emission: e,
-        } => {
+        ShapeSpec::Quad { corner, edge_u, edge_v, material, transform, emission: e } => {
             let (eu, ev) = (Vec3::from_array(*edge_u), Vec3::from_array(*edge_v));
             if eu.cross(ev).length() == 0.0 {
                 return Err(cx.err(&format!("{key}.edge_u"), "edge_u and edge_v span zero area"));
             }
-            push(
-                mesh::quad(Vec3::from_array(*corner), eu, ev),
-                transform,
-                lookup(material)?,
-                emission(e)?,
-            )?;
+            push(mesh::quad(Vec3::from_array(*corner), eu, ev), transform, lookup(material)?, emission(e)?)?;
         }
-        ShapeSpec::Disk {
-            center,
-            normal,
-            radius,
-            material,
-            segments,
-            transform,
-            emission: e,
-        } => {
+        ShapeSpec::Disk { center, normal, radius, material, segments, transform, emission: e } => {
             cx.positive(&format!("{key}.radius"), *radius)?;
             if *segments < 3 || *segments > 1 << 20 {
                 return Err(cx.err(&format!("{key}.segments"), "must be in [3, 1048576]"));
@@ -556,47 +389,69 @@ fn build_shape(
                 emission(e)?,
             )?;
         }
-        ShapeSpec::Box {
-            min,
-            max,
-            material,
-            transform,
-            emission: e,
-        } => {
+        ShapeSpec::Lathe { profile, material, segments, smooth, transform, emission: e } => {
+            if profile.len() < 2 {
+                return Err(cx.err(&format!("{key}.profile"), "needs at least two [r, y] points"));
+            }
+            if let Some(p) = profile.iter().find(|p| p[0] < 0.0) {
+                return Err(cx.err(&format!("{key}.profile"), format!("radius {} is negative", p[0])));
+            }
+            if *segments < 3 || *segments > 1 << 16 {
+                return Err(cx.err(&format!("{key}.segments"), "must be in [3, 65536]"));
+            }
+            let mut m = mesh::lathe(profile, *segments);
+            if m.indices.is_empty() {
+                return Err(cx.err(&format!("{key}.profile"), "the profile sweeps no area"));
+            }
+            if *smooth {
+                m.compute_smooth_normals();
+            }
+            push(m, transform, lookup(material)?, emission(e)?)?;
+        }
+        ShapeSpec::Heightfield { size, resolution, height, waves, material, transform } => {
+            if size[0] <= 0.0 || size[1] <= 0.0 {
+                return Err(cx.err(&format!("{key}.size"), "both sides must be > 0"));
+            }
+            if resolution[0] == 0 || resolution[1] == 0 || resolution[0] as u64 * resolution[1] as u64 > 1 << 24 {
+                return Err(cx.err(&format!("{key}.resolution"), "must be ≥ 1 and at most 16M cells"));
+            }
+            if let Some(w) = waves.iter().find(|w| w.wavelength <= 0.0) {
+                return Err(cx.err(&format!("{key}.waves"), format!("wavelength {} must be > 0", w.wavelength)));
+            }
+            let f = |x: f32, z: f32| {
+                height
+                    + waves
+                        .iter()
+                        .map(|w| {
+                            let a = w.angle.to_radians();
+                            w.amplitude
+                                * (std::f32::consts::TAU * (x * a.cos() + z * a.sin()) / w.wavelength + w.phase).sin()
+                        })
+                        .sum::<f32>()
+            };
+            let mut m = mesh::heightfield(*size, *resolution, f);
+            m.compute_smooth_normals();
+            push(m, transform, lookup(material)?, Rgb::ZERO)?;
+        }
+        ShapeSpec::Box { min, max, material, transform, emission: e } => {
             let (a, b) = (Vec3::from_array(*min), Vec3::from_array(*max));
             if (b - a).min_element() <= 0.0 {
                 return Err(cx.err(&format!("{key}.max"), "must exceed `min` on every axis"));
             }
-            push(
-                mesh::cuboid(a, b),
-                transform,
-                lookup(material)?,
-                emission(e)?,
-            )?;
+            push(mesh::cuboid(a, b), transform, lookup(material)?, emission(e)?)?;
         }
     }
     Ok(())
 }
 
-fn radiance_of(
-    cx: &Ctx,
-    key: &str,
-    power: &Option<V3>,
-    radiance: &Option<V3>,
-    area: f32,
-) -> Result<Rgb, SceneError> {
+fn radiance_of(cx: &Ctx, key: &str, power: &Option<V3>, radiance: &Option<V3>, area: f32) -> Result<Rgb, SceneError> {
     let l = match (power, radiance) {
-        (Some(p), None) => {
-            cx.colour(&format!("{key}.power"), *p, None)? / (std::f32::consts::PI * area)
-        }
+        (Some(p), None) => cx.colour(&format!("{key}.power"), *p, None)? / (std::f32::consts::PI * area),
         (None, Some(r)) => cx.colour(&format!("{key}.radiance"), *r, None)?,
         _ => return Err(cx.err(key, "give exactly one of `power` or `radiance`")),
     };
     if !l.is_finite() {
-        return Err(cx.err(
-            key,
-            "radiance overflows f32 (power too large for this area)",
-        ));
+        return Err(cx.err(key, "radiance overflows f32 (power too large for this area)"));
     }
     Ok(l)
 }
@@ -611,38 +466,16 @@ fn build_light(
 ) -> Result<(), SceneError> {
     match spec {
         LightSpec::Point { position, power } => {
-            points.push((
-                Vec3::from_array(*position),
-                cx.colour(&format!("{key}.power"), *power, None)?,
-            ));
+            points.push((Vec3::from_array(*position), cx.colour(&format!("{key}.power"), *power, None)?));
         }
-        LightSpec::Sphere {
-            center,
-            radius,
-            power,
-            radiance,
-        } => {
+        LightSpec::Sphere { center, radius, power, radiance } => {
             let r = cx.positive(&format!("{key}.radius"), *radius)?;
             let area = 4.0 * std::f32::consts::PI * r * r;
             let emission = radiance_of(cx, key, power, radiance, area)?;
-            let geometry = Geometry::Sphere {
-                center: Vec3::from_array(*center),
-                radius: r,
-            };
-            shapes.push(Shape {
-                name: key.into(),
-                geometry,
-                material: black,
-                emission,
-            });
+            let geometry = Geometry::Sphere { center: Vec3::from_array(*center), radius: r };
+            shapes.push(Shape { name: key.into(), geometry, material: black, emission });
         }
-        LightSpec::Quad {
-            corner,
-            edge_u,
-            edge_v,
-            power,
-            radiance,
-        } => {
+        LightSpec::Quad { corner, edge_u, edge_v, power, radiance } => {
             let (eu, ev) = (Vec3::from_array(*edge_u), Vec3::from_array(*edge_v));
             let area = eu.cross(ev).length();
             if area == 0.0 {
@@ -650,12 +483,7 @@ fn build_light(
             }
             let emission = radiance_of(cx, key, power, radiance, area)?;
             let geometry = Geometry::Mesh(mesh::quad(Vec3::from_array(*corner), eu, ev));
-            shapes.push(Shape {
-                name: key.into(),
-                geometry,
-                material: black,
-                emission,
-            });
+            shapes.push(Shape { name: key.into(), geometry, material: black, emission });
         }
     }
     Ok(())

@@ -116,11 +116,7 @@ impl Material {
                     Rgb::ZERO
                 }
             }
-            Material::Conductor {
-                f0,
-                alpha,
-                schlick: s,
-            } if *alpha > 0.0 => {
+            Material::Conductor { f0, alpha, schlick: s } if *alpha > 0.0 => {
                 let f = Frame::from_normal(if wo.dot(n) < 0.0 { -n } else { n });
                 let (lo, li) = (f.to_local(wo), f.to_local(wi));
                 if lo.z <= 0.0 || li.z <= 0.0 {
@@ -128,8 +124,7 @@ impl Material {
                 }
                 let h = (lo + li).normalize();
                 let fr = if *s { schlick(*f0, li.dot(h)) } else { *f0 };
-                fr * ggx_d(h, *alpha) * ggx_g1(lo, *alpha) * ggx_g1(li, *alpha)
-                    / (4.0 * lo.z * li.z)
+                fr * ggx_d(h, *alpha) * ggx_g1(lo, *alpha) * ggx_g1(li, *alpha) / (4.0 * lo.z * li.z)
             }
             _ => Rgb::ZERO,
         }
@@ -158,43 +153,20 @@ impl Material {
     /// Samples wi given wo; `u` for the direction, `uc` for the discrete (reflect/refract) choice.
     /// `radiance` = true for camera paths: refraction scales radiance by 1/η² (photons carry flux and
     /// pass false), so a diffuse surface under water seen from air comes out right in both integrators.
-    pub fn sample(
-        &self,
-        wo: Vec3,
-        n: Vec3,
-        u: [f32; 2],
-        uc: f32,
-        radiance: bool,
-    ) -> Option<BsdfSample> {
+    pub fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], uc: f32, radiance: bool) -> Option<BsdfSample> {
         let side = if wo.dot(n) < 0.0 { -n } else { n };
         match self {
             Material::Diffuse { reflectance } => {
                 let wi = Frame::from_normal(side).to_world(sampling::cosine_hemisphere(u));
                 let pdf = wi.dot(side) / PI;
-                (pdf > 0.0).then_some(BsdfSample {
-                    wi,
-                    weight: *reflectance,
-                    pdf,
-                    delta: false,
-                    transmitted: false,
-                })
+                (pdf > 0.0).then_some(BsdfSample { wi, weight: *reflectance, pdf, delta: false, transmitted: false })
             }
-            Material::Conductor {
-                f0,
-                alpha,
-                schlick: s,
-            } => {
+            Material::Conductor { f0, alpha, schlick: s } => {
                 if *alpha == 0.0 {
                     let wi = reflect(wo, side);
                     let c = wi.dot(side);
                     let fr = if *s { schlick(*f0, c) } else { *f0 };
-                    return Some(BsdfSample {
-                        wi,
-                        weight: fr,
-                        pdf: 1.0,
-                        delta: true,
-                        transmitted: false,
-                    });
+                    return Some(BsdfSample { wi, weight: fr, pdf: 1.0, delta: true, transmitted: false });
                 }
                 let f = Frame::from_normal(side);
                 let lo = f.to_local(wo);
@@ -215,13 +187,7 @@ impl Material {
                     return None;
                 }
                 let weight = self.eval(wo, wi, n) * li.z / pdf;
-                Some(BsdfSample {
-                    wi,
-                    weight,
-                    pdf,
-                    delta: false,
-                    transmitted: false,
-                })
+                Some(BsdfSample { wi, weight, pdf, delta: false, transmitted: false })
             }
             Material::Dielectric { ior, tint } => {
                 let entering = wo.dot(n) > 0.0;
@@ -230,23 +196,11 @@ impl Material {
                 let (fr, cos_t) = fresnel_dielectric(cos_i, eta);
                 if uc < fr {
                     let wi = reflect(wo, side);
-                    Some(BsdfSample {
-                        wi,
-                        weight: Rgb::ONE,
-                        pdf: fr,
-                        delta: true,
-                        transmitted: false,
-                    })
+                    Some(BsdfSample { wi, weight: Rgb::ONE, pdf: fr, delta: true, transmitted: false })
                 } else {
                     let wi = (-wo / eta + (cos_i / eta - cos_t) * side).normalize();
                     let scale = if radiance { 1.0 / (eta * eta) } else { 1.0 };
-                    Some(BsdfSample {
-                        wi,
-                        weight: *tint * scale,
-                        pdf: 1.0 - fr,
-                        delta: true,
-                        transmitted: true,
-                    })
+                    Some(BsdfSample { wi, weight: *tint * scale, pdf: 1.0 - fr, delta: true, transmitted: true })
                 }
             }
         }
@@ -270,11 +224,7 @@ mod tests {
 
     #[test]
     fn rough_conductor_sampling_matches_eval_and_conserves_energy() {
-        let m = Material::Conductor {
-            f0: Rgb::ONE,
-            alpha: 0.3,
-            schlick: false,
-        };
+        let m = Material::Conductor { f0: Rgb::ONE, alpha: 0.3, schlick: false };
         let n = Vec3::Z;
         let wo = Vec3::new(0.3, 0.0, 0.954).normalize();
         let mut r = Rng::new(9, 0, 0);
@@ -293,9 +243,7 @@ mod tests {
 
     #[test]
     fn diffuse_is_reciprocal_and_one_sided_against_transmission() {
-        let m = Material::Diffuse {
-            reflectance: Rgb::splat(0.5),
-        };
+        let m = Material::Diffuse { reflectance: Rgb::splat(0.5) };
         let n = Vec3::Y;
         let a = Vec3::new(0.2, 0.9, 0.1).normalize();
         let b = Vec3::new(-0.5, 0.5, 0.3).normalize();

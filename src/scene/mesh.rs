@@ -18,11 +18,7 @@ pub struct TriMesh {
 impl TriMesh {
     pub fn triangle(&self, i: usize) -> [Vec3; 3] {
         let [a, b, c] = self.indices[i];
-        [
-            self.positions[a as usize],
-            self.positions[b as usize],
-            self.positions[c as usize],
-        ]
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
     }
 
     pub fn area(&self, i: usize) -> f32 {
@@ -57,8 +53,7 @@ impl TriMesh {
         let mut ns = vec![Vec3::ZERO; self.positions.len()];
         for t in &self.indices {
             let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
-            let n = (self.positions[b] - self.positions[a])
-                .cross(self.positions[c] - self.positions[a]);
+            let n = (self.positions[b] - self.positions[a]).cross(self.positions[c] - self.positions[a]);
             ns[a] += n;
             ns[b] += n;
             ns[c] += n;
@@ -89,9 +84,7 @@ impl TriMesh {
     }
 
     pub fn bytes(&self) -> usize {
-        self.positions.len() * 12
-            + self.indices.len() * 12
-            + self.normals.as_ref().map_or(0, |n| n.len() * 12)
+        self.positions.len() * 12 + self.indices.len() * 12 + self.normals.as_ref().map_or(0, |n| n.len() * 12)
     }
 }
 
@@ -104,10 +97,7 @@ pub struct LoadedMesh {
 /// Loads an OBJ or PLY (optionally gzip-compressed) file.
 pub fn load_mesh_file(path: &Path, shown: &str) -> Result<Vec<LoadedMesh>, SceneError> {
     let name = path.to_string_lossy().to_lowercase();
-    let err = |msg: String| SceneError::Mesh {
-        file: shown.into(),
-        msg,
-    };
+    let err = |msg: String| SceneError::Mesh { file: shown.into(), msg };
     if !path.exists() {
         return Err(SceneError::MissingFile { file: shown.into() });
     }
@@ -121,61 +111,27 @@ pub fn load_mesh_file(path: &Path, shown: &str) -> Result<Vec<LoadedMesh>, Scene
                 .read_to_end(&mut bytes)
                 .map_err(|e| err(format!("gzip: {e}")))?;
         } else {
-            BufReader::new(f)
-                .read_to_end(&mut bytes)
-                .map_err(|e| err(e.to_string()))?;
+            BufReader::new(f).read_to_end(&mut bytes).map_err(|e| err(e.to_string()))?;
         }
-        Ok(vec![LoadedMesh {
-            mesh: parse_ply(&bytes).map_err(err)?,
-            mtl_diffuse: None,
-        }])
+        Ok(vec![LoadedMesh { mesh: parse_ply(&bytes).map_err(err)?, mtl_diffuse: None }])
     } else {
-        Err(err(
-            "unknown mesh format (accepted: .obj, .ply, .ply.gz)".into()
-        ))
+        Err(err("unknown mesh format (accepted: .obj, .ply, .ply.gz)".into()))
     }
 }
 
 fn load_obj(path: &Path) -> Result<Vec<LoadedMesh>, String> {
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ..Default::default()
-    };
+    let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let (models, mtls) = tobj::load_obj(path, &opts).map_err(|e| format!("OBJ: {e}"))?;
     let mtls = mtls.unwrap_or_default();
     let mut out = Vec::new();
     for m in models {
         let mm = &m.mesh;
-        let positions: Vec<Vec3> = mm
-            .positions
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect();
-        let indices: Vec<[u32; 3]> = mm
-            .indices
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect();
-        let normals =
-            (mm.normals.len() == mm.positions.len() && !mm.normals.is_empty()).then(|| {
-                mm.normals
-                    .chunks_exact(3)
-                    .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero())
-                    .collect()
-            });
-        let mtl_diffuse = mm
-            .material_id
-            .and_then(|i| mtls.get(i))
-            .and_then(|m| m.diffuse);
-        out.push(LoadedMesh {
-            mesh: TriMesh {
-                positions,
-                indices,
-                normals,
-            },
-            mtl_diffuse,
-        });
+        let positions: Vec<Vec3> = mm.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
+        let indices: Vec<[u32; 3]> = mm.indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let normals = (mm.normals.len() == mm.positions.len() && !mm.normals.is_empty())
+            .then(|| mm.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()).collect());
+        let mtl_diffuse = mm.material_id.and_then(|i| mtls.get(i)).and_then(|m| m.diffuse);
+        out.push(LoadedMesh { mesh: TriMesh { positions, indices, normals }, mtl_diffuse });
     }
     if out.is_empty() {
         return Err("OBJ file has no geometry".into());
@@ -241,13 +197,8 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
     use ply_rs_bw::ply::Encoding;
     let mut reader = std::io::Cursor::new(bytes);
     let vparser = Parser::<PlyVertex>::new();
-    let header = vparser
-        .read_header(&mut reader)
-        .map_err(|e| format!("PLY header: {e}"))?;
-    let vdef = header
-        .elements
-        .get("vertex")
-        .ok_or("PLY has no `vertex` element")?;
+    let header = vparser.read_header(&mut reader).map_err(|e| format!("PLY header: {e}"))?;
+    let vdef = header.elements.get("vertex").ok_or("PLY has no `vertex` element")?;
     let has_normals = vdef.properties.contains_key("nx");
     for k in ["x", "y", "z"] {
         if !vdef.properties.contains_key(k) {
@@ -280,67 +231,36 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
         (verts, faces)
     };
     let positions: Vec<Vec3> = verts.iter().map(|v| Vec3::from_array(v.p)).collect();
-    let normals = has_normals.then(|| {
-        verts
-            .iter()
-            .map(|v| Vec3::from_array(v.n).normalize_or_zero())
-            .collect()
-    });
+    let normals = has_normals.then(|| verts.iter().map(|v| Vec3::from_array(v.n).normalize_or_zero()).collect());
     let mut indices = Vec::with_capacity(faces.len());
     for f in &faces {
         if f.0.len() < 3 {
-            return Err(format!(
-                "PLY face with {} vertices (need at least 3)",
-                f.0.len()
-            ));
+            return Err(format!("PLY face with {} vertices (need at least 3)", f.0.len()));
         }
         for k in 1..f.0.len() - 1 {
             indices.push([f.0[0], f.0[k], f.0[k + 1]]);
         }
     }
-    Ok(TriMesh {
-        positions,
-        indices,
-        normals,
-    })
+    Ok(TriMesh { positions, indices, normals })
 }
 
 /// Fast ASCII payload reader: the file is split into lines and parsed in parallel, one allocation per
 /// element vector (ply-rs-bw's ASCII path runs a grammar per line, which is several times slower).
-fn parse_ascii_payload(
-    rest: &[u8],
-    header: &ply_rs_bw::ply::Header,
-) -> Result<(Vec<PlyVertex>, Vec<PlyFace>), String> {
+fn parse_ascii_payload(rest: &[u8], header: &ply_rs_bw::ply::Header) -> Result<(Vec<PlyVertex>, Vec<PlyFace>), String> {
     use ply_rs_bw::ply::PropertyType;
-    let text =
-        std::str::from_utf8(rest).map_err(|_| "PLY ASCII payload is not text".to_string())?;
+    let text = std::str::from_utf8(rest).map_err(|_| "PLY ASCII payload is not text".to_string())?;
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
     let mut verts = Vec::new();
     let mut faces = Vec::new();
     for (name, def) in &header.elements {
         let chunk: Vec<&str> = lines.by_ref().take(def.count).collect();
         if chunk.len() != def.count {
-            return Err(format!(
-                "PLY element `{name}`: header says {} lines, file has {}",
-                def.count,
-                chunk.len()
-            ));
+            return Err(format!("PLY element `{name}`: header says {} lines, file has {}", def.count, chunk.len()));
         }
         if name == "vertex" {
-            let slots: Vec<Option<usize>> = def
-                .properties
-                .keys()
-                .map(|k| {
-                    ["x", "y", "z", "nx", "ny", "nz"]
-                        .iter()
-                        .position(|s| s == k)
-                })
-                .collect();
-            if def
-                .properties
-                .values()
-                .any(|p| matches!(p.data_type, PropertyType::List(..)))
-            {
+            let slots: Vec<Option<usize>> =
+                def.properties.keys().map(|k| ["x", "y", "z", "nx", "ny", "nz"].iter().position(|s| s == k)).collect();
+            if def.properties.values().any(|p| matches!(p.data_type, PropertyType::List(..))) {
                 return Err("PLY vertex element with list properties is not supported".into());
             }
             verts = chunk
@@ -350,13 +270,9 @@ fn parse_ascii_payload(
                     let mut v = PlyVertex::default();
                     let mut toks = line.split_ascii_whitespace();
                     for slot in &slots {
-                        let tok = toks
-                            .next()
-                            .ok_or_else(|| format!("vertex {i}: too few values"))?;
+                        let tok = toks.next().ok_or_else(|| format!("vertex {i}: too few values"))?;
                         if let Some(s) = slot {
-                            let x: f32 = tok
-                                .parse()
-                                .map_err(|_| format!("vertex {i}: bad number `{tok}`"))?;
+                            let x: f32 = tok.parse().map_err(|_| format!("vertex {i}: bad number `{tok}`"))?;
                             if *s < 3 {
                                 v.p[*s] = x
                             } else {
@@ -373,16 +289,10 @@ fn parse_ascii_payload(
                 .enumerate()
                 .map(|(i, line)| {
                     let mut toks = line.split_ascii_whitespace();
-                    let n: usize = toks
-                        .next()
-                        .and_then(|t| t.parse().ok())
-                        .ok_or_else(|| format!("face {i}: bad count"))?;
+                    let n: usize =
+                        toks.next().and_then(|t| t.parse().ok()).ok_or_else(|| format!("face {i}: bad count"))?;
                     let idx: Result<Vec<u32>, String> = (0..n)
-                        .map(|_| {
-                            toks.next()
-                                .and_then(|t| t.parse().ok())
-                                .ok_or_else(|| format!("face {i}: bad index"))
-                        })
+                        .map(|_| toks.next().and_then(|t| t.parse().ok()).ok_or_else(|| format!("face {i}: bad index")))
                         .collect();
                     Ok(PlyFace(idx?))
                 })
@@ -409,14 +319,54 @@ pub fn disk(center: Vec3, normal: Vec3, radius: f32, segments: u32) -> TriMesh {
         let phi = std::f32::consts::TAU * i as f32 / segments as f32;
         positions.push(center + radius * (f.s * phi.cos() + f.t * phi.sin()));
     }
-    let indices = (0..segments)
-        .map(|i| [0, 1 + i, 1 + (i + 1) % segments])
-        .collect();
-    TriMesh {
-        positions,
-        indices,
-        normals: None,
+    let indices = (0..segments).map(|i| [0, 1 + i, 1 + (i + 1) % segments]).collect();
+    TriMesh { positions, indices, normals: None }
+}
+
+/// Surface of revolution about the y axis; profile points [r, y] bottom to top give outward normals.
+/// Triangles that collapse on the axis (r = 0) are left out.
+pub fn lathe(profile: &[[f32; 2]], segments: u32) -> TriMesh {
+    let mut m = TriMesh::default();
+    for &[r, y] in profile {
+        for j in 0..segments {
+            let phi = std::f32::consts::TAU * j as f32 / segments as f32;
+            m.positions.push(Vec3::new(r * phi.cos(), y, r * phi.sin()));
+        }
     }
+    let idx = |i: usize, j: u32| (i as u32) * segments + (j % segments);
+    for i in 0..profile.len().saturating_sub(1) {
+        for j in 0..segments {
+            let (a, b, c, d) = (idx(i, j), idx(i, j + 1), idx(i + 1, j), idx(i + 1, j + 1));
+            for t in [[a, c, b], [b, c, d]] {
+                let [p, q, r] = t.map(|k| m.positions[k as usize]);
+                if (q - p).cross(r - p).length_squared() > 0.0 {
+                    m.indices.push(t);
+                }
+            }
+        }
+    }
+    m
+}
+
+/// Regular grid y = f(x, z) over [−sx/2, sx/2] × [−sz/2, sz/2], upward-facing triangles.
+pub fn heightfield(size: [f32; 2], res: [u32; 2], f: impl Fn(f32, f32) -> f32) -> TriMesh {
+    let (nx, nz) = (res[0].max(1), res[1].max(1));
+    let mut m = TriMesh::default();
+    for k in 0..=nz {
+        for i in 0..=nx {
+            let x = (i as f32 / nx as f32 - 0.5) * size[0];
+            let z = (k as f32 / nz as f32 - 0.5) * size[1];
+            m.positions.push(Vec3::new(x, f(x, z), z));
+        }
+    }
+    let v = |i: u32, k: u32| k * (nx + 1) + i;
+    for k in 0..nz {
+        for i in 0..nx {
+            m.indices.push([v(i, k), v(i, k + 1), v(i + 1, k)]);
+            m.indices.push([v(i + 1, k), v(i, k + 1), v(i + 1, k + 1)]);
+        }
+    }
+    m
 }
 
 /// Axis-aligned box with outward-facing triangles.
@@ -436,11 +386,7 @@ pub fn cuboid(min: Vec3, max: Vec3) -> TriMesh {
         let q = quad(c, u, v);
         let base = m.positions.len() as u32;
         m.positions.extend(q.positions);
-        m.indices.extend(
-            q.indices
-                .iter()
-                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
-        );
+        m.indices.extend(q.indices.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
     }
     m
 }
@@ -456,12 +402,32 @@ mod tests {
         for i in 0..m.indices.len() {
             let [a, b, cc] = m.triangle(i);
             let n = (b - a).cross(cc - a);
-            assert!(
-                n.dot((a + b + cc) / 3.0 - c) > 0.0,
-                "triangle {i} faces inward"
-            );
+            assert!(n.dot((a + b + cc) / 3.0 - c) > 0.0, "triangle {i} faces inward");
         }
         assert!((m.total_area() - 2.0 * (2.0 + 3.0 + 6.0)).abs() < 1e-4);
+    }
+
+    #[test]
+    fn lathe_cylinder_faces_outward_and_has_the_right_area() {
+        let m = lathe(&[[1.0, 0.0], [1.0, 2.0]], 256);
+        for i in 0..m.indices.len() {
+            let [a, b, c] = m.triangle(i);
+            let n = (b - a).cross(c - a);
+            let centre = (a + b + c) / 3.0;
+            assert!(n.dot(Vec3::new(centre.x, 0.0, centre.z)) > 0.0);
+        }
+        let expect = std::f32::consts::TAU * 2.0;
+        assert!((m.total_area() - expect).abs() < 1e-3 * expect, "{}", m.total_area());
+    }
+
+    #[test]
+    fn heightfield_faces_up() {
+        let m = heightfield([2.0, 1.0], [8, 4], |x, z| 0.1 * x + 0.05 * z);
+        assert_eq!(m.indices.len(), 64);
+        for i in 0..m.indices.len() {
+            let [a, b, c] = m.triangle(i);
+            assert!((b - a).cross(c - a).y > 0.0);
+        }
     }
 
     #[test]

@@ -25,11 +25,7 @@ pub enum SceneError {
     #[error("{file}: {msg}")]
     Parse { file: String, msg: String },
     #[error("{file}: key `{key}`: {msg}")]
-    Invalid {
-        file: String,
-        key: String,
-        msg: String,
-    },
+    Invalid { file: String, key: String, msg: String },
     #[error("{file}: file not found")]
     MissingFile { file: String },
     #[error("{file}: {msg}")]
@@ -113,35 +109,17 @@ impl Scene {
     }
 
     /// Surface data at a hit (shape, primitive, barycentrics u,v, distance t along `ray`).
-    pub fn surface(
-        &self,
-        ray: &crate::math::Ray,
-        shape: u32,
-        prim: u32,
-        u: f32,
-        v: f32,
-        t: f32,
-    ) -> SurfaceHit {
+    pub fn surface(&self, ray: &crate::math::Ray, shape: u32, prim: u32, u: f32, v: f32, t: f32) -> SurfaceHit {
         match &self.shapes[shape as usize].geometry {
             Geometry::Mesh(m) => {
                 let [i0, i1, i2] = m.indices[prim as usize];
-                let (a, b, c) = (
-                    m.positions[i0 as usize],
-                    m.positions[i1 as usize],
-                    m.positions[i2 as usize],
-                );
+                let (a, b, c) = (m.positions[i0 as usize], m.positions[i1 as usize], m.positions[i2 as usize]);
                 let p = a * (1.0 - u - v) + b * u + c * v;
                 let ng = (b - a).cross(c - a).normalize_or_zero();
-                let ng = if ng == Vec3::ZERO {
-                    -ray.d.normalize()
-                } else {
-                    ng
-                };
+                let ng = if ng == Vec3::ZERO { -ray.d.normalize() } else { ng };
                 let ns = match &m.normals {
                     Some(ns) => {
-                        let n = (ns[i0 as usize] * (1.0 - u - v)
-                            + ns[i1 as usize] * u
-                            + ns[i2 as usize] * v)
+                        let n = (ns[i0 as usize] * (1.0 - u - v) + ns[i1 as usize] * u + ns[i2 as usize] * v)
                             .normalize_or_zero();
                         if n == Vec3::ZERO {
                             ng
@@ -153,25 +131,13 @@ impl Scene {
                     }
                     None => ng,
                 };
-                SurfaceHit {
-                    p,
-                    ng,
-                    ns,
-                    shape,
-                    prim,
-                }
+                SurfaceHit { p, ng, ns, shape, prim }
             }
             Geometry::Sphere { center, radius } => {
                 let p = ray.at(t);
                 let n = (p - *center).normalize();
                 let p = *center + n * *radius;
-                SurfaceHit {
-                    p,
-                    ng: n,
-                    ns: n,
-                    shape,
-                    prim,
-                }
+                SurfaceHit { p, ng: n, ns: n, shape, prim }
             }
         }
     }

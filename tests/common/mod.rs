@@ -9,17 +9,8 @@ use std::path::Path;
 pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
     Scene {
         path: "test".into(),
-        camera: Camera::new(
-            Vec3::new(0.0, 0.0, 5.0),
-            Vec3::ZERO,
-            Vec3::Y,
-            40.0,
-            FovAxis::X,
-            [8, 8],
-        ),
-        materials: vec![caustica::scene::Material::Diffuse {
-            reflectance: Vec3::splat(0.5),
-        }],
+        camera: Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0, FovAxis::X, [8, 8]),
+        materials: vec![caustica::scene::Material::Diffuse { reflectance: Vec3::splat(0.5) }],
         material_names: vec!["m".into()],
         shapes,
         lights: Lights::default(),
@@ -31,13 +22,7 @@ pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
 
 /// Loads a scene from TOML text (paths resolve against the crate root).
 pub fn scene(text: &str) -> Scene {
-    load_scene_str(
-        text,
-        "test.toml",
-        Path::new(env!("CARGO_MANIFEST_DIR")),
-        &[],
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
+    load_scene_str(text, "test.toml", Path::new(env!("CARGO_MANIFEST_DIR")), &[]).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Six inward-facing quads forming the box [lo, hi]³ (for closed-room tests).

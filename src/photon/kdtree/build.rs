@@ -18,41 +18,21 @@ impl<T: Copy + Send + Sync> KdTree<T> {
         if n >= u32::MAX as usize {
             return Err(KdError::TooMany(n));
         }
-        let bad = points
-            .iter()
-            .filter(|(p, _)| !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()))
-            .count();
+        let bad = points.iter().filter(|(p, _)| !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite())).count();
         if bad > 0 {
-            return Err(KdError::NonFinite {
-                count: bad,
-                total: n,
-            });
+            return Err(KdError::NonFinite { count: bad, total: n });
         }
         let leaves = n.div_ceil(BUCKET).max(1);
         let depth = leaves.next_power_of_two().trailing_zeros();
         let inner = (1usize << depth) - 1;
-        let splits: Vec<std::sync::atomic::AtomicU32> =
-            (0..inner).map(|_| Default::default()).collect();
-        let axes: Vec<std::sync::atomic::AtomicU8> =
-            (0..inner).map(|_| Default::default()).collect();
+        let splits: Vec<std::sync::atomic::AtomicU32> = (0..inner).map(|_| Default::default()).collect();
+        let axes: Vec<std::sync::atomic::AtomicU8> = (0..inner).map(|_| Default::default()).collect();
         let mut pts = points;
-        split_node(
-            Work {
-                pts: &mut pts,
-                splits: &splits,
-                axes: &axes,
-            },
-            0,
-            0,
-            depth,
-        );
+        split_node(Work { pts: &mut pts, splits: &splits, axes: &axes }, 0, 0, depth);
         let mut t = KdTree {
             pos: Vec::with_capacity(n),
             items: Vec::with_capacity(n),
-            splits: splits
-                .into_iter()
-                .map(|a| f32::from_bits(a.into_inner()))
-                .collect(),
+            splits: splits.into_iter().map(|a| f32::from_bits(a.into_inner())).collect(),
             axes: axes.into_iter().map(|a| a.into_inner()).collect(),
             depth,
         };
@@ -66,11 +46,7 @@ impl<T: Copy + Send + Sync> KdTree<T> {
 
 /// Chooses the split axis: the largest extent, unless the median coordinate equals the box's min or
 /// max on it; then the next axis by extent where it lies strictly inside. `median(a)` gives the median.
-pub(super) fn choose_axis(
-    lo: [f32; 3],
-    hi: [f32; 3],
-    mut median: impl FnMut(usize) -> f32,
-) -> usize {
+pub(super) fn choose_axis(lo: [f32; 3], hi: [f32; 3], mut median: impl FnMut(usize) -> f32) -> usize {
     let mut order = [0usize, 1, 2];
     order.sort_by(|&a, &b| (hi[b] - lo[b]).total_cmp(&(hi[a] - lo[a])));
     for &a in &order {
@@ -114,23 +90,10 @@ fn split_node<T: Copy + Send + Sync>(w: Work<'_, T>, node: usize, d: u32, depth:
     w.splits[node].store(split.to_bits(), std::sync::atomic::Ordering::Relaxed);
     w.axes[node].store(axis as u8, std::sync::atomic::Ordering::Relaxed);
     let (left, right) = pts.split_at_mut(mid);
-    let (lw, rw) = (
-        Work {
-            pts: left,
-            splits: w.splits,
-            axes: w.axes,
-        },
-        Work {
-            pts: right,
-            splits: w.splits,
-            axes: w.axes,
-        },
-    );
+    let (lw, rw) =
+        (Work { pts: left, splits: w.splits, axes: w.axes }, Work { pts: right, splits: w.splits, axes: w.axes });
     if n >= PARALLEL_MIN {
-        rayon::join(
-            || split_node(lw, 2 * node + 1, d + 1, depth),
-            || split_node(rw, 2 * node + 2, d + 1, depth),
-        );
+        rayon::join(|| split_node(lw, 2 * node + 1, d + 1, depth), || split_node(rw, 2 * node + 2, d + 1, depth));
     } else {
         split_node(lw, 2 * node + 1, d + 1, depth);
         split_node(rw, 2 * node + 2, d + 1, depth);
@@ -152,28 +115,15 @@ mod tests {
 
     #[test]
     fn refuses_non_finite_with_count() {
-        let pts = vec![
-            ([0.0, 0.0, 0.0], 0u32),
-            ([f32::NAN, 0.0, 0.0], 1),
-            ([0.0, f32::INFINITY, 0.0], 2),
-        ];
-        assert_eq!(
-            KdTree::build(pts).err(),
-            Some(KdError::NonFinite { count: 2, total: 3 })
-        );
+        let pts = vec![([0.0, 0.0, 0.0], 0u32), ([f32::NAN, 0.0, 0.0], 1), ([0.0, f32::INFINITY, 0.0], 2)];
+        assert_eq!(KdTree::build(pts).err(), Some(KdError::NonFinite { count: 2, total: 3 }));
     }
 
     #[test]
     fn every_split_separates_its_children() {
         let mut r = crate::math::Rng::new(1, 0, 0);
-        let pts: Vec<([f32; 3], u32)> = (0..5000)
-            .map(|i| {
-                (
-                    [r.next_f32(), (r.next_f32() * 4.0).floor(), r.next_f32()],
-                    i,
-                )
-            })
-            .collect();
+        let pts: Vec<([f32; 3], u32)> =
+            (0..5000).map(|i| ([r.next_f32(), (r.next_f32() * 4.0).floor(), r.next_f32()], i)).collect();
         let t = KdTree::build(pts).unwrap();
         fn check(t: &KdTree<u32>, node: usize, lo: u32, hi: u32, d: u32) {
             if d == t.depth {

@@ -69,14 +69,7 @@ impl<T> KdTree<T> {
         if self.is_empty() {
             return;
         }
-        stack.push(Entry {
-            d2: 0.0,
-            off: [0.0; 3],
-            node: 0,
-            lo: 0,
-            hi: self.len() as u32,
-            depth: 0,
-        });
+        stack.push(Entry { d2: 0.0, off: [0.0; 3], node: 0, lo: 0, hi: self.len() as u32, depth: 0 });
         while let Some(mut e) = stack.pop() {
             if e.d2 > bound {
                 continue;
@@ -99,14 +92,7 @@ impl<T> KdTree<T> {
                     }
                     let mut off = e.off;
                     off[axis] = diff;
-                    stack.push(Entry {
-                        d2: far_d2,
-                        off,
-                        node: far.0,
-                        lo: far.1,
-                        hi: far.2,
-                        depth: e.depth + 1,
-                    });
+                    stack.push(Entry { d2: far_d2, off, node: far.0, lo: far.1, hi: far.2, depth: e.depth + 1 });
                 }
                 e.node = near.0;
                 e.lo = near.1;
@@ -119,13 +105,7 @@ impl<T> KdTree<T> {
 
     /// Squared distances from `q` to the points of bucket [lo, hi) into `out` (vectorisable loop).
     #[inline(always)]
-    pub(super) fn bucket_d2(
-        &self,
-        q: [f32; 3],
-        lo: u32,
-        hi: u32,
-        out: &mut [f32; super::BUCKET],
-    ) -> usize {
+    pub(super) fn bucket_d2(&self, q: [f32; 3], lo: u32, hi: u32, out: &mut [f32; super::BUCKET]) -> usize {
         let (lo, hi) = (lo as usize, hi as usize);
         let n = hi - lo;
         for (o, p) in out.iter_mut().zip(&self.pos[lo..hi]) {
