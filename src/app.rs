@@ -24,6 +24,30 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(BenchCommand::Rays { scene, rounds }) => crate::bench::rays(&scene, rounds),
         Command::Bench(BenchCommand::Photons { scene, photons }) => crate::bench::photons(&scene, photons),
         Command::KnnCheck(a) => crate::bench::knn_check(&a),
+        Command::Compare { a, b, reference, out, exposure } => {
+            crate::tools::compare_cmd(&a, &b, reference.as_deref(), &out, exposure)
+        }
+        Command::Reference { scene, spp, photons, quiet } => {
+            let r = crate::tools::reference(&scene, spp, photons, Path::new("out/ref"), quiet)?;
+            println!(
+                "reference {} (two halves differ by RMSE {:.6}; the mean's own RMSE is about half)",
+                r.path.display(),
+                r.halves_rmse
+            );
+            Ok(())
+        }
+        Command::Bench(BenchCommand::TimeVsError { scene, budget_s, ref_spp, ref_photons, out, quiet }) => {
+            let out = out.unwrap_or_else(|| PathBuf::from("out/tve").join(scene.file_stem().unwrap_or_default()));
+            let ref_spp = if ref_photons.is_none() { Some(ref_spp.unwrap_or(1024)) } else { ref_spp };
+            crate::timeerror::run(&crate::timeerror::Options {
+                scene: &scene,
+                budget_s,
+                ref_spp,
+                ref_photons,
+                out: &out,
+                quiet,
+            })
+        }
     }
 }
 
@@ -150,6 +174,22 @@ pub fn plan_for(scene: &Scene, tracer: &dyn Tracer) -> Plan {
     };
     let first = |r: Ray| tracer.intersect(&r).map(|h| h.shape);
     crate::plan::plan(scene, &Probe { visible: &visible, first_shape: &first })
+}
+
+/// Photon mapping with the scene's own settings and the planner's choices: maps, then the eye pass.
+pub fn render_pm_default(scene: &Scene, tracer: &dyn Tracer, quiet: bool) -> Result<RenderOutput> {
+    let plan = plan_for(scene, tracer);
+    let req = MapRequest {
+        want: plan.photons,
+        targeted: scene.render.photons.caustic_targeting,
+        targets: Some(plan.caustic_targets.clone()),
+    };
+    let maps = build_maps(scene, tracer, &req, quiet)?;
+    let mut r = render_photon_map(scene, tracer, &maps, &plan, None, quiet);
+    let trace_s =
+        maps.stats.global_pass.map_or(0.0, |p| p.seconds) + maps.stats.caustic_pass.map_or(0.0, |p| p.seconds);
+    r.seconds += trace_s + maps.stats.build_seconds;
+    Ok(r)
 }
 
 /// The photon-map eye pass over the whole film; `only` shows a single map's estimate.

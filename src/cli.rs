@@ -7,7 +7,7 @@ use std::path::PathBuf;
     name = "caustica",
     version,
     about = "Photon mapping and path tracing side by side, through Embree, measured against each other",
-    after_help = "Examples:\n  caustica render scenes/cornell-glass.toml --mode both -o out/glass\n  caustica bench photons scenes/cornell-glass.toml\n  caustica render scenes/cornell-box.toml --spp 256 --set render.max_depth=8\n  caustica info scenes/dragon.toml\n  caustica bench rays scenes/dragon.toml\n  caustica knn-check --points 1000000 --queries 100000 --k 50 --distribution clustered"
+    after_help = "Examples:\n  caustica render scenes/cornell-glass.toml --mode both -o out/glass\n  caustica bench time-vs-error scenes/cornell-glass.toml --budget-s 120\n  caustica compare out/glass-pm.exr out/glass-pt.exr -o out/cmp\n  caustica bench photons scenes/cornell-glass.toml\n  caustica render scenes/cornell-box.toml --spp 256 --set render.max_depth=8\n  caustica info scenes/dragon.toml\n  caustica bench rays scenes/dragon.toml\n  caustica knn-check --points 1000000 --queries 100000 --k 50 --distribution clustered"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -25,6 +25,32 @@ pub enum Command {
     Bench(BenchCommand),
     /// Build our k-d tree and kiddo's on the same photons; check agreement and compare speed.
     KnnCheck(KnnArgs),
+    /// Compare two EXR images (optionally against a reference): labelled side by side, error heat-map
+    /// with a colour scale, RMSE / relMSE / MAE / mean-luminance ratio (stdout and JSON).
+    Compare {
+        a: PathBuf,
+        b: PathBuf,
+        /// Reference image both are scored against (default: B is the reference for A).
+        #[arg(long = "ref")]
+        reference: Option<PathBuf>,
+        /// Output path without extension: OUT.png, OUT-error.png, OUT.json.
+        #[arg(short, long, default_value = "out/compare")]
+        out: PathBuf,
+        /// Exposure (stops) of the side-by-side preview.
+        #[arg(long, default_value_t = 0.0)]
+        exposure: f32,
+    },
+    /// A long reference render in two independent halves (cached in out/ref), with their RMSE as its
+    /// noise estimate. --spp for the path tracer, --photons for scenes only photon mapping can render.
+    Reference {
+        scene: PathBuf,
+        #[arg(long)]
+        spp: Option<u32>,
+        #[arg(long)]
+        photons: Option<u64>,
+        #[arg(short, long)]
+        quiet: bool,
+    },
 }
 
 #[derive(Args, Debug)]
@@ -74,7 +100,26 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 5)]
         rounds: u32,
     },
-    /// Photon tracing (segments/s, 1 thread) vs a bare rtcIntersect1 loop over as many incoherent rays.
+    /// PT at a sweep of spp and PM at sweeps of photon and gather counts, timed and scored against a
+    /// cached reference: CSV, log-log chart (SVG, PNG), and the equal-time RMSE ratio PM/PT.
+    TimeVsError {
+        scene: PathBuf,
+        /// Seconds to spend in all (split between PT, PM photons and PM gather sweeps).
+        #[arg(long, default_value_t = 60.0)]
+        budget_s: f64,
+        /// Reference samples per pixel (path tracer).
+        #[arg(long)]
+        ref_spp: Option<u32>,
+        /// Reference by photon mapping with this many photons instead (for point-light caustics).
+        #[arg(long)]
+        ref_photons: Option<u64>,
+        /// Output path without extension (default out/tve/<scene name>).
+        #[arg(short, long)]
+        out: Option<PathBuf>,
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// Photon tracing (segments/s, 1 thread) vs a bare rtcIntersect1 loop over the same rays.
     Photons {
         scene: PathBuf,
         /// Photons to store per map for the measurement.

@@ -1,0 +1,354 @@
+//! `caustica bench time-vs-error`: path tracing at a sweep of samples per pixel and photon mapping at a
+//! sweep of photon counts and of gather counts, each timed and scored against a cached reference; writes
+//! a CSV, a log-log chart of error against seconds (SVG through plotters, PNG drawn here), and the
+//! equal-time error ratio PM/PT.
+use crate::accel::Accel;
+use crate::color::Rgb;
+use crate::film::Image;
+use crate::font::{draw_text, text_width};
+use crate::metrics::{compare_masked, light_free_pixels};
+use crate::scene::load_scene_with;
+use crate::tools::{reference, with_suffix};
+use anyhow::Result;
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Run {
+    pub series: String,
+    pub spp: u32,
+    pub photons: u64,
+    pub gather: u32,
+    pub seconds: f64,
+    pub rmse: f64,
+    pub rel_mse: f64,
+}
+
+pub struct Options<'a> {
+    pub scene: &'a Path,
+    pub budget_s: f64,
+    pub ref_spp: Option<u32>,
+    pub ref_photons: Option<u64>,
+    pub out: &'a Path,
+    pub quiet: bool,
+}
+
+/// PT's RMSE at `t` seconds, interpolated log-log between its runs (extrapolated with the Monte Carlo
+/// slope −1/2 beyond them).
+pub fn pt_rmse_at(pt: &[Run], t: f64) -> Option<f64> {
+    let first = pt.first()?;
+    let last = pt.last()?;
+    if t <= first.seconds {
+        return Some(first.rmse * (first.seconds / t).sqrt());
+    }
+    if t >= last.seconds {
+        return Some(last.rmse * (last.seconds / t).sqrt());
+    }
+    let w = pt.windows(2).find(|w| w[0].seconds <= t && t <= w[1].seconds)?;
+    let f = (t.ln() - w[0].seconds.ln()) / (w[1].seconds.ln() - w[0].seconds.ln()).max(1e-12);
+    Some((w[0].rmse.ln() + f * (w[1].rmse.ln() - w[0].rmse.ln())).exp())
+}
+
+pub fn run(o: &Options) -> Result<()> {
+    let dir = o.out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir)?;
+    let t0 = Instant::now();
+    let r = reference(o.scene, o.ref_spp, o.ref_photons, &dir.join("ref"), o.quiet)?;
+    eprintln!(
+        "reference {} (noise: halves differ by RMSE {:.5}) in {:.1} s",
+        r.path.display(),
+        r.halves_rmse,
+        t0.elapsed().as_secs_f64()
+    );
+    let base = load_scene_with(o.scene, &[])?;
+    let accel = Accel::new(&base).map_err(anyhow::Error::msg)?;
+    let keep = light_free_pixels(&base, &accel, 4);
+    let score = |img: &Image| {
+        compare_masked(img, &r.image, &keep)
+            .ok_or_else(|| anyhow::anyhow!("reference size differs from the scene's resolution"))
+    };
+    let spp_list: Vec<u32> = (0..12).map(|i| 1u32 << i).collect();
+    let photon_list: Vec<u64> = (0..8).map(|i| 10_000u64 << (2 * i)).collect();
+    let gathers = [10u32, 30, 100, 300, 1000, 3000, 10000];
+    let pb = crate::render::progress((spp_list.len() + photon_list.len() + gathers.len()) as u64, "sweep", o.quiet);
+    let share = o.budget_s / 3.0;
+    let mut runs: Vec<Run> = Vec::new();
+    let mut spent = 0.0;
+    for &spp in &spp_list {
+        if spent > share {
+            break;
+        }
+        let out = crate::app::render_path(&base, &accel, spp, true);
+        spent += out.seconds;
+        let e = score(&out.image)?;
+        runs.push(Run {
+            series: "PT".into(),
+            spp,
+            photons: 0,
+            gather: 0,
+            seconds: out.seconds,
+            rmse: e.rmse,
+            rel_mse: e.rel_mse,
+        });
+        pb.inc(1);
+    }
+    let g = &base.render.gather;
+    let pm_run = |photons: u64, gather: Option<u32>| -> Result<(f64, Image)> {
+        let mut sets = vec![
+            format!("render.photons.caustic={photons}"),
+            format!("render.photons.indirect={}", photons / 2),
+            format!("render.photons.direct={}", photons / 2),
+        ];
+        if let Some(k) = gather {
+            sets.push(format!("render.gather.caustic={k}"));
+            sets.push(format!("render.gather.indirect={k}"));
+            sets.push(format!("render.gather.direct={k}"));
+        }
+        let s = load_scene_with(o.scene, &sets)?;
+        let out = crate::app::render_pm_default(&s, &accel, true)?;
+        Ok((out.seconds, out.image))
+    };
+    spent = 0.0;
+    for &p in &photon_list {
+        if spent > share {
+            break;
+        }
+        let (secs, img) = pm_run(p, None)?;
+        spent += secs;
+        let e = score(&img)?;
+        runs.push(Run {
+            series: "PM photons".into(),
+            spp: base.render.pm_spp,
+            photons: p,
+            gather: g.caustic,
+            seconds: secs,
+            rmse: e.rmse,
+            rel_mse: e.rel_mse,
+        });
+        pb.inc(1);
+    }
+    // The gather sweep uses the photon count that did best against PT at equal time.
+    let pt: Vec<Run> = runs.iter().filter(|r| r.series == "PT").cloned().collect();
+    let best_photons = runs
+        .iter()
+        .filter(|r| r.series == "PM photons")
+        .min_by(|a, b| {
+            let ra = a.rmse / pt_rmse_at(&pt, a.seconds).unwrap_or(1.0);
+            let rb = b.rmse / pt_rmse_at(&pt, b.seconds).unwrap_or(1.0);
+            ra.total_cmp(&rb)
+        })
+        .map_or(photon_list[0], |r| r.photons);
+    spent = 0.0;
+    for &k in &gathers {
+        if spent > share {
+            break;
+        }
+        let (secs, img) = pm_run(best_photons, Some(k))?;
+        spent += secs;
+        let e = score(&img)?;
+        runs.push(Run {
+            series: "PM gather".into(),
+            spp: base.render.pm_spp,
+            photons: best_photons,
+            gather: k,
+            seconds: secs,
+            rmse: e.rmse,
+            rel_mse: e.rel_mse,
+        });
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    report(o, &runs, r.halves_rmse)
+}
+
+fn report(o: &Options, runs: &[Run], ref_noise: f64) -> Result<()> {
+    let csv = with_suffix(o.out, ".csv");
+    let mut text = String::from("series,spp,photons,gather,seconds,rmse,rel_mse\n");
+    for r in runs {
+        text += &format!(
+            "{},{},{},{},{:.4},{:.6},{:.6}\n",
+            r.series, r.spp, r.photons, r.gather, r.seconds, r.rmse, r.rel_mse
+        );
+    }
+    crate::output::atomic_write(&csv, |tmp| Ok(std::fs::write(tmp, &text)?))?;
+    let pt: Vec<Run> = runs.iter().filter(|r| r.series == "PT").cloned().collect();
+    println!(
+        "{:<11} {:>6} {:>9} {:>6} {:>9} {:>10} {:>10}",
+        "series", "spp", "photons", "gather", "seconds", "RMSE", "PM/PT"
+    );
+    let mut best: Option<(f64, &Run)> = None;
+    for r in runs {
+        let ratio = if r.series == "PT" { None } else { pt_rmse_at(&pt, r.seconds).map(|p| r.rmse / p) };
+        if let Some(x) = ratio {
+            if best.is_none_or(|b| x < b.0) {
+                best = Some((x, r));
+            }
+        }
+        println!(
+            "{:<11} {:>6} {:>9} {:>6} {:>9.3} {:>10.5} {:>10}",
+            r.series,
+            r.spp,
+            r.photons,
+            r.gather,
+            r.seconds,
+            r.rmse,
+            ratio.map_or("-".into(), |x| format!("{x:.3}"))
+        );
+    }
+    if let Some((x, r)) = best {
+        println!("equal-time RMSE ratio PM/PT: {x:.3} (best PM run: {} photons, gather {}, {:.2} s); reference noise (halves' RMSE) {ref_noise:.5}", r.photons, r.gather, r.seconds);
+    }
+    chart_svg(&with_suffix(o.out, ".svg"), runs, &o.scene.display().to_string())?;
+    let png = chart_png(runs, &o.scene.display().to_string());
+    crate::output::write_png(&with_suffix(o.out, ".png"), &png, 0.0)?;
+    println!("wrote {}, {}.svg and {}.png", csv.display(), o.out.display(), o.out.display());
+    Ok(())
+}
+
+const SERIES: [(&str, [f32; 3]); 3] =
+    [("PT", [0.85, 0.2, 0.15]), ("PM photons", [0.15, 0.45, 0.85]), ("PM gather", [0.2, 0.7, 0.3])];
+
+fn bounds(runs: &[Run]) -> ((f64, f64), (f64, f64)) {
+    let xs = runs.iter().map(|r| r.seconds.max(1e-4));
+    let ys = runs.iter().map(|r| r.rmse.max(1e-6));
+    let (x0, x1) = xs.fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)));
+    let (y0, y1) = ys.fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
+    ((x0 / 1.5, x1 * 1.5), (y0 / 1.5, y1 * 1.5))
+}
+
+fn chart_svg(path: &Path, runs: &[Run], title: &str) -> Result<()> {
+    use plotters::prelude::*;
+    let ((x0, x1), (y0, y1)) = bounds(runs);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (800, 560)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(format!("RMSE against time: {title}"), ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        chart
+            .configure_mesh()
+            .x_desc("seconds (2 threads)")
+            .y_desc("RMSE vs reference")
+            .draw()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        for (name, c) in SERIES {
+            let col = RGBColor((c[0] * 255.0) as u8, (c[1] * 255.0) as u8, (c[2] * 255.0) as u8);
+            let pts: Vec<(f64, f64)> =
+                runs.iter().filter(|r| r.series == name).map(|r| (r.seconds.max(1e-4), r.rmse.max(1e-6))).collect();
+            if pts.is_empty() {
+                continue;
+            }
+            chart
+                .draw_series(LineSeries::new(pts.clone(), col.stroke_width(2)))
+                .map_err(|e| anyhow::anyhow!("{e}"))?
+                .label(name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+            chart
+                .draw_series(pts.iter().map(|p| Circle::new(*p, 3, col.filled())))
+                .map_err(|e| anyhow::anyhow!("{e}"))?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    crate::output::atomic_write(path, |tmp| Ok(std::fs::write(tmp, &svg)?))
+}
+
+/// The same chart drawn into an image with the built-in font (no system fonts needed).
+fn chart_png(runs: &[Run], title: &str) -> Image {
+    let (w, h) = (800u32, 560u32);
+    let (l, r, t, b) = (80i32, 20i32, 40i32, 60i32);
+    let mut img = Image::new(w, h);
+    img.pixels.iter_mut().for_each(|p| *p = Rgb::ONE);
+    let black = Rgb::ZERO;
+    let ((x0, x1), (y0, y1)) = bounds(runs);
+    let px = |x: f64| l as f64 + (x.ln() - x0.ln()) / (x1.ln() - x0.ln()) * (w as i32 - l - r) as f64;
+    let py = |y: f64| (h as i32 - b) as f64 - (y.ln() - y0.ln()) / (y1.ln() - y0.ln()) * (h as i32 - t - b) as f64;
+    let line = |img: &mut Image, a: (f64, f64), c: (f64, f64), col: Rgb| {
+        let n = ((c.0 - a.0).abs().max((c.1 - a.1).abs()) as usize).max(1);
+        for i in 0..=n {
+            let f = i as f64 / n as f64;
+            let (x, y) = (a.0 + f * (c.0 - a.0), a.1 + f * (c.1 - a.1));
+            if x >= 0.0 && y >= 0.0 && (x as u32) < w && (y as u32) < h {
+                img.set(x as u32, y as u32, col);
+            }
+        }
+    };
+    let (xl, xr, yt, yb) = (l as f64, (w as i32 - r) as f64, t as f64, (h as i32 - b) as f64);
+    for (a, c) in [((xl, yt), (xr, yt)), ((xl, yb), (xr, yb)), ((xl, yt), (xl, yb)), ((xr, yt), (xr, yb))] {
+        line(&mut img, a, c, black);
+    }
+    for e in (x0.log10().floor() as i32)..=(x1.log10().ceil() as i32) {
+        let v = 10f64.powi(e);
+        if v < x0 || v > x1 {
+            continue;
+        }
+        line(&mut img, (px(v), yb), (px(v), yb + 5.0), black);
+        let s = format!("{v}");
+        draw_text(&mut img, px(v) as i32 - text_width(&s, 1) as i32 / 2, yb as i32 + 9, &s, 1, black);
+    }
+    for e in (y0.log10().floor() as i32)..=(y1.log10().ceil() as i32) {
+        let v = 10f64.powi(e);
+        if v < y0 || v > y1 {
+            continue;
+        }
+        line(&mut img, (xl - 5.0, py(v)), (xl, py(v)), black);
+        let s = format!("1E{e}");
+        draw_text(&mut img, l - 10 - text_width(&s, 1) as i32, py(v) as i32 - 3, &s, 1, black);
+    }
+    draw_text(&mut img, l, 12, &format!("RMSE AGAINST TIME: {title}"), 2, black);
+    draw_text(&mut img, (w / 2) as i32 - 60, h as i32 - 22, "SECONDS (LOG)", 1, black);
+    draw_text(&mut img, 4, t - 14, "RMSE (LOG)", 1, black);
+    for (si, (name, c)) in SERIES.iter().enumerate() {
+        let col = Rgb::from_array(*c);
+        let pts: Vec<(f64, f64)> = runs
+            .iter()
+            .filter(|r| r.series == *name)
+            .map(|r| (px(r.seconds.max(1e-4)), py(r.rmse.max(1e-6))))
+            .collect();
+        for w2 in pts.windows(2) {
+            for d in [-0.5, 0.0, 0.5] {
+                line(&mut img, (w2[0].0, w2[0].1 + d), (w2[1].0, w2[1].1 + d), col);
+            }
+        }
+        for p in &pts {
+            for dy in -2..=2 {
+                line(&mut img, (p.0 - 2.0, p.1 + dy as f64), (p.0 + 2.0, p.1 + dy as f64), col);
+            }
+        }
+        let ly = t + 10 + si as i32 * 14;
+        line(
+            &mut img,
+            ((w as i32 - r - 140) as f64, ly as f64 + 3.0),
+            ((w as i32 - r - 120) as f64, ly as f64 + 3.0),
+            col,
+        );
+        draw_text(&mut img, w as i32 - r - 114, ly, name, 1, black);
+    }
+    img
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    fn run(s: f64, e: f64) -> Run {
+        Run { series: "PT".into(), spp: 1, photons: 0, gather: 0, seconds: s, rmse: e, rel_mse: 0.0 }
+    }
+    #[test]
+    fn pt_interpolation_follows_the_power_law() {
+        let pt = [run(1.0, 1.0), run(4.0, 0.5), run(16.0, 0.25)];
+        assert!((pt_rmse_at(&pt, 2.0).unwrap() - 0.5f64.sqrt()).abs() < 1e-9);
+        assert!((pt_rmse_at(&pt, 64.0).unwrap() - 0.125).abs() < 1e-9);
+        assert!((pt_rmse_at(&pt, 0.25).unwrap() - 2.0).abs() < 1e-9);
+    }
+}
