@@ -27,8 +27,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Compare { a, b, reference, out, exposure } => {
             crate::tools::compare_cmd(&a, &b, reference.as_deref(), &out, exposure)
         }
-        Command::Reference { scene, spp, photons, quiet } => {
-            let r = crate::tools::reference(&scene, spp, photons, Path::new("out/ref"), quiet)?;
+        Command::Reference { scene, spp, photons, set, quiet } => {
+            let r = crate::tools::reference(&scene, &set, spp, photons, Path::new("out/ref"), quiet)?;
             println!(
                 "reference {} (two halves differ by RMSE {:.6}; the mean's own RMSE is about half)",
                 r.path.display(),
@@ -36,7 +36,7 @@ pub fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Bench(BenchCommand::TimeVsError { scene, budget_s, ref_spp, ref_photons, out, quiet }) => {
+        Command::Bench(BenchCommand::TimeVsError { scene, budget_s, ref_spp, ref_photons, out, set, quiet }) => {
             let out = out.unwrap_or_else(|| PathBuf::from("out/tve").join(scene.file_stem().unwrap_or_default()));
             let ref_spp = if ref_photons.is_none() { Some(ref_spp.unwrap_or(1024)) } else { ref_spp };
             crate::timeerror::run(&crate::timeerror::Options {
@@ -46,6 +46,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 ref_photons,
                 out: &out,
                 quiet,
+                sets: &set,
             })
         }
     }

@@ -48,6 +48,8 @@ pub enum Command {
         spp: Option<u32>,
         #[arg(long)]
         photons: Option<u64>,
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         #[arg(short, long)]
         quiet: bool,
     },
@@ -116,6 +118,9 @@ pub enum BenchCommand {
         /// Output path without extension (default out/tve/<scene name>).
         #[arg(short, long)]
         out: Option<PathBuf>,
+        /// Scene overrides for every render and the reference, e.g. --set camera.resolution=[128,128].
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         #[arg(short, long)]
         quiet: bool,
     },

@@ -32,6 +32,8 @@ pub struct Options<'a> {
     pub ref_photons: Option<u64>,
     pub out: &'a Path,
     pub quiet: bool,
+    /// Scene overrides applied to every render and to the reference (e.g. a smaller resolution).
+    pub sets: &'a [String],
 }
 
 /// PT's RMSE at `t` seconds, interpolated log-log between its runs (extrapolated with the Monte Carlo
@@ -54,18 +56,25 @@ pub fn run(o: &Options) -> Result<()> {
     let dir = o.out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
     let t0 = Instant::now();
-    let r = reference(o.scene, o.ref_spp, o.ref_photons, &dir.join("ref"), o.quiet)?;
+    let r = reference(o.scene, o.sets, o.ref_spp, o.ref_photons, &dir.join("ref"), o.quiet)?;
     eprintln!(
         "reference {} (noise: halves differ by RMSE {:.5}) in {:.1} s",
         r.path.display(),
         r.halves_rmse,
         t0.elapsed().as_secs_f64()
     );
-    let base = load_scene_with(o.scene, &[])?;
+    let base = load_scene_with(o.scene, o.sets)?;
     let accel = Accel::new(&base).map_err(anyhow::Error::msg)?;
     let keep = light_free_pixels(&base, &accel, 4);
+    // Scored on radiance clamped to the displayable range [0, 1]: a light's mirror image counts for what
+    // it looks like, not for the thousands its radiance would weigh in a squared error.
+    let clamp = |img: &Image| Image {
+        pixels: img.pixels.iter().map(|p| p.clamp(Rgb::ZERO, Rgb::ONE)).collect(),
+        ..img.clone()
+    };
+    let ref_clamped = clamp(&r.image);
     let score = |img: &Image| {
-        compare_masked(img, &r.image, &keep)
+        compare_masked(&clamp(img), &ref_clamped, &keep)
             .ok_or_else(|| anyhow::anyhow!("reference size differs from the scene's resolution"))
     };
     let spp_list: Vec<u32> = (0..12).map(|i| 1u32 << i).collect();
@@ -94,12 +103,14 @@ pub fn run(o: &Options) -> Result<()> {
         pb.inc(1);
     }
     let g = &base.render.gather;
-    let pm_run = |photons: u64, gather: Option<u32>| -> Result<(f64, Image)> {
-        let mut sets = vec![
+    let pm_run = |photons: u64, spp: u32, gather: Option<u32>| -> Result<(f64, Image)> {
+        let mut sets = o.sets.to_vec();
+        sets.extend([
+            format!("render.pm_spp={spp}"),
             format!("render.photons.caustic={photons}"),
             format!("render.photons.indirect={}", photons / 2),
             format!("render.photons.direct={}", photons / 2),
-        ];
+        ]);
         if let Some(k) = gather {
             sets.push(format!("render.gather.caustic={k}"));
             sets.push(format!("render.gather.indirect={k}"));
@@ -109,17 +120,20 @@ pub fn run(o: &Options) -> Result<()> {
         let out = crate::app::render_pm_default(&s, &accel, true)?;
         Ok((out.seconds, out.image))
     };
+    // Photons ×4 and eye samples ×2 per step: both halves of PM's error (density blur, eye-pass noise)
+    // shrink together, the way one would raise quality in practice.
     spent = 0.0;
-    for &p in &photon_list {
+    for (i, &p) in photon_list.iter().enumerate() {
         if spent > share {
             break;
         }
-        let (secs, img) = pm_run(p, None)?;
+        let spp = 1u32 << i;
+        let (secs, img) = pm_run(p, spp, None)?;
         spent += secs;
         let e = score(&img)?;
         runs.push(Run {
             series: "PM photons".into(),
-            spp: base.render.pm_spp,
+            spp,
             photons: p,
             gather: g.caustic,
             seconds: secs,
@@ -130,7 +144,7 @@ pub fn run(o: &Options) -> Result<()> {
     }
     // The gather sweep uses the photon count that did best against PT at equal time.
     let pt: Vec<Run> = runs.iter().filter(|r| r.series == "PT").cloned().collect();
-    let best_photons = runs
+    let best = runs
         .iter()
         .filter(|r| r.series == "PM photons")
         .min_by(|a, b| {
@@ -138,18 +152,19 @@ pub fn run(o: &Options) -> Result<()> {
             let rb = b.rmse / pt_rmse_at(&pt, b.seconds).unwrap_or(1.0);
             ra.total_cmp(&rb)
         })
-        .map_or(photon_list[0], |r| r.photons);
+        .map_or((photon_list[0], 1), |r| (r.photons, r.spp));
+    let (best_photons, best_spp) = best;
     spent = 0.0;
     for &k in &gathers {
         if spent > share {
             break;
         }
-        let (secs, img) = pm_run(best_photons, Some(k))?;
+        let (secs, img) = pm_run(best_photons, best_spp, Some(k))?;
         spent += secs;
         let e = score(&img)?;
         runs.push(Run {
             series: "PM gather".into(),
-            spp: base.render.pm_spp,
+            spp: best_spp,
             photons: best_photons,
             gather: k,
             seconds: secs,

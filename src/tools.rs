@@ -154,12 +154,18 @@ pub struct Reference {
 /// (photon mapping at that many caustic and indirect photons, for scenes only PM can render).
 pub fn reference(
     scene_path: &Path,
+    overrides: &[String],
     spp: Option<u32>,
     photons: Option<u64>,
     dir: &Path,
     quiet: bool,
 ) -> Result<Reference> {
-    let text = std::fs::read(scene_path).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", scene_path.display()))?;
+    let mut text =
+        std::fs::read(scene_path).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", scene_path.display()))?;
+    // The cache key covers the scene text and the overrides.
+    for o in overrides {
+        text.extend_from_slice(o.as_bytes());
+    }
     let key = crate::math::rng::mix64(
         text.iter().fold(0xCBF2_9CE4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x100_0000_01B3)),
     );
@@ -181,7 +187,8 @@ pub fn reference(
     let t0 = std::time::Instant::now();
     let mut halves = Vec::new();
     for half in 0..2u64 {
-        let mut sets = vec![format!("render.seed={}", 1_000_003 * (half + 1))];
+        let mut sets = overrides.to_vec();
+        sets.push(format!("render.seed={}", 1_000_003 * (half + 1)));
         if let Some(p) = photons {
             sets.push(format!("render.photons.caustic={}", p / 2));
             sets.push(format!("render.photons.indirect={}", p / 4));
