@@ -6,7 +6,7 @@ use caustica::accel::{Accel, Tracer};
 use caustica::app::render_path;
 use caustica::integrator::path::PathTracer;
 use caustica::integrator::Counters;
-use caustica::math::{offset_ray_origin, Ray, Rng};
+use caustica::math::{Ray, Rng};
 use caustica::scene::material::{fresnel_dielectric, Material};
 use glam::Vec3;
 
@@ -85,7 +85,7 @@ fn slab(theta: f32, n: usize) -> (f64, f64) {
             let wo = -ray.d;
             let s = glass.sample(wo, si.ns, rng.next_2d(), rng.next_f32(), false).unwrap();
             w *= s.weight.x;
-            ray = Ray::new(offset_ray_origin(si.p, si.ng, s.wi), s.wi);
+            ray = si.spawn(s.wi);
         }
         if ray.d.y > 0.0 {
             up += w as f64

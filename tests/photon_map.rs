@@ -6,7 +6,7 @@ use caustica::accel::{Accel, Tracer};
 use caustica::app::{plan_for, render_path, render_photon_map};
 use caustica::color::Rgb;
 use caustica::integrator::photon_map::{build_maps, MapRequest, PhotonMaps};
-use caustica::math::{offset_ray_origin, Ray};
+use caustica::math::Ray;
 use caustica::metrics::{compare_masked, light_free_pixels};
 use caustica::photon::kdtree::KnnResult;
 use caustica::photon::trace::{CAUSTIC, DIRECT, INDIRECT};
@@ -114,7 +114,7 @@ fn ball_lens_focuses_near_the_paraxial_focus() {
         // uc = 1: always refract (Fresnel reflection is not the path being checked).
         let s = glass.sample(-ray.d, si.ns, [0.0, 0.0], 0.999_999, false).unwrap();
         assert!(s.transmitted);
-        ray = Ray::new(offset_ray_origin(si.p, si.ng, s.wi), s.wi);
+        ray = si.spawn(s.wi);
     }
     let crossing = ray.o.y - ray.o.x * ray.d.y / ray.d.x;
     assert!((-crossing - focus).abs() < 0.01 * focus, "paraxial crossing at {}, focus {focus}", -crossing);

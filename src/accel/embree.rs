@@ -281,6 +281,18 @@ fn to_packet(rays: &[Ray]) -> RTCRayHit16 {
     p
 }
 
+/// Embree (Debian's build keeps its assertions) aborts the process on a ray with NaN or huge values;
+/// such rays are answered "no hit" here instead.
+fn valid(r: &Ray) -> bool {
+    const LARGE: f32 = 1.8e18;
+    r.o.is_finite()
+        && r.d.is_finite()
+        && r.o.abs().max_element() <= LARGE
+        && r.d.abs().max_element() <= LARGE
+        && r.tmin >= 0.0
+        && !r.tmax.is_nan()
+}
+
 fn rtc_ray(r: &Ray) -> RTCRay {
     RTCRay {
         org_x: r.o.x,
@@ -300,6 +312,9 @@ fn rtc_ray(r: &Ray) -> RTCRay {
 
 impl Tracer for Accel {
     fn intersect(&self, r: &Ray) -> Option<Hit> {
+        if !valid(r) {
+            return None;
+        }
         let mut rh = RTCRayHit {
             ray: rtc_ray(r),
             hit: RTCHit {
@@ -326,6 +341,9 @@ impl Tracer for Accel {
     }
 
     fn occluded(&self, r: &Ray) -> bool {
+        if !valid(r) {
+            return false;
+        }
         let mut ray = rtc_ray(r);
         let mut ctx = context();
         // SAFETY: committed scene; ray and ctx are valid for the call.
@@ -336,14 +354,16 @@ impl Tracer for Accel {
     fn intersect_packet(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         assert!(rays.len() <= 16 && out.len() == rays.len());
         let mut p = Packet16(to_packet(rays));
-        let mut valid = [0i32; 16];
-        valid[..rays.len()].fill(-1);
+        let mut mask = [0i32; 16];
+        for (m, r) in mask.iter_mut().zip(rays) {
+            *m = if valid(r) { -1 } else { 0 };
+        }
         let mut ctx = context();
         // SAFETY: committed scene, 64-byte aligned packet, valid mask covers only filled lanes.
-        unsafe { rtcIntersect16(valid.as_ptr(), self.scene, &mut ctx, &mut p.0) };
+        unsafe { rtcIntersect16(mask.as_ptr(), self.scene, &mut ctx, &mut p.0) };
         let h = &p.0.hit;
         for (i, o) in out.iter_mut().enumerate() {
-            *o = (h.geomID[i] != INVALID).then_some(Hit {
+            *o = (mask[i] != 0 && h.geomID[i] != INVALID).then_some(Hit {
                 t: p.0.ray.tfar[i],
                 u: h.u[i],
                 v: h.v[i],

@@ -2,7 +2,7 @@
 use super::Counters;
 use crate::accel::Tracer;
 use crate::color::Rgb;
-use crate::math::{offset_ray_origin, sampling::power_heuristic, Ray, Rng};
+use crate::math::{sampling::power_heuristic, Rng};
 use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 
@@ -33,8 +33,8 @@ pub fn estimate_direct(
     if f == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let o = offset_ray_origin(si.p, si.ng, ls.wi);
-    let mut shadow = Ray::new(o, ls.wi);
+    let mut shadow = si.spawn(ls.wi);
+    let o = shadow.o;
     shadow.tmax = (ls.dist - (o - si.p).length()) * (1.0 - 1e-4);
     c.rays += 1;
     if tracer.occluded(&shadow) {

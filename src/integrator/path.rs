@@ -4,7 +4,7 @@ use super::direct::estimate_direct;
 use super::Counters;
 use crate::accel::Tracer;
 use crate::color::Rgb;
-use crate::math::{max_component, offset_ray_origin, sampling::power_heuristic, Ray, Rng};
+use crate::math::{max_component, sampling::power_heuristic, Ray, Rng};
 use crate::scene::Scene;
 
 pub struct PathTracer<'a> {
@@ -60,7 +60,7 @@ impl PathTracer<'_> {
             specular = bs.delta;
             prev_pdf = bs.pdf;
             prev_p = si.p;
-            ray = Ray::new(offset_ray_origin(si.p, si.ng, bs.wi), bs.wi);
+            ray = si.spawn(bs.wi);
             if depth + 1 >= self.rr_depth {
                 let q = max_component(beta).min(0.95);
                 if q <= 0.0 || rng.next_f32() >= q {

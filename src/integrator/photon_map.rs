@@ -7,7 +7,7 @@ use super::Counters;
 use crate::accel::Tracer;
 use crate::color::{luminance, Rgb};
 use crate::film::Image;
-use crate::math::{offset_ray_origin, sampling, Frame, Ray, Rng};
+use crate::math::{sampling, Frame, Ray, Rng};
 use crate::photon::estimate::{Gather, PhotonMap};
 use crate::photon::kdtree::KnnResult;
 use crate::photon::trace::{run_pass, PassSettings, PassStats, Targets, CAUSTIC, DIRECT, INDIRECT, MAP_NAMES};
@@ -174,7 +174,7 @@ impl<'a> PhotonMapper<'a> {
         let mut sum = Rgb::ZERO;
         for _ in 0..n {
             let wi = frame.to_world(sampling::cosine_hemisphere(rng.next_2d()));
-            let ray = Ray::new(offset_ray_origin(si.p, si.ng, wi), wi);
+            let ray = si.spawn(wi);
             // Emission seen by gather rays is direct light or a caustic, already counted: skip it.
             sum += self.follow(ray, Rgb::ONE, rng, c, false, 0);
         }
@@ -212,7 +212,7 @@ impl<'a> PhotonMapper<'a> {
             if beta == Rgb::ZERO {
                 break;
             }
-            ray = Ray::new(offset_ray_origin(si.p, si.ng, bs.wi), bs.wi);
+            ray = si.spawn(bs.wi);
         }
         l
     }

@@ -50,10 +50,12 @@ impl Frame {
 
 /// Moves `p` off the surface along the geometric normal `ng` by an error-bounded amount, on the side of
 /// `w` (Wächter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems 6):
-/// a fixed number of float ULPs far from the origin, a fixed absolute epsilon near it. Works at any scale.
-pub fn offset_ray_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
+/// a fixed number of float ULPs far from the origin, an absolute epsilon near it. The paper's constants
+/// are for scenes of unit size; `scale` (the scene's size) scales the near-origin ones, so a scene
+/// shrunk to 1e-4 or grown to 1e4 behaves like the unit one.
+pub fn offset_ray_origin(p: Vec3, ng: Vec3, w: Vec3, scale: f32) -> Vec3 {
+    let origin = scale / 32.0;
+    let float_scale = scale / 65536.0;
     const INT_SCALE: f32 = 256.0;
     let n = if ng.dot(w) < 0.0 { -ng } else { ng };
     let of_i = [(INT_SCALE * n.x) as i32, (INT_SCALE * n.y) as i32, (INT_SCALE * n.z) as i32];
@@ -64,7 +66,7 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
         let bits = pa[k].to_bits() as i32;
         let delta = if pa[k] < 0.0 { -of_i[k] } else { of_i[k] };
         let p_i = f32::from_bits(bits.wrapping_add(delta) as u32);
-        out[k] = if pa[k].abs() < ORIGIN { pa[k] + FLOAT_SCALE * na[k] } else { p_i };
+        out[k] = if pa[k].abs() < origin { pa[k] + float_scale * na[k] } else { p_i };
     }
     Vec3::from_array(out)
 }
@@ -101,8 +103,8 @@ mod tests {
         let n = Vec3::new(0.3, 0.9, -0.2).normalize();
         for scale in [1e-4f32, 1.0, 1e4, 1e5] {
             let p = Vec3::new(0.7, -1.3, 2.1) * scale;
-            let up = offset_ray_origin(p, n, n);
-            let down = offset_ray_origin(p, n, -n);
+            let up = offset_ray_origin(p, n, n, scale);
+            let down = offset_ray_origin(p, n, -n, scale);
             assert!((up - p).dot(n) > 0.0, "scale {scale}");
             assert!((down - p).dot(n) < 0.0, "scale {scale}");
             assert!((up - p).length() < 1e-3 * scale.max(1.0));

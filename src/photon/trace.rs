@@ -177,7 +177,7 @@ fn trace_one(
                 return;
             }
             diffuse_bounces += 1;
-            ray = Ray::new(offset_ray_origin(si.p, si.ng, wi), wi);
+            ray = si.spawn(wi);
         } else {
             let u = rng.next_2d();
             let Some(bs) = mat.sample(wo, si.ns, u, rng.next_f32(), false) else {
@@ -191,7 +191,7 @@ fn trace_one(
                 return;
             }
             specular_bounces += 1;
-            ray = Ray::new(offset_ray_origin(si.p, si.ng, bs.wi), bs.wi);
+            ray = si.spawn(bs.wi);
         }
     }
 }
@@ -225,7 +225,7 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     }
     let cos_y = ny.dot(w).abs();
     let phi = lp.le * (cos_x * cos_y / dist2 * targets.total_area / (lp.pdf_area * p_sel));
-    let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w) };
+    let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w, scene.scale) };
     let travelled = (o - lp.p).length();
     Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)) })
 }

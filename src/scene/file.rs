@@ -104,9 +104,16 @@ pub enum MaterialSpec {
     /// Smooth glass or water: exact Fresnel, refraction and total internal reflection.
     Dielectric {
         ior: f32,
+        /// Index of the medium around the object (1 = air; 1.33 for glass under water).
+        #[serde(default = "one")]
+        outside_ior: f32,
         #[serde(default = "one3")]
         tint: V3,
     },
+}
+
+fn one() -> f32 {
+    1.0
 }
 
 fn one3() -> V3 {

@@ -225,7 +225,7 @@ impl Lights {
         } else {
             (lp.n, Frame::from_normal(lp.n).to_world(sampling::cosine_hemisphere(u_dir)))
         };
-        let o = crate::math::offset_ray_origin(lp.p, n, d);
+        let o = crate::math::offset_ray_origin(lp.p, n, d, scene.scale);
         Some(EmittedRay { ray: Ray::new(o, d), normal: n, phi })
     }
 }

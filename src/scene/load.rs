@@ -163,6 +163,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         render: file.render,
         bounds,
         load_seconds: 0.0,
+        scale: ((bounds.1 - bounds.0).length() / 4.0).max(f32::MIN_POSITIVE),
     };
     scene.lights = Lights::build(&scene, &points);
     if scene.lights.is_empty() {
@@ -249,11 +250,14 @@ fn build_material(cx: &Ctx, key: &str, spec: &MaterialSpec) -> Result<Material, 
             };
             Material::Conductor { f0, alpha: rough(*roughness)?, schlick: true }
         }
-        MaterialSpec::Dielectric { ior, tint } => {
-            if !(*ior >= 1.0 / 4.0 && *ior <= 4.0) {
-                return Err(cx.err(&format!("{key}.ior"), format!("must be in [0.25, 4], got {ior}")));
+        MaterialSpec::Dielectric { ior, outside_ior, tint } => {
+            for (k, v) in [("ior", ior), ("outside_ior", outside_ior)] {
+                if !(*v >= 1.0 / 4.0 && *v <= 4.0) {
+                    return Err(cx.err(&format!("{key}.{k}"), format!("must be in [0.25, 4], got {v}")));
+                }
             }
-            Material::Dielectric { ior: *ior, tint: cx.colour(&format!("{key}.tint"), *tint, Some(1.0))? }
+            // Only the ratio matters at an interface: glass (1.5) in water (1.33) bends light by 1.5/1.33.
+            Material::Dielectric { ior: ior / outside_ior, tint: cx.colour(&format!("{key}.tint"), *tint, Some(1.0))? }
         }
     })
 }

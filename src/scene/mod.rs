@@ -75,6 +75,8 @@ pub struct Scene {
     pub bounds: (Vec3, Vec3),
     /// Seconds spent reading files and building meshes.
     pub load_seconds: f64,
+    /// Size of the scene (a quarter of its bounding-box diagonal) for scale-aware ray offsets.
+    pub scale: f32,
 }
 
 /// A ray's hit turned into surface data.
@@ -87,6 +89,15 @@ pub struct SurfaceHit {
     pub ns: Vec3,
     pub shape: u32,
     pub prim: u32,
+    /// The scene's size, for ray offsets.
+    pub scale: f32,
+}
+
+impl SurfaceHit {
+    /// A ray leaving the surface in direction `w`, its origin moved off the surface robustly.
+    pub fn spawn(&self, w: Vec3) -> crate::math::Ray {
+        crate::math::Ray::new(crate::math::offset_ray_origin(self.p, self.ng, w, self.scale), w)
+    }
 }
 
 impl Scene {
@@ -131,13 +142,13 @@ impl Scene {
                     }
                     None => ng,
                 };
-                SurfaceHit { p, ng, ns, shape, prim }
+                SurfaceHit { p, ng, ns, shape, prim, scale: self.scale }
             }
             Geometry::Sphere { center, radius } => {
                 let p = ray.at(t);
                 let n = (p - *center).normalize();
                 let p = *center + n * *radius;
-                SurfaceHit { p, ng: n, ns: n, shape, prim }
+                SurfaceHit { p, ng: n, ns: n, shape, prim, scale: self.scale }
             }
         }
     }
