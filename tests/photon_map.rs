@@ -73,7 +73,8 @@ fn no_light_leaks_through_a_thin_wall() {
         }
     }
     assert_eq!(dark, 0, "{dark} points on the dark face received light");
-    assert!(bright > 3 * 400, "only {bright} points on the lit face are lit");
+    // Direct and indirect light reach the whole lit face; the mirror ball's caustic only part of it.
+    assert!(bright > 2 * 441, "only {bright} of 3 × 441 points on the lit face are lit");
 }
 
 /// Caustic irradiance (up to a constant) on the sphere's axis, on a floor at `depth` below the centre.

@@ -47,7 +47,6 @@ fn transformed(mut scene: Scene, s: f32, t: Vec3) -> Scene {
         .collect();
     scene.camera.origin = scene.camera.origin * s + t;
     scene.bounds = (scene.bounds.0 * s + t, scene.bounds.1 * s + t);
-    scene.scale *= s;
     scene.lights = Lights::build(&scene, &points);
     scene
 }
@@ -72,7 +71,6 @@ fn clone_scene(s: &Scene) -> Scene {
         render: s.render.clone(),
         bounds: s.bounds,
         load_seconds: 0.0,
-        scale: s.scale,
     }
 }
 
@@ -93,8 +91,14 @@ fn self_hit_rate(scene: &Scene, accel: &Accel, shape: usize) -> f64 {
         }
         let side = if i % 2 == 0 { ng } else { -ng };
         let w = Frame::from_normal(side).to_world(sampling::cosine_hemisphere(rng.next_2d()));
-        let si =
-            caustica::scene::SurfaceHit { p, ng, ns: ng, shape: shape as u32, prim: prim as u32, scale: scene.scale };
+        let si = caustica::scene::SurfaceHit {
+            p,
+            ng,
+            ns: ng,
+            shape: shape as u32,
+            prim: prim as u32,
+            scale: (b - a).length().max((c - a).length()),
+        };
         if let Some(h) = accel.intersect(&si.spawn(w)) {
             bad += (h.shape == shape as u32 && h.prim == prim as u32) as usize;
         }

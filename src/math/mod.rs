@@ -51,8 +51,8 @@ impl Frame {
 /// Moves `p` off the surface along the geometric normal `ng` by an error-bounded amount, on the side of
 /// `w` (Wächter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems 6):
 /// a fixed number of float ULPs far from the origin, an absolute epsilon near it. The paper's constants
-/// are for scenes of unit size; `scale` (the scene's size) scales the near-origin ones, so a scene
-/// shrunk to 1e-4 or grown to 1e4 behaves like the unit one.
+/// are for primitives of unit size; `scale` (the size of the primitive the point lies on) scales the
+/// near-origin ones, so geometry shrunk to 1e-4 or grown to 1e4 behaves like the unit one.
 pub fn offset_ray_origin(p: Vec3, ng: Vec3, w: Vec3, scale: f32) -> Vec3 {
     let origin = scale / 32.0;
     let float_scale = scale / 65536.0;

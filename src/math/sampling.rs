@@ -46,7 +46,10 @@ pub fn uniform_triangle(u: [f32; 2]) -> [f32; 2] {
 pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     let a = pdf_a * pdf_a;
     let b = pdf_b * pdf_b;
-    if a + b == 0.0 {
+    if a.is_infinite() {
+        return if b.is_infinite() { 0.5 } else { 1.0 };
+    }
+    if a + b == 0.0 || b.is_infinite() {
         0.0
     } else {
         a / (a + b)

@@ -225,7 +225,7 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     }
     let cos_y = ny.dot(w).abs();
     let phi = lp.le * (cos_x * cos_y / dist2 * targets.total_area / (lp.pdf_area * p_sel));
-    let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w, scene.scale) };
+    let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w, lp.size) };
     let travelled = (o - lp.p).length();
     Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)) })
 }

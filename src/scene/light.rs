@@ -141,12 +141,14 @@ impl Lights {
                     return None;
                 }
                 let dc = dc2.sqrt();
-                let sin2 = radius * radius / dc2;
-                let cos_max = (1.0 - sin2).max(0.0).sqrt();
+                let (cos_max, one_minus) = cone_of(radius, dc2);
+                if one_minus <= 0.0 {
+                    return None;
+                }
                 let f = Frame::from_normal(d / dc);
                 let wi = f.to_world(sampling::uniform_cone(u, cos_max));
                 let dist = sphere_hit(x, wi, center, radius).unwrap_or(dc - radius);
-                let pdf = p_sel / (2.0 * PI * (1.0 - cos_max));
+                let pdf = p_sel / (2.0 * PI * one_minus);
                 Some(LightSample { wi, dist, li: s.emission, pdf, delta: false })
             }
         }
@@ -174,8 +176,11 @@ impl Lights {
                 if dc2 <= radius * radius * 1.0001 {
                     return 0.0;
                 }
-                let cos_max = (1.0 - radius * radius / dc2).max(0.0).sqrt();
-                self.choice_pdf(off as usize) / (2.0 * PI * (1.0 - cos_max))
+                let (_, one_minus) = cone_of(*radius, dc2);
+                if one_minus <= 0.0 {
+                    return 0.0;
+                }
+                self.choice_pdf(off as usize) / (2.0 * PI * one_minus)
             }
         }
     }
@@ -185,7 +190,7 @@ impl Lights {
     pub fn sample_point(&self, scene: &Scene, i: usize, u: [f32; 2]) -> Option<LightPoint> {
         Some(match &self.list[i] {
             LightKind::Point { position, intensity } => {
-                LightPoint { p: *position, n: Vec3::ZERO, pdf_area: 1.0, le: *intensity }
+                LightPoint { p: *position, n: Vec3::ZERO, size: 0.0, pdf_area: 1.0, le: *intensity }
             }
             LightKind::Triangle { shape, prim } => {
                 let s = &scene.shapes[*shape as usize];
@@ -197,7 +202,8 @@ impl Lights {
                 let n = (b - a).cross(c - a);
                 let area = 0.5 * n.length();
                 let p = a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1];
-                LightPoint { p, n: n.normalize(), pdf_area: 1.0 / area, le: s.emission }
+                let size = (b - a).length().max((c - a).length()).max((c - b).length());
+                LightPoint { p, n: n.normalize(), size, pdf_area: 1.0 / area, le: s.emission }
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];
@@ -205,7 +211,13 @@ impl Lights {
                     return None;
                 };
                 let n = sampling::uniform_sphere(u);
-                LightPoint { p: center + n * radius, n, pdf_area: 1.0 / (4.0 * PI * radius * radius), le: s.emission }
+                LightPoint {
+                    p: center + n * radius,
+                    n,
+                    size: radius,
+                    pdf_area: 1.0 / (4.0 * PI * radius * radius),
+                    le: s.emission,
+                }
             }
         })
     }
@@ -225,7 +237,7 @@ impl Lights {
         } else {
             (lp.n, Frame::from_normal(lp.n).to_world(sampling::cosine_hemisphere(u_dir)))
         };
-        let o = crate::math::offset_ray_origin(lp.p, n, d, scene.scale);
+        let o = crate::math::offset_ray_origin(lp.p, n, d, lp.size);
         Some(EmittedRay { ray: Ray::new(o, d), normal: n, phi })
     }
 }
@@ -235,8 +247,18 @@ impl Lights {
 pub struct LightPoint {
     pub p: Vec3,
     pub n: Vec3,
+    /// Size of the emitting primitive (0 for point lights), for ray offsets.
+    pub size: f32,
     pub pdf_area: f32,
     pub le: Rgb,
+}
+
+/// The cone a sphere of `radius` subtends from distance² `dc2`: (cos θmax, 1 − cos θmax), the latter
+/// computed as s²/(1 + √(1 − s²)) so a far, small sphere keeps a positive solid angle.
+fn cone_of(radius: f32, dc2: f32) -> (f32, f32) {
+    let s2 = (radius * radius / dc2).min(1.0);
+    let c = (1.0 - s2).max(0.0).sqrt();
+    (c, s2 / (1.0 + c))
 }
 
 /// Nearest positive distance along the unit direction `d` from `o` to a sphere, if any.

@@ -163,7 +163,6 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         render: file.render,
         bounds,
         load_seconds: 0.0,
-        scale: ((bounds.1 - bounds.0).length() / 4.0).max(f32::MIN_POSITIVE),
     };
     scene.lights = Lights::build(&scene, &points);
     if scene.lights.is_empty() {
@@ -205,6 +204,23 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
     }
     if r.pm_spp == 0 {
         return Err(cx.err("render.pm_spp", "must be ≥ 1"));
+    }
+    for (key, v, max) in [
+        ("render.final_gather", r.final_gather, 4096),
+        ("render.specular_spp", r.specular_spp, 4096),
+        ("render.gather.direct", r.gather.direct, 100_000),
+        ("render.gather.indirect", r.gather.indirect, 100_000),
+        ("render.gather.caustic", r.gather.caustic, 100_000),
+    ] {
+        if v > max {
+            return Err(cx.err(key, format!("{v} is more than the {max} this setting accepts")));
+        }
+    }
+    if !(r.gather.cone_k.is_finite() && r.gather.cone_k >= 0.0) {
+        return Err(cx.err("render.gather.cone_k", "must be ≥ 0 (values below 1 disable the cone filter)"));
+    }
+    if !r.exposure.is_finite() || r.exposure.abs() > 64.0 {
+        return Err(cx.err("render.exposure", "must be within ±64 stops"));
     }
     let total = r.photons.direct + r.photons.indirect + r.photons.caustic;
     // 20 bytes per stored photon plus about as much again while tracing and building.
@@ -403,6 +419,9 @@ fn build_shape(
             if *segments < 3 || *segments > 1 << 16 {
                 return Err(cx.err(&format!("{key}.segments"), "must be in [3, 65536]"));
             }
+            if profile.len() as u64 * *segments as u64 > 1 << 24 {
+                return Err(cx.err(&format!("{key}.profile"), "profile points × segments exceeds 16M vertices"));
+            }
             let mut m = mesh::lathe(profile, *segments);
             if m.indices.is_empty() {
                 return Err(cx.err(&format!("{key}.profile"), "the profile sweeps no area"));
@@ -416,8 +435,8 @@ fn build_shape(
             if size[0] <= 0.0 || size[1] <= 0.0 {
                 return Err(cx.err(&format!("{key}.size"), "both sides must be > 0"));
             }
-            if resolution[0] == 0 || resolution[1] == 0 || resolution[0] as u64 * resolution[1] as u64 > 1 << 24 {
-                return Err(cx.err(&format!("{key}.resolution"), "must be ≥ 1 and at most 16M cells"));
+            if resolution[0] == 0 || resolution[1] == 0 || resolution[0] as u64 * resolution[1] as u64 > 1 << 22 {
+                return Err(cx.err(&format!("{key}.resolution"), "must be ≥ 1 and at most 4M cells"));
             }
             if let Some(w) = waves.iter().find(|w| w.wavelength <= 0.0) {
                 return Err(cx.err(&format!("{key}.waves"), format!("wavelength {} must be > 0", w.wavelength)));

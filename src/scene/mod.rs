@@ -75,8 +75,6 @@ pub struct Scene {
     pub bounds: (Vec3, Vec3),
     /// Seconds spent reading files and building meshes.
     pub load_seconds: f64,
-    /// Size of the scene (a quarter of its bounding-box diagonal) for scale-aware ray offsets.
-    pub scale: f32,
 }
 
 /// A ray's hit turned into surface data.
@@ -89,7 +87,7 @@ pub struct SurfaceHit {
     pub ns: Vec3,
     pub shape: u32,
     pub prim: u32,
-    /// The scene's size, for ray offsets.
+    /// Size of the primitive hit (longest triangle edge, sphere radius), for ray offsets.
     pub scale: f32,
 }
 
@@ -142,13 +140,14 @@ impl Scene {
                     }
                     None => ng,
                 };
-                SurfaceHit { p, ng, ns, shape, prim, scale: self.scale }
+                let scale = (b - a).length().max((c - a).length()).max((c - b).length());
+                SurfaceHit { p, ng, ns, shape, prim, scale }
             }
             Geometry::Sphere { center, radius } => {
                 let p = ray.at(t);
                 let n = (p - *center).normalize();
                 let p = *center + n * *radius;
-                SurfaceHit { p, ng: n, ns: n, shape, prim, scale: self.scale }
+                SurfaceHit { p, ng: n, ns: n, shape, prim, scale: *radius }
             }
         }
     }

@@ -127,7 +127,8 @@ impl<T> KdTree<T> {
         if k == 0 {
             return 0.0;
         }
-        let cap = 2 * k.max(super::BUCKET);
+        // Never more slots than points: k beyond the tree's size only means "all within the radius".
+        let cap = 2 * k.min(self.len()).max(super::BUCKET);
         // Slots are written unconditionally and kept by advancing `len` (branch-free compaction).
         res.heap.resize(cap + super::BUCKET, (0.0, 0));
         let mut len = 0usize;
