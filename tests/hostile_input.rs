@@ -29,7 +29,7 @@ enum Mutation {
     DropLine(usize),
     DoubleLine(usize),
     DeepNesting(usize),
-    SetKey(usize, String),
+    SetKey(String),
 }
 
 fn mutation() -> impl Strategy<Value = Mutation> {
@@ -67,7 +67,7 @@ fn mutation() -> impl Strategy<Value = Mutation> {
         any::<usize>().prop_map(Mutation::DropLine),
         any::<usize>().prop_map(Mutation::DoubleLine),
         (1usize..3000).prop_map(Mutation::DeepNesting),
-        (any::<usize>(), keys).prop_map(|(i, k)| Mutation::SetKey(i, k)),
+        keys.prop_map(Mutation::SetKey),
     ]
 }
 
@@ -114,7 +114,7 @@ fn apply(text: &str, m: &Mutation) -> Vec<u8> {
             v.join("\n").into_bytes()
         }
         Mutation::DeepNesting(d) => format!("deep = {}1{}\n{text}", "[".repeat(*d), "]".repeat(*d)).into_bytes(),
-        Mutation::SetKey(_, kv) => {
+        Mutation::SetKey(kv) => {
             // Overrides an existing table's key by appending a dotted key at the top level.
             format!("{kv}\n{text}").into_bytes()
         }
