@@ -23,6 +23,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Info(a) => cmd_info(a),
         Command::Bench(BenchCommand::Rays { scene, rounds }) => crate::bench::rays(&scene, rounds),
         Command::Bench(BenchCommand::Photons { scene, photons }) => crate::bench::photons(&scene, photons),
+        Command::Bench(BenchCommand::Plan { scene }) => crate::bench::plan(&scene),
         Command::KnnCheck(a) => crate::bench::knn_check(&a),
         Command::Compare { a, b, reference, out, exposure } => {
             crate::tools::compare_cmd(&a, &b, reference.as_deref(), &out, exposure)
@@ -303,6 +304,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     let t0 = Instant::now();
     let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
     let bvh_s = t0.elapsed().as_secs_f64();
+    let plan = plan_for(&scene, &accel);
     drop(accel);
     let tris = scene.triangle_count();
     let spheres = scene.shapes.iter().filter(|s| matches!(s.geometry, Geometry::Sphere { .. })).count();
@@ -340,5 +342,16 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         tris as f64 * 64.0 / 1048576.0
     );
     println!("times       load {:.3} s, BVH build {:.3} s", scene.load_seconds, bvh_s);
+    println!(
+        "plan        photons: direct {}, indirect {}, caustic {}; caustic targets {:?}; extra eye samples {}",
+        plan.photons[0],
+        plan.photons[1],
+        plan.photons[2],
+        plan.caustic_targets.iter().map(|&i| scene.shapes[i as usize].name.as_str()).collect::<Vec<_>>(),
+        plan.specular_spp
+    );
+    for r in &plan.reasons {
+        println!("  - {r}");
+    }
     Ok(())
 }

@@ -71,6 +71,35 @@ pub fn rays(path: &Path, rounds: u32) -> Result<()> {
     Ok(())
 }
 
+/// The planner's savings: photon mapping as planned vs with every pass forced on, same seed.
+pub fn plan(path: &Path) -> Result<()> {
+    let mut out = Vec::new();
+    for forced in [false, true] {
+        let sets = [format!("render.force_all_passes={forced}")];
+        let scene = crate::scene::load_scene_with(path, &sets)?;
+        let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
+        let t = Instant::now();
+        let r = crate::app::render_pm_default(&scene, &accel, true)?;
+        out.push((t.elapsed().as_secs_f64(), r.image));
+    }
+    let plan = {
+        let scene = load_scene(path)?;
+        let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
+        crate::app::plan_for(&scene, &accel)
+    };
+    let e = crate::metrics::compare(&out[0].1, &out[1].1).ok_or_else(|| anyhow::anyhow!("image sizes differ"))?;
+    println!("scene {}: plan {:?}", path.display(), plan.reasons);
+    println!("planned      {:8.3} s", out[0].0);
+    println!("all forced   {:8.3} s  (baseline)", out[1].0);
+    println!(
+        "time ratio planned/forced {:.3}; images differ by RMSE {:.2e} (mean ratio {:.5})",
+        out[0].0 / out[1].0,
+        e.rmse,
+        e.mean_ratio
+    );
+    Ok(())
+}
+
 /// Wraps a tracer and keeps every ray it is asked to intersect (to replay them through bare Embree).
 struct Recorder<'a> {
     inner: &'a Accel,

@@ -124,6 +124,9 @@ pub enum BenchCommand {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Photon mapping with the planner's choices vs with every pass forced on: time ratio and the
+    /// difference between the two images.
+    Plan { scene: PathBuf },
     /// Photon tracing (segments/s, 1 thread) vs a bare rtcIntersect1 loop over the same rays.
     Photons {
         scene: PathBuf,
