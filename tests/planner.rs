@@ -55,13 +55,11 @@ fn glass_box_targets_both_balls_and_samples_them_more() {
 #[test]
 fn a_mirror_no_light_can_reach_is_not_a_target_and_one_plane_has_no_indirect_map() {
     // A mirror ball shut in a box with no light inside; the light is outside above a single plane.
-    let text = concat!(
-        "[camera]\norigin = [0.0, 3.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\
+    let text = "[camera]\norigin = [0.0, 3.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\
          [materials]\nwhite = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\nchrome = { type = \"mirror\" }\n\
          [[shapes]]\ntype = \"sphere\"\ncenter = [-2.5, 0.5, 0.0]\nradius = 0.2\nmaterial = \"chrome\"\n\
          [[shapes]]\ntype = \"box\"\nmin = [-3.0, 0.0, -0.5]\nmax = [-2.0, 1.0, 0.5]\nmaterial = \"chrome\"\n\
-         [[lights]]\ntype = \"point\"\nposition = [1.0, 2.0, 0.0]\npower = [10.0, 10.0, 10.0]\n"
-    );
+         [[lights]]\ntype = \"point\"\nposition = [1.0, 2.0, 0.0]\npower = [10.0, 10.0, 10.0]\n";
     // The box itself is specular and lit; the ball inside it is not reachable.
     let s = common::scene(text);
     let a = Accel::new(&s).unwrap();
