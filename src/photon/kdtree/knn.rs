@@ -86,9 +86,17 @@ impl<T> KdTree<T> {
                 };
                 let far_d2 = e.d2 - e.off[axis] * e.off[axis] + diff * diff;
                 if far_d2 <= bound {
-                    if e.depth + 1 == self.depth {
-                        // The far child is a bucket we will likely scan soon: start its cache miss now.
-                        std::hint::black_box(self.pos[far.1 as usize][0]);
+                    if e.depth + 3 >= self.depth {
+                        // The far child's buckets (one to four) will likely be scanned soon: start their
+                        // cache misses now, while the near side is being searched.
+                        let levels = self.depth - e.depth - 1;
+                        let (lo, hi) = (far.1, far.2);
+                        let step = ((hi - lo) >> levels).max(1);
+                        let mut i = lo;
+                        while i < hi {
+                            std::hint::black_box(self.pos[i as usize][0]);
+                            i += step;
+                        }
                     }
                     let mut off = e.off;
                     off[axis] = diff;
