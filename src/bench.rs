@@ -162,13 +162,25 @@ pub fn photons(path: &Path, photons: u64) -> Result<()> {
     Ok(())
 }
 
+/// kiddo's k nearest, capped by a squared radius when it is finite.
+#[cfg(feature = "oracle")]
+macro_rules! kiddo_knn {
+    ($tree:expr, $q:expr, $k:expr, $r2:expr) => {
+        if $r2.is_finite() {
+            $tree.query($q).nearest_n::<kiddo::SquaredEuclidean<f32>>($k).within($r2).execute()
+        } else {
+            $tree.query($q).nearest_n::<kiddo::SquaredEuclidean<f32>>($k).execute()
+        }
+    };
+}
+
 /// Builds our tree and kiddo's on the same photons, checks that every query's sorted squared distances
 /// agree, and prints the build and query speed ratios (single-threaded queries).
 #[cfg(feature = "oracle")]
 pub fn knn_check(a: &KnnArgs) -> Result<()> {
     use crate::photon::distributions::{points, queries, Distribution};
     use crate::photon::kdtree::{KdTree, KnnResult};
-    use kiddo::{ImmutableKdTree, SquaredEuclidean};
+    use kiddo::ImmutableKdTree;
     use std::num::NonZeroUsize;
     let dist: Distribution = a.distribution.parse().map_err(anyhow::Error::msg)?;
     let k = NonZeroUsize::new(a.k).ok_or_else(|| anyhow::anyhow!("--k must be ≥ 1"))?;
@@ -190,11 +202,7 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
             let build = t.elapsed().as_secs_f64();
             let t = Instant::now();
             for q in &qs {
-                let found = if r2.is_finite() {
-                    m.query(q).nearest_n::<SquaredEuclidean<f32>>(k).within(r2).execute()
-                } else {
-                    m.query(q).nearest_n::<SquaredEuclidean<f32>>(k).execute()
-                };
+                let found = kiddo_knn!(m, q, k, r2);
                 std::hint::black_box(found);
             }
             Ok((build, t.elapsed().as_secs_f64()))
@@ -211,21 +219,13 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     let our_q = t.elapsed().as_secs_f64();
     let t = Instant::now();
     for q in &qs {
-        let found = if r2.is_finite() {
-            theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(k).within(r2).execute()
-        } else {
-            theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(k).execute()
-        };
+        let found = kiddo_knn!(theirs, q, k, r2);
         sum_theirs += found.len() as f64;
     }
     let their_q = t.elapsed().as_secs_f64();
     for q in qs.iter().take(20_000) {
         ours.knn(*q, a.k, r2, &mut res);
-        let found = if r2.is_finite() {
-            theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(k).within(r2).execute()
-        } else {
-            theirs.query(q).nearest_n::<SquaredEuclidean<f32>>(k).execute()
-        };
+        let found = kiddo_knn!(theirs, q, k, r2);
         let mut d: Vec<f32> = found.iter().map(|r| r.distance).collect();
         d.sort_by(f32::total_cmp);
         if d != res.sorted_d2() {

@@ -60,6 +60,8 @@ pub fn write_png_rgb8(path: &Path, width: u32, height: u32, data: &[u8]) -> Resu
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        enc.set_compression(png::Compression::Best);
+        enc.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
         let mut w = enc.write_header()?;
         w.write_image_data(data)?;
         w.finish()?;

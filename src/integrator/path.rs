@@ -46,21 +46,14 @@ impl PathTracer<'_> {
             if !mat.is_delta() {
                 l += beta * estimate_direct(scene, self.tracer, &si, wo, rng, c, true);
             }
-            let u = rng.next_2d();
-            let uc = rng.next_f32();
-            let Some(bs) = mat.sample(wo, si.ns, u, uc, true) else {
+            let Some((bs, next)) = si.scatter(mat, wo, rng, true) else {
                 break;
             };
-            // Reject samples the geometric normal says went the wrong way (shading-normal artefacts).
-            let same_side = bs.wi.dot(si.ng) * wo.dot(si.ng) > 0.0;
-            if same_side == bs.transmitted {
-                break;
-            }
             beta *= bs.weight;
             specular = bs.delta;
             prev_pdf = bs.pdf;
             prev_p = si.p;
-            ray = si.spawn(bs.wi);
+            ray = next;
             if depth + 1 >= self.rr_depth {
                 let q = max_component(beta).min(0.95);
                 if q <= 0.0 || rng.next_f32() >= q {

@@ -201,18 +201,14 @@ impl<'a> PhotonMapper<'a> {
                 l += beta * self.diffuse_radiance(&si, wo, rng, c, fg);
                 break;
             }
-            let u = rng.next_2d();
-            let Some(bs) = mat.sample(wo, si.ns, u, rng.next_f32(), true) else {
+            let Some((bs, next)) = si.scatter(mat, wo, rng, true) else {
                 break;
             };
-            if (bs.wi.dot(si.ng) * wo.dot(si.ng) > 0.0) == bs.transmitted {
-                break;
-            }
             beta *= bs.weight;
             if beta == Rgb::ZERO {
                 break;
             }
-            ray = si.spawn(bs.wi);
+            ray = next;
         }
         l
     }

@@ -179,19 +179,15 @@ fn trace_one(
             diffuse_bounces += 1;
             ray = si.spawn(wi);
         } else {
-            let u = rng.next_2d();
-            let Some(bs) = mat.sample(wo, si.ns, u, rng.next_f32(), false) else {
+            let Some((bs, next)) = si.scatter(mat, wo, rng, false) else {
                 return;
             };
-            if (bs.wi.dot(si.ng) * wo.dot(si.ng) > 0.0) == bs.transmitted {
-                return;
-            }
             phi *= bs.weight;
             if max_component(phi) <= 0.0 {
                 return;
             }
             specular_bounces += 1;
-            ray = si.spawn(bs.wi);
+            ray = next;
         }
     }
 }

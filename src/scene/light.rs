@@ -108,27 +108,18 @@ impl Lights {
                 let dist = dist2.sqrt();
                 Some(LightSample { wi: d / dist, dist, li: *intensity / dist2, pdf: p_sel, delta: true })
             }
-            LightKind::Triangle { shape, prim } => {
-                let s = &scene.shapes[*shape as usize];
-                let Geometry::Mesh(m) = &s.geometry else {
-                    return None;
-                };
-                let [a, b, c] = m.triangle(*prim as usize);
-                let bc = sampling::uniform_triangle(u);
-                let y = a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1];
-                let n = (b - a).cross(c - a);
-                let area = 0.5 * n.length();
-                let n = n.normalize();
-                let d = y - x;
+            LightKind::Triangle { .. } => {
+                let lp = self.sample_point(scene, i, u)?;
+                let d = lp.p - x;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
                 let wi = d / dist;
-                let cos_l = -wi.dot(n);
-                if cos_l <= 0.0 || area <= 0.0 {
+                let cos_l = -wi.dot(lp.n);
+                if cos_l <= 0.0 || !lp.pdf_area.is_finite() {
                     return None;
                 }
-                let pdf = p_sel * dist2 / (cos_l * area);
-                Some(LightSample { wi, dist, li: s.emission, pdf, delta: false })
+                let pdf = p_sel * lp.pdf_area * dist2 / cos_l;
+                Some(LightSample { wi, dist, li: lp.le, pdf, delta: false })
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];

@@ -96,6 +96,22 @@ impl SurfaceHit {
     pub fn spawn(&self, w: Vec3) -> crate::math::Ray {
         crate::math::Ray::new(crate::math::offset_ray_origin(self.p, self.ng, w, self.scale), w)
     }
+
+    /// Samples `mat` for light leaving towards `wo` and returns the sample with the ray it spawns;
+    /// None when sampling fails or the shading normal sent the direction to the wrong side of the
+    /// geometric surface (reflection below it, refraction that does not cross it).
+    pub fn scatter(
+        &self,
+        mat: &Material,
+        wo: Vec3,
+        rng: &mut crate::math::Rng,
+        radiance: bool,
+    ) -> Option<(material::BsdfSample, crate::math::Ray)> {
+        let u = rng.next_2d();
+        let bs = mat.sample(wo, self.ns, u, rng.next_f32(), radiance)?;
+        let same_side = bs.wi.dot(self.ng) * wo.dot(self.ng) > 0.0;
+        (same_side != bs.transmitted).then(|| (bs, self.spawn(bs.wi)))
+    }
 }
 
 impl Scene {
