@@ -84,11 +84,14 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         }
         rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot set up the thread pool")?;
     }
-    let scene = load_scene_with(&a.scene, &overrides(&a))?;
+    let mut scene = load_scene_with(&a.scene, &overrides(&a))?;
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from("out").join(a.scene.file_stem().unwrap_or_default()));
     let t0 = Instant::now();
     let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
     let bvh_s = t0.elapsed().as_secs_f64();
+    // Lights that reach nothing in view are left out of next-event estimation (unbiased: MIS follows).
+    let plan = plan_for(&scene, &accel);
+    scene.lights.restrict_nee(|i| plan.nee_lights[i]);
     if !a.quiet {
         eprintln!(
             "{}: {} shapes, {} triangles, loaded in {:.2} s, BVH in {:.2} s",
@@ -174,8 +177,8 @@ pub fn plan_for(scene: &Scene, tracer: &dyn Tracer) -> Plan {
         r.tmax = 1.0;
         !tracer.occluded(&r)
     };
-    let first = |r: Ray| tracer.intersect(&r).map(|h| h.shape);
-    crate::plan::plan(scene, &Probe { visible: &visible, first_shape: &first })
+    let first = |r: Ray| tracer.intersect(&r).map(|h| (h.shape, r.at(h.t)));
+    crate::plan::plan(scene, &Probe { visible: &visible, first_hit: &first })
 }
 
 /// Photon mapping with the scene's own settings and the planner's choices: maps, then the eye pass.

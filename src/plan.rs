@@ -15,6 +15,9 @@ pub struct Plan {
     pub caustic_targets: Vec<u32>,
     /// Extra eye samples for pixels whose first hit is specular (0 when the camera sees none).
     pub specular_spp: u32,
+    /// Per light (`Lights::list` index): sampled for direct light or left out, because nothing it can
+    /// reach directly is in view.
+    pub nee_lights: Vec<bool>,
     /// One line per decision.
     pub reasons: Vec<String>,
 }
@@ -23,8 +26,8 @@ pub struct Plan {
 pub struct Probe<'a> {
     /// Nothing blocks the open segment from a to b.
     pub visible: &'a dyn Fn(Vec3, Vec3) -> bool,
-    /// The shape a ray hits first.
-    pub first_shape: &'a dyn Fn(crate::math::Ray) -> Option<u32>,
+    /// The shape a ray hits first, and where.
+    pub first_hit: &'a dyn Fn(crate::math::Ray) -> Option<(u32, Vec3)>,
 }
 
 /// A point on shape `s` (uniform over its triangles by count, or over a sphere), and its normal.
@@ -118,20 +121,17 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
         0
     };
     let cam = &scene.camera;
-    let mut sees_specular = false;
     let (gx, gy) = (48u32, 48u32);
-    'grid: for j in 0..gy {
+    let mut seen: Vec<(u32, Vec3)> = Vec::new();
+    for j in 0..gy {
         for i in 0..gx {
             let ray = cam
                 .ray((i as f32 + 0.5) / gx as f32 * cam.width as f32, (j as f32 + 0.5) / gy as f32 * cam.height as f32);
-            if let Some(s) = (probe.first_shape)(ray) {
-                if !is_diffuse(s as usize) {
-                    sees_specular = true;
-                    break 'grid;
-                }
-            }
+            seen.extend((probe.first_hit)(ray));
         }
     }
+    let sees_specular = seen.iter().any(|&(s, _)| !is_diffuse(s as usize));
+    let nee_lights = lights_in_view(scene, probe, &seen, &mut reasons);
     let specular_spp = if r.force_all_passes || sees_specular {
         reasons.push(format!("{} extra eye samples where the first hit is specular", r.specular_spp));
         r.specular_spp
@@ -139,5 +139,49 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
         reasons.push("no extra eye samples: the camera sees no specular surface".into());
         0
     };
-    Plan { photons: [direct, indirect, caustic], caustic_targets: targets, specular_spp, reasons }
+    Plan { photons: [direct, indirect, caustic], caustic_targets: targets, specular_spp, nee_lights, reasons }
+}
+
+/// For each light, whether it directly reaches some diffuse point the camera sees (tried against the
+/// first hits of a 48×48 grid of camera rays, two light samples each). All triangles of an emissive
+/// shape share the answer.
+fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &mut Vec<String>) -> Vec<bool> {
+    let lights = &scene.lights;
+    let eps = 1e-4 * scene.diagonal().max(1e-6);
+    let targets: Vec<Vec3> = seen
+        .iter()
+        .filter(|(s, _)| scene.materials[scene.shapes[*s as usize].material as usize].is_diffuse())
+        .map(|&(_, p)| p)
+        .collect();
+    let mut keep = vec![true; lights.list.len()];
+    let mut i = 0;
+    while i < lights.list.len() {
+        // The group: one point light, or every triangle of one emissive shape.
+        let shape = lights.list[i].shape();
+        let mut end = i + 1;
+        while shape.is_some() && end < lights.list.len() && lights.list[end].shape() == shape {
+            end += 1;
+        }
+        let mut rng = Rng::new(0x11_6475, i as u64, 0);
+        let reaches = targets.iter().any(|&p| {
+            (0..2).any(|_| {
+                let li = i + (rng.next_u32() as usize) % (end - i);
+                let Some(lp) = lights.sample_point(scene, li, rng.next_2d()) else { return false };
+                let d = p - lp.p;
+                if d.length() <= 2.0 * eps || (lp.n != Vec3::ZERO && lp.n.dot(d) <= 0.0) {
+                    return false;
+                }
+                let dir = d.normalize();
+                (probe.visible)(lp.p + dir * eps, p - dir * eps)
+            })
+        });
+        if !reaches {
+            let name = shape.map_or_else(|| format!("point light {i}"), |s| scene.shapes[s as usize].name.clone());
+            reasons
+                .push(format!("{name}: reaches nothing the camera sees directly: left out of direct-light sampling"));
+            keep[i..end].iter_mut().for_each(|k| *k = false);
+        }
+        i = end;
+    }
+    keep
 }

@@ -75,3 +75,37 @@ fn a_mirror_no_light_can_reach_is_not_a_target_and_one_plane_has_no_indirect_map
     let plan = plan_for(&plane, &a);
     assert_eq!(plan.photons[1], 0, "{:?}", plan.reasons);
 }
+
+#[test]
+fn a_light_shut_in_a_box_is_left_out_of_direct_light_sampling_without_changing_the_image() {
+    // One light over the floor, an equally strong one sealed inside a box: NEE samples spent on the
+    // second are wasted. The plan leaves it out; the image keeps its mean and loses noise.
+    let text = "[camera]\norigin = [0.0, 2.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [24, 24]\n\
+        [materials]\nwhite = { type = \"diffuse\", reflectance = [0.6, 0.6, 0.6] }\n\
+        [[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 0.0, -2.0]\nedge_u = [0.0, 0.0, 4.0]\nedge_v = [4.0, 0.0, 0.0]\nmaterial = \"white\"\n\
+        [[shapes]]\ntype = \"box\"\nmin = [5.0, 0.0, -1.0]\nmax = [7.0, 2.0, 1.0]\nmaterial = \"white\"\n\
+        [[lights]]\ntype = \"quad\"\ncorner = [-0.5, 1.5, -0.5]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, 1.0]\npower = [10.0, 10.0, 10.0]\n\
+        [[lights]]\ntype = \"sphere\"\ncenter = [6.0, 1.0, 0.0]\nradius = 0.3\npower = [10.0, 10.0, 10.0]\n";
+    let mut s = common::scene(text);
+    let a = Accel::new(&s).unwrap();
+    let plan = plan_for(&s, &a);
+    let sphere =
+        s.lights.list.iter().position(|l| matches!(l, caustica::scene::light::LightKind::Sphere { .. })).unwrap();
+    assert!(!plan.nee_lights[sphere], "{:?}", plan.reasons);
+    assert!(plan.nee_lights.iter().enumerate().all(|(i, &k)| k || i == sphere));
+    assert!(plan.reasons.iter().any(|r| r.contains("lights[1]") && r.contains("left out")), "{:?}", plan.reasons);
+    let reference = caustica::app::render_path(&s, &a, 2048, true).image;
+    let full = caustica::app::render_path(&s, &a, 8, true).image;
+    s.lights.restrict_nee(|i| plan.nee_lights[i]);
+    let planned = caustica::app::render_path(&s, &a, 8, true).image;
+    let (ef, ep) = (
+        caustica::metrics::compare(&full, &reference).unwrap(),
+        caustica::metrics::compare(&planned, &reference).unwrap(),
+    );
+    eprintln!(
+        "RMSE at 8 spp: all lights sampled {:.5}, planned {:.5}; mean ratios {:.4} {:.4}",
+        ef.rmse, ep.rmse, ef.mean_ratio, ep.mean_ratio
+    );
+    assert!((ep.mean_ratio - 1.0).abs() < 0.02, "planned image mean {}", ep.mean_ratio);
+    assert!(ep.rmse < ef.rmse, "planned {} vs all lights {}", ep.rmse, ef.rmse);
+}

@@ -13,6 +13,16 @@ pub enum LightKind {
     Sphere { shape: u32 },
 }
 
+impl LightKind {
+    /// The emissive shape this light belongs to (None for point lights).
+    pub fn shape(&self) -> Option<u32> {
+        match self {
+            LightKind::Point { .. } => None,
+            LightKind::Triangle { shape, .. } | LightKind::Sphere { shape } => Some(*shape),
+        }
+    }
+}
+
 /// All lights with a power-proportional selection distribution.
 #[derive(Clone, Debug, Default)]
 pub struct Lights {
@@ -20,6 +30,9 @@ pub struct Lights {
     /// Emitted power (W per channel) of each light.
     pub power: Vec<Rgb>,
     pub cdf: Vec<f32>,
+    /// The distribution next-event estimation draws from: `cdf` with the planner's excluded lights at
+    /// zero (MIS weights follow it, so leaving a light out stays unbiased).
+    pub nee_cdf: Vec<f32>,
     /// For each shape, the index in `list` of its first emitter (triangle `prim` is at offset + prim).
     pub shape_offset: Vec<Option<u32>>,
 }
@@ -78,7 +91,26 @@ impl Lights {
                 acc
             })
             .collect();
+        l.nee_cdf = l.cdf.clone();
         l
+    }
+
+    /// Leaves the lights for which `keep(i)` is false out of next-event estimation.
+    pub fn restrict_nee(&mut self, keep: impl Fn(usize) -> bool) {
+        let mut acc = 0.0;
+        let mut prev = 0.0;
+        self.nee_cdf = self
+            .cdf
+            .iter()
+            .enumerate()
+            .map(|(i, &c)| {
+                if keep(i) {
+                    acc += c - prev;
+                }
+                prev = c;
+                acc
+            })
+            .collect();
     }
 
     pub fn is_empty(&self) -> bool {
@@ -89,18 +121,22 @@ impl Lights {
         self.power.iter().copied().sum()
     }
 
-    /// Probability of choosing light `i`.
+    /// Probability that next-event estimation chooses light `i`.
     pub fn choice_pdf(&self, i: usize) -> f32 {
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        (self.cdf[i] - lo) / self.cdf[self.cdf.len() - 1]
+        let total = self.nee_cdf[self.nee_cdf.len() - 1];
+        if total <= 0.0 {
+            return 0.0;
+        }
+        let lo = if i == 0 { 0.0 } else { self.nee_cdf[i - 1] };
+        (self.nee_cdf[i] - lo) / total
     }
 
     /// Samples a light point for next-event estimation at `x`.
     pub fn sample(&self, scene: &Scene, x: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
-        if self.is_empty() {
+        if self.nee_cdf.last().is_none_or(|&t| t <= 0.0) {
             return None;
         }
-        let (i, p_sel) = sampling::sample_cdf(&self.cdf, u_sel);
+        let (i, p_sel) = sampling::sample_cdf(&self.nee_cdf, u_sel);
         match &self.list[i] {
             LightKind::Point { position, intensity } => {
                 let d = *position - x;
