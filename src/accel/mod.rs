@@ -18,6 +18,21 @@ pub struct Hit {
     pub prim: u32,
 }
 
+/// A ray's closest hit turned into surface data, with the direction back along the ray.
+pub struct Interaction {
+    pub hit: Hit,
+    pub si: crate::scene::SurfaceHit,
+    /// Unit direction from the surface back towards the ray's origin.
+    pub wo: glam::Vec3,
+}
+
+/// Traces `ray` and describes what it hits (None: it leaves the scene).
+pub fn interact(scene: &crate::scene::Scene, tracer: &dyn Tracer, ray: &Ray) -> Option<Interaction> {
+    let hit = tracer.intersect(ray)?;
+    let si = scene.surface(ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
+    Some(Interaction { hit, si, wo: -ray.d.normalize() })
+}
+
 /// What the integrators need from a ray tracer.
 pub trait Tracer: Sync + Send {
     /// Closest hit with t in (ray.tmin, ray.tmax).

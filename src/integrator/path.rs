@@ -2,7 +2,7 @@
 //! point lights, delta BSDFs sampled exactly, Russian roulette after `rr_depth` bounces.
 use super::direct::estimate_direct;
 use super::Counters;
-use crate::accel::Tracer;
+use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
 use crate::math::{max_component, sampling::power_heuristic, Ray, Rng};
 use crate::scene::Scene;
@@ -25,19 +25,17 @@ impl PathTracer<'_> {
         let mut prev_p = ray.o;
         for depth in 0.. {
             c.rays += 1;
-            let Some(hit) = self.tracer.intersect(&ray) else {
+            let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
                 break;
             };
-            let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-            let wo = -ray.d.normalize();
-            let shape = &scene.shapes[hit.shape as usize];
-            if shape.emission != Rgb::ZERO && wo.dot(si.ng) > 0.0 {
+            let le = scene.emitted(&si, wo);
+            if le != Rgb::ZERO {
                 let w = if specular {
                     1.0
                 } else {
                     power_heuristic(prev_pdf, scene.lights.pdf(scene, hit.shape, hit.prim, prev_p, si.p, si.ng))
                 };
-                l += beta * shape.emission * w;
+                l += beta * le * w;
             }
             if depth >= self.max_depth {
                 break;

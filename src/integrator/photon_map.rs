@@ -4,7 +4,7 @@
 //! further) are added. Also the map views: photon splats and single-map estimates.
 use super::direct::estimate_direct;
 use super::Counters;
-use crate::accel::Tracer;
+use crate::accel::{interact, Interaction, Tracer};
 use crate::color::{luminance, Rgb};
 use crate::film::Image;
 use crate::math::{sampling, Frame, Ray, Rng};
@@ -187,14 +187,11 @@ impl<'a> PhotonMapper<'a> {
         let mut l = Rgb::ZERO;
         for _ in 0..=scene.render.max_depth {
             c.rays += 1;
-            let Some(hit) = self.tracer.intersect(&ray) else {
+            let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
                 break;
             };
-            let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-            let wo = -ray.d.normalize();
-            let shape = &scene.shapes[hit.shape as usize];
-            if emission && self.only.is_none() && shape.emission != Rgb::ZERO && wo.dot(si.ng) > 0.0 {
-                l += beta * shape.emission;
+            if emission && self.only.is_none() {
+                l += beta * scene.emitted(&si, wo);
             }
             let mat = scene.material_of(hit.shape);
             if mat.is_diffuse() {

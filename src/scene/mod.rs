@@ -119,6 +119,16 @@ impl Scene {
         &self.materials[self.shapes[shape as usize].material as usize]
     }
 
+    /// Radiance the surface at `si` emits towards `wo` (front side of triangles, outside of spheres).
+    pub fn emitted(&self, si: &SurfaceHit, wo: Vec3) -> crate::color::Rgb {
+        let e = self.shapes[si.shape as usize].emission;
+        if e != crate::color::Rgb::ZERO && wo.dot(si.ng) > 0.0 {
+            e
+        } else {
+            crate::color::Rgb::ZERO
+        }
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.shapes
             .iter()
