@@ -56,6 +56,48 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     }
 }
 
+/// Walker–Vose alias table: draws index i with probability w_i / Σw in O(1), one random access
+/// (a binary search over a CDF of a million triangles costs twenty cache misses).
+#[derive(Clone, Debug, Default)]
+pub struct AliasTable {
+    prob: Vec<f32>,
+    alias: Vec<u32>,
+}
+
+impl AliasTable {
+    pub fn new(weights: &[f32]) -> AliasTable {
+        let n = weights.len();
+        let sum: f64 = weights.iter().map(|&w| w.max(0.0) as f64).sum();
+        if n == 0 || sum <= 0.0 {
+            return AliasTable { prob: vec![1.0; n], alias: (0..n as u32).collect() };
+        }
+        let mut scaled: Vec<f64> = weights.iter().map(|&w| w.max(0.0) as f64 * n as f64 / sum).collect();
+        let mut prob = vec![1.0f32; n];
+        let mut alias: Vec<u32> = (0..n as u32).collect();
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+        while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+            prob[s] = scaled[s] as f32;
+            alias[s] = l as u32;
+            scaled[l] -= 1.0 - scaled[s];
+            if scaled[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        AliasTable { prob, alias }
+    }
+
+    /// An index drawn with its weight's probability, from a 32-bit random integer and a uniform coin.
+    pub fn sample(&self, bits: u32, coin: f32) -> usize {
+        let i = ((bits as u64 * self.prob.len() as u64) >> 32) as usize;
+        if coin < self.prob[i] {
+            i
+        } else {
+            self.alias[i] as usize
+        }
+    }
+}
+
 /// Samples an index from a cumulative distribution (last entry = total); returns (index, probability).
 pub fn sample_cdf(cdf: &[f32], u: f32) -> (usize, f32) {
     let total = *cdf.last().unwrap_or(&0.0);
@@ -87,6 +129,23 @@ mod tests {
             let d = uniform_cone(r.next_2d(), 0.9);
             assert!(d.z >= 0.9 - 1e-6 && (d.length() - 1.0).abs() < 1e-5);
             assert!((uniform_sphere(r.next_2d()).length() - 1.0).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn alias_table_matches_weights() {
+        let w = [1.0, 0.0, 3.0, 4.0, 0.5];
+        let t = AliasTable::new(&w);
+        let mut counts = [0usize; 5];
+        let mut r = Rng::new(6, 0, 0);
+        let n = 400_000;
+        for _ in 0..n {
+            counts[t.sample(r.next_u32(), r.next_f32())] += 1;
+        }
+        assert_eq!(counts[1], 0);
+        for (c, wi) in counts.iter().zip(w) {
+            let p = wi / 8.5;
+            assert!((*c as f32 / n as f32 - p).abs() < 0.005, "{counts:?}");
         }
     }
 

@@ -43,29 +43,23 @@ pub struct Targets {
     shapes: Vec<u32>,
     cdf: Vec<f32>,
     /// Per target: cumulative triangle areas (meshes only).
-    tri_cdf: Vec<Vec<f32>>,
+    tri_pick: Vec<sampling::AliasTable>,
     pub total_area: f32,
 }
 
 impl Targets {
     /// Every non-diffuse, non-emissive shape is a target.
     pub fn new(scene: &Scene, only: Option<&[u32]>) -> Targets {
-        let mut t = Targets { shapes: Vec::new(), cdf: Vec::new(), tri_cdf: Vec::new(), total_area: 0.0 };
+        let mut t = Targets { shapes: Vec::new(), cdf: Vec::new(), tri_pick: Vec::new(), total_area: 0.0 };
         for (i, s) in scene.shapes.iter().enumerate() {
             if scene.materials[s.material as usize].is_diffuse() || only.is_some_and(|o| !o.contains(&(i as u32))) {
                 continue;
             }
             let tri = match &s.geometry {
                 Geometry::Mesh(m) => {
-                    let mut acc = 0.0;
-                    (0..m.indices.len())
-                        .map(|k| {
-                            acc += m.area(k);
-                            acc
-                        })
-                        .collect()
+                    sampling::AliasTable::new(&(0..m.indices.len()).map(|k| m.area(k)).collect::<Vec<_>>())
                 }
-                Geometry::Sphere { .. } => Vec::new(),
+                Geometry::Sphere { .. } => sampling::AliasTable::default(),
             };
             let a = s.area();
             if a <= 0.0 {
@@ -74,7 +68,7 @@ impl Targets {
             t.total_area += a;
             t.shapes.push(i as u32);
             t.cdf.push(t.total_area);
-            t.tri_cdf.push(tri);
+            t.tri_pick.push(tri);
         }
         t
     }
@@ -84,12 +78,12 @@ impl Targets {
     }
 
     /// A uniform point (by area over all targets): (shape, position, unit normal).
-    fn sample(&self, scene: &Scene, u_sel: f32, u_tri: f32, u: [f32; 2]) -> (u32, Vec3, Vec3) {
+    fn sample(&self, scene: &Scene, u_sel: f32, (bits, coin): (u32, f32), u: [f32; 2]) -> (u32, Vec3, Vec3) {
         let (i, _) = sampling::sample_cdf(&self.cdf, u_sel);
         let shape = self.shapes[i];
         match &scene.shapes[shape as usize].geometry {
             Geometry::Mesh(m) => {
-                let (k, _) = sampling::sample_cdf(&self.tri_cdf[i], u_tri);
+                let k = self.tri_pick[i].sample(bits, coin);
                 let [a, b, c] = m.triangle(k);
                 let bc = sampling::uniform_triangle(u);
                 (shape, a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1], (b - a).cross(c - a).normalize())
@@ -206,7 +200,7 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     let lights = &scene.lights;
     let (li, p_sel) = sampling::sample_cdf(&lights.cdf, rng.next_f32());
     let lp = lights.sample_point(scene, li, rng.next_2d())?;
-    let (u_sel, u_tri, u) = (rng.next_f32(), rng.next_f32(), rng.next_2d());
+    let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());
     let (shape, y, ny) = targets.sample(scene, u_sel, u_tri, u);
     let d = y - lp.p;
     let dist2 = d.length_squared();
