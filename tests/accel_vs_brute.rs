@@ -42,11 +42,13 @@ fn random_scene(seed: u64, tris: usize, spheres: usize) -> caustica::scene::Scen
 #[test]
 fn embree_matches_brute_force_on_random_soups_and_spheres() {
     let (mut rays, mut hits, mut mismatched, mut occl_mismatch) = (0usize, 0usize, 0usize, 0usize);
+    let mut checked_packets = 0usize;
     for seed in 0..5u64 {
         let scene = random_scene(seed, 400, 40);
         let (fast, slow) = (Accel::new(&scene).unwrap(), Brute::new(&scene));
         let mut r = Rng::new(seed, 1, 0);
         let mut packet = Vec::new();
+        let mut packets = 0usize;
         for i in 0..20_000 {
             let o = Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 3.0 - Vec3::splat(1.5);
             let mut ray = Ray::new(o, uniform_sphere(r.next_2d()) * (0.5 + r.next_f32()));
@@ -71,17 +73,21 @@ fn embree_matches_brute_force_on_random_soups_and_spheres() {
                 occl_mismatch += 1;
             }
             packet.push(ray);
-            if packet.len() == 16 {
-                let mut out = [None; 16];
+            // Alternate 16- and 8-ray packets (Embree's two packet widths here).
+            if packet.len() == if packets.is_multiple_of(2) { 16 } else { 8 } {
+                packets += 1;
+                let mut out = vec![None; packet.len()];
                 fast.intersect_packet(&packet, &mut out);
                 for (p, o) in packet.iter().zip(out) {
                     assert_eq!(o, fast.intersect(p), "packet and single-ray answers differ");
                 }
+                checked_packets += 1;
                 packet.clear();
             }
         }
     }
     assert!(rays >= 100_000);
+    assert!(checked_packets > 8_000, "only {checked_packets} packets compared");
     assert!(hits > rays / 10, "too few hits ({hits}) for a meaningful test");
     // Rays grazing a shared edge within float precision may legitimately pick either side; allow 1e-4.
     assert!(mismatched as f64 <= 1e-4 * rays as f64, "{mismatched} of {rays} closest hits differ");

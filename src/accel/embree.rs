@@ -262,23 +262,57 @@ impl RawPackets {
     }
 }
 
+/// Lays rays out in one of Embree's SoA packet types (`RTCRayHit8`, `RTCRayHit16`), unused lanes empty.
+macro_rules! to_packet {
+    ($ty:ty, $rays:expr) => {{
+        // SAFETY: Embree's packet structs are plain old data; all-zero is a valid bit pattern.
+        let mut p: $ty = unsafe { std::mem::zeroed() };
+        for (i, r) in $rays.iter().enumerate() {
+            p.ray.org_x[i] = r.o.x;
+            p.ray.org_y[i] = r.o.y;
+            p.ray.org_z[i] = r.o.z;
+            p.ray.dir_x[i] = r.d.x;
+            p.ray.dir_y[i] = r.d.y;
+            p.ray.dir_z[i] = r.d.z;
+            p.ray.tnear[i] = r.tmin;
+            p.ray.tfar[i] = r.tmax;
+            p.ray.mask[i] = u32::MAX;
+            p.hit.geomID[i] = INVALID;
+            p.hit.instID[0][i] = INVALID;
+        }
+        p
+    }};
+}
+
 fn to_packet(rays: &[Ray]) -> RTCRayHit16 {
-    // SAFETY: RTCRayHit16 is plain old data; all-zero is a valid bit pattern.
-    let mut p: RTCRayHit16 = unsafe { std::mem::zeroed() };
-    for (i, r) in rays.iter().enumerate() {
-        p.ray.org_x[i] = r.o.x;
-        p.ray.org_y[i] = r.o.y;
-        p.ray.org_z[i] = r.o.z;
-        p.ray.dir_x[i] = r.d.x;
-        p.ray.dir_y[i] = r.d.y;
-        p.ray.dir_z[i] = r.d.z;
-        p.ray.tnear[i] = r.tmin;
-        p.ray.tfar[i] = r.tmax;
-        p.ray.mask[i] = u32::MAX;
-        p.hit.geomID[i] = INVALID;
-        p.hit.instID[0][i] = INVALID;
-    }
-    p
+    to_packet!(RTCRayHit16, rays)
+}
+
+#[repr(C, align(32))]
+struct Packet8(RTCRayHit8);
+
+/// Traces up to `W` rays as one Embree packet of width W and decodes the hits.
+macro_rules! trace_packet {
+    ($self:expr, $rays:expr, $out:expr, $wrap:ident, $ty:ty, $call:ident, $w:expr) => {{
+        let mut p = $wrap(to_packet!($ty, $rays));
+        let mut mask = [0i32; $w];
+        for (m, r) in mask.iter_mut().zip($rays) {
+            *m = if valid(r) { -1 } else { 0 };
+        }
+        let mut ctx = context();
+        // SAFETY: committed scene, packet aligned to its width, valid mask covers only filled lanes.
+        unsafe { $call(mask.as_ptr(), $self.scene, &mut ctx, &mut p.0) };
+        let h = &p.0.hit;
+        for (i, o) in $out.iter_mut().enumerate() {
+            *o = (mask[i] != 0 && h.geomID[i] != INVALID).then_some(Hit {
+                t: p.0.ray.tfar[i],
+                u: h.u[i],
+                v: h.v[i],
+                shape: h.geomID[i],
+                prim: h.primID[i],
+            });
+        }
+    }};
 }
 
 /// Embree (Debian's build keeps its assertions) aborts the process on a ray with NaN or huge values;
@@ -353,23 +387,10 @@ impl Tracer for Accel {
 
     fn intersect_packet(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         assert!(rays.len() <= 16 && out.len() == rays.len());
-        let mut p = Packet16(to_packet(rays));
-        let mut mask = [0i32; 16];
-        for (m, r) in mask.iter_mut().zip(rays) {
-            *m = if valid(r) { -1 } else { 0 };
-        }
-        let mut ctx = context();
-        // SAFETY: committed scene, 64-byte aligned packet, valid mask covers only filled lanes.
-        unsafe { rtcIntersect16(mask.as_ptr(), self.scene, &mut ctx, &mut p.0) };
-        let h = &p.0.hit;
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = (mask[i] != 0 && h.geomID[i] != INVALID).then_some(Hit {
-                t: p.0.ray.tfar[i],
-                u: h.u[i],
-                v: h.v[i],
-                shape: h.geomID[i],
-                prim: h.primID[i],
-            });
+        if rays.len() <= 8 {
+            trace_packet!(self, rays, out, Packet8, RTCRayHit8, rtcIntersect8, 8);
+        } else {
+            trace_packet!(self, rays, out, Packet16, RTCRayHit16, rtcIntersect16, 16);
         }
     }
 }

@@ -39,7 +39,8 @@ pub trait Tracer: Sync + Send {
     fn intersect(&self, ray: &Ray) -> Option<Hit>;
     /// Whether anything lies on the ray with t in (ray.tmin, ray.tmax).
     fn occluded(&self, ray: &Ray) -> bool;
-    /// Closest hits for up to 16 rays at once (`out.len() == rays.len()`).
+    /// Closest hits for up to 16 rays at once (`out.len() == rays.len()`); Embree uses an 8-wide
+    /// packet for up to 8 rays and a 16-wide one beyond.
     fn intersect_packet(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         for (r, o) in rays.iter().zip(out.iter_mut()) {
             *o = self.intersect(r);
