@@ -157,7 +157,8 @@ pub enum ShapeSpec {
         transform: TransformSpec,
         #[serde(default)]
         emission: Option<V3>,
-        /// Compute area-weighted vertex normals when the file has none.
+        /// Smooth shading: the file's vertex normals, or area-weighted ones when it has none.
+        /// false (default): flat shading, and normals in the file are not even read.
         #[serde(default)]
         smooth: bool,
     },

@@ -340,7 +340,7 @@ fn build_shape(
             let path = dir.join(file);
             let shown_mesh = path.display().to_string();
             let in_scene = |e: SceneError| cx.err(&format!("{key}.file"), e.to_string());
-            let loaded = mesh::load_mesh_file(&path, &shown_mesh).map_err(in_scene)?;
+            let loaded = mesh::load_mesh_file(&path, &shown_mesh, *smooth).map_err(in_scene)?;
             for lm in loaded {
                 lm.mesh.validate(&shown_mesh).map_err(in_scene)?;
                 let mat = match (material, lm.mtl_diffuse) {

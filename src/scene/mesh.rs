@@ -94,15 +94,16 @@ pub struct LoadedMesh {
     pub mtl_diffuse: Option<[f32; 3]>,
 }
 
-/// Loads an OBJ or PLY (optionally gzip-compressed) file.
-pub fn load_mesh_file(path: &Path, shown: &str) -> Result<Vec<LoadedMesh>, SceneError> {
+/// Loads an OBJ or PLY (optionally gzip-compressed) file. Vertex normals are read only when `normals`
+/// (smooth shading asked for); texture coordinates and other per-vertex properties never are.
+pub fn load_mesh_file(path: &Path, shown: &str, normals: bool) -> Result<Vec<LoadedMesh>, SceneError> {
     let name = path.to_string_lossy().to_lowercase();
     let err = |msg: String| SceneError::Mesh { file: shown.into(), msg };
     if !path.exists() {
         return Err(SceneError::MissingFile { file: shown.into() });
     }
     if name.ends_with(".obj") {
-        load_obj(path).map_err(err)
+        load_obj(path, normals).map_err(err)
     } else if name.ends_with(".ply") || name.ends_with(".ply.gz") {
         let f = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
         let mut bytes = Vec::new();
@@ -113,13 +114,13 @@ pub fn load_mesh_file(path: &Path, shown: &str) -> Result<Vec<LoadedMesh>, Scene
         } else {
             BufReader::new(f).read_to_end(&mut bytes).map_err(|e| err(e.to_string()))?;
         }
-        Ok(vec![LoadedMesh { mesh: parse_ply(&bytes).map_err(err)?, mtl_diffuse: None }])
+        Ok(vec![LoadedMesh { mesh: parse_ply(&bytes, normals).map_err(err)?, mtl_diffuse: None }])
     } else {
         Err(err("unknown mesh format (accepted: .obj, .ply, .ply.gz)".into()))
     }
 }
 
-fn load_obj(path: &Path) -> Result<Vec<LoadedMesh>, String> {
+fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> {
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let (models, mtls) = tobj::load_obj(path, &opts).map_err(|e| format!("OBJ: {e}"))?;
     let mtls = mtls.unwrap_or_default();
@@ -128,7 +129,7 @@ fn load_obj(path: &Path) -> Result<Vec<LoadedMesh>, String> {
         let mm = &m.mesh;
         let positions: Vec<Vec3> = mm.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
         let indices: Vec<[u32; 3]> = mm.indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-        let normals = (mm.normals.len() == mm.positions.len() && !mm.normals.is_empty())
+        let normals = (want_normals && mm.normals.len() == mm.positions.len() && !mm.normals.is_empty())
             .then(|| mm.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()).collect());
         let mtl_diffuse = mm.material_id.and_then(|i| mtls.get(i)).and_then(|m| m.diffuse);
         out.push(LoadedMesh { mesh: TriMesh { positions, indices, normals }, mtl_diffuse });
@@ -192,14 +193,14 @@ impl ply_rs_bw::ply::PropertyAccess for PlyFace {
 }
 
 /// Parses a PLY file held in memory: triangles and polygons (fan-triangulated), optional normals.
-pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
+pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
     use ply_rs_bw::parser::Parser;
     use ply_rs_bw::ply::Encoding;
     let mut reader = std::io::Cursor::new(bytes);
     let vparser = Parser::<PlyVertex>::new();
     let header = vparser.read_header(&mut reader).map_err(|e| format!("PLY header: {e}"))?;
     let vdef = header.elements.get("vertex").ok_or("PLY has no `vertex` element")?;
-    let has_normals = vdef.properties.contains_key("nx");
+    let has_normals = want_normals && vdef.properties.contains_key("nx");
     for k in ["x", "y", "z"] {
         if !vdef.properties.contains_key(k) {
             return Err(format!("PLY vertex element has no `{k}` property"));
@@ -207,7 +208,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
     }
     let (verts, faces): (Vec<PlyVertex>, Vec<PlyFace>) = if header.encoding == Encoding::Ascii {
         let rest = &bytes[reader.position() as usize..];
-        parse_ascii_payload(rest, &header)?
+        parse_ascii_payload(rest, &header, has_normals)?
     } else {
         let fparser = Parser::<PlyFace>::new();
         let mut verts = Vec::new();
@@ -246,7 +247,11 @@ pub fn parse_ply(bytes: &[u8]) -> Result<TriMesh, String> {
 
 /// Fast ASCII payload reader: the file is split into lines and parsed in parallel, one allocation per
 /// element vector (ply-rs-bw's ASCII path runs a grammar per line, which is several times slower).
-fn parse_ascii_payload(rest: &[u8], header: &ply_rs_bw::ply::Header) -> Result<(Vec<PlyVertex>, Vec<PlyFace>), String> {
+fn parse_ascii_payload(
+    rest: &[u8],
+    header: &ply_rs_bw::ply::Header,
+    normals: bool,
+) -> Result<(Vec<PlyVertex>, Vec<PlyFace>), String> {
     use ply_rs_bw::ply::PropertyType;
     let text = std::str::from_utf8(rest).map_err(|_| "PLY ASCII payload is not text".to_string())?;
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
@@ -258,8 +263,9 @@ fn parse_ascii_payload(rest: &[u8], header: &ply_rs_bw::ply::Header) -> Result<(
             return Err(format!("PLY element `{name}`: header says {} lines, file has {}", def.count, chunk.len()));
         }
         if name == "vertex" {
-            let slots: Vec<Option<usize>> =
-                def.properties.keys().map(|k| ["x", "y", "z", "nx", "ny", "nz"].iter().position(|s| s == k)).collect();
+            // Unused properties (normals when shading is flat, confidence, colour …) are skipped unparsed.
+            let wanted: &[&str] = if normals { &["x", "y", "z", "nx", "ny", "nz"] } else { &["x", "y", "z"] };
+            let slots: Vec<Option<usize>> = def.properties.keys().map(|k| wanted.iter().position(|s| s == k)).collect();
             if def.properties.values().any(|p| matches!(p.data_type, PropertyType::List(..))) {
                 return Err("PLY vertex element with list properties is not supported".into());
             }
@@ -433,15 +439,25 @@ mod tests {
     #[test]
     fn ascii_ply_with_quads_and_extra_properties() {
         let text = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty float confidence\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1\n1 0 0 1\n1 1 0 1\n0 1 0 1\n4 0 1 2 3\n";
-        let m = parse_ply(text.as_bytes()).unwrap();
+        let m = parse_ply(text.as_bytes(), true).unwrap();
         assert_eq!(m.positions.len(), 4);
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
         assert!((m.total_area() - 1.0).abs() < 1e-6);
     }
 
     #[test]
+    fn normals_are_read_only_for_smooth_shading() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0 0 1\n1 0 0 0 0 1\n0 1 0 0 0 1\n3 0 1 2\n";
+        let smooth = parse_ply(text.as_bytes(), true).unwrap();
+        assert_eq!(smooth.normals.as_deref(), Some(&[Vec3::Z; 3][..]));
+        let flat = parse_ply(text.as_bytes(), false).unwrap();
+        assert!(flat.normals.is_none());
+        assert_eq!(flat.positions, smooth.positions);
+    }
+
+    #[test]
     fn ascii_ply_truncated_is_an_error() {
         let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n";
-        assert!(parse_ply(text.as_bytes()).is_err());
+        assert!(parse_ply(text.as_bytes(), true).is_err());
     }
 }
