@@ -235,21 +235,7 @@ impl Accel {
 
     /// Rays in Embree's single-ray layout, prepared outside the timed loop.
     pub fn prepare_single(rays: &[Ray]) -> Vec<RTCRayHit> {
-        rays.iter()
-            .map(|r| RTCRayHit {
-                ray: rtc_ray(r),
-                hit: RTCHit {
-                    Ng_x: 0.0,
-                    Ng_y: 0.0,
-                    Ng_z: 0.0,
-                    u: 0.0,
-                    v: 0.0,
-                    primID: INVALID,
-                    geomID: INVALID,
-                    instID: [INVALID],
-                },
-            })
-            .collect()
+        rays.iter().map(rtc_ray_hit).collect()
     }
 }
 
@@ -327,6 +313,23 @@ fn valid(r: &Ray) -> bool {
         && !r.tmax.is_nan()
 }
 
+/// A single ray with an empty hit record, ready for `rtcIntersect1`.
+fn rtc_ray_hit(r: &Ray) -> RTCRayHit {
+    RTCRayHit {
+        ray: rtc_ray(r),
+        hit: RTCHit {
+            Ng_x: 0.0,
+            Ng_y: 0.0,
+            Ng_z: 0.0,
+            u: 0.0,
+            v: 0.0,
+            primID: INVALID,
+            geomID: INVALID,
+            instID: [INVALID],
+        },
+    }
+}
+
 fn rtc_ray(r: &Ray) -> RTCRay {
     RTCRay {
         org_x: r.o.x,
@@ -349,19 +352,7 @@ impl Tracer for Accel {
         if !valid(r) {
             return None;
         }
-        let mut rh = RTCRayHit {
-            ray: rtc_ray(r),
-            hit: RTCHit {
-                Ng_x: 0.0,
-                Ng_y: 0.0,
-                Ng_z: 0.0,
-                u: 0.0,
-                v: 0.0,
-                primID: INVALID,
-                geomID: INVALID,
-                instID: [INVALID],
-            },
-        };
+        let mut rh = rtc_ray_hit(r);
         let mut ctx = context();
         // SAFETY: committed scene; rh and ctx are valid for the call.
         unsafe { rtcIntersect1(self.scene, &mut ctx, &mut rh) };
