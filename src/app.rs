@@ -108,7 +108,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         "resolution": [scene.camera.width, scene.camera.height],
     });
     if a.view != "image" {
-        return render_view(&scene, &accel, &a.view, &out, base, a.quiet);
+        return render_view(&scene, &accel, &plan, &a.view, &out, base, a.quiet);
     }
     let mode = scene.render.mode;
     let mut images = Vec::new();
@@ -124,7 +124,6 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         images.push(r.image);
     }
     if mode != Mode::Path {
-        let plan = plan_for(&scene, &accel);
         let maps = build_maps(
             &scene,
             &accel,
@@ -234,6 +233,7 @@ fn parse_map(name: &str) -> Result<Vec<usize>> {
 fn render_view(
     scene: &Scene,
     accel: &Accel,
+    plan: &Plan,
     view: &str,
     out: &Path,
     mut stats: serde_json::Value,
@@ -245,7 +245,6 @@ fn render_view(
     if kind == "map" && which.len() != 1 {
         bail!("--view map:{map}: choose one of direct, indirect, caustic");
     }
-    let plan = plan_for(scene, accel);
     let ps = &scene.render.photons;
     let mut want = [0u64; 3];
     for &m in &which {
@@ -259,7 +258,7 @@ fn render_view(
     )?;
     let img = match kind {
         "photons" => splat_photons(scene, accel, &maps, &which),
-        "map" => render_photon_map(scene, accel, &maps, &plan, Some(which[0]), quiet).image,
+        "map" => render_photon_map(scene, accel, &maps, plan, Some(which[0]), quiet).image,
         _ => bail!("--view {view}: expected image, photons:MAP or map:MAP"),
     };
     stats["view"] = json!(view);
