@@ -6,7 +6,7 @@ use crate::integrator::path::PathTracer;
 use crate::integrator::photon_map::{build_maps, splat_photons, MapRequest, PhotonMapper, PhotonMaps};
 use crate::integrator::Counters;
 use crate::math::Ray;
-use crate::output;
+use crate::output::{self, with_suffix};
 use crate::photon::trace::{CAUSTIC, DIRECT, INDIRECT};
 use crate::plan::{Plan, Probe};
 use crate::render::{render, RenderOutput};
@@ -118,48 +118,31 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         stats["mode"] = json!("path");
         stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "render": r.seconds });
         add_counters(&mut stats, &r);
-        let o = if mode == Mode::Both { suffixed(&out, "-pt") } else { out.clone() };
+        let o = if mode == Mode::Both { with_suffix(&out, "-pt") } else { out.clone() };
         write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
         println!("{}", describe(&o, &r.image));
         images.push(r.image);
     }
     if mode != Mode::Path {
-        let maps = build_maps(
-            &scene,
-            &accel,
-            &MapRequest {
-                want: plan.photons,
-                targeted: scene.render.photons.caustic_targeting,
-                targets: Some(plan.caustic_targets.clone()),
-            },
-            a.quiet,
-        )?;
-        let r = render_photon_map(&scene, &accel, &maps, &plan, None, a.quiet);
+        let (maps, r) = render_pm(&scene, &accel, &plan, a.quiet)?;
         let mut stats = base.clone();
         stats["mode"] = json!("photon_map");
         stats["plan"] = json!(plan);
         stats["photon_maps"] = json!(maps.stats);
-        let trace_s =
-            maps.stats.global_pass.map_or(0.0, |p| p.seconds) + maps.stats.caustic_pass.map_or(0.0, |p| p.seconds);
-        stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "photon_trace": trace_s, "kdtree_build": maps.stats.build_seconds, "eye_pass": r.seconds });
+        stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "photon_trace": maps.stats.trace_seconds(), "kdtree_build": maps.stats.build_seconds, "eye_pass": r.seconds });
         add_counters(&mut stats, &r);
-        let o = if mode == Mode::Both { suffixed(&out, "-pm") } else { out.clone() };
+        let o = if mode == Mode::Both { with_suffix(&out, "-pm") } else { out.clone() };
         write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
         println!("{}", describe(&o, &r.image));
         images.push(r.image);
     }
     if images.len() == 2 {
         let side = Image::side_by_side(&[&images[0], &images[1]], 4);
-        let p = out.with_added("png");
+        let p = with_suffix(&out, ".png");
         output::write_png(&p, &side, scene.render.exposure)?;
         println!("wrote {} (left: path tracing, right: photon mapping)", p.display());
     }
     Ok(())
-}
-
-fn suffixed(out: &Path, suffix: &str) -> PathBuf {
-    let name = out.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-    out.with_file_name(format!("{name}{suffix}"))
 }
 
 fn add_counters(stats: &mut serde_json::Value, r: &RenderOutput) {
@@ -180,19 +163,22 @@ pub fn plan_for(scene: &Scene, tracer: &dyn Tracer) -> Plan {
     crate::plan::plan(scene, &Probe { visible: &visible, first_hit: &first })
 }
 
-/// Photon mapping with the scene's own settings and the planner's choices: maps, then the eye pass.
-pub fn render_pm_default(scene: &Scene, tracer: &dyn Tracer, quiet: bool) -> Result<RenderOutput> {
-    let plan = plan_for(scene, tracer);
+/// Photon mapping as `plan` says: the maps it asks for, then the eye pass (whose `seconds` it returns).
+pub fn render_pm(scene: &Scene, tracer: &dyn Tracer, plan: &Plan, quiet: bool) -> Result<(PhotonMaps, RenderOutput)> {
     let req = MapRequest {
         want: plan.photons,
         targeted: scene.render.photons.caustic_targeting,
         targets: Some(plan.caustic_targets.clone()),
     };
     let maps = build_maps(scene, tracer, &req, quiet)?;
-    let mut r = render_photon_map(scene, tracer, &maps, &plan, None, quiet);
-    let trace_s =
-        maps.stats.global_pass.map_or(0.0, |p| p.seconds) + maps.stats.caustic_pass.map_or(0.0, |p| p.seconds);
-    r.seconds += trace_s + maps.stats.build_seconds;
+    let r = render_photon_map(scene, tracer, &maps, plan, None, quiet);
+    Ok((maps, r))
+}
+
+/// Photon mapping with the scene's own settings and the planner's choices; `seconds` covers it all.
+pub fn render_pm_default(scene: &Scene, tracer: &dyn Tracer, quiet: bool) -> Result<RenderOutput> {
+    let (maps, mut r) = render_pm(scene, tracer, &plan_for(scene, tracer), quiet)?;
+    r.seconds += maps.stats.trace_seconds() + maps.stats.build_seconds;
     Ok(r)
 }
 
@@ -270,34 +256,20 @@ fn render_view(
 
 /// Writes OUT.exr, OUT.png and OUT.json.
 pub fn write_outputs(out: &Path, img: &Image, exposure: f32, stats: &serde_json::Value) -> Result<()> {
-    output::write_exr(&out.with_added("exr"), img)?;
-    output::write_png(&out.with_added("png"), img, exposure)?;
-    output::write_json(&out.with_added("json"), stats)?;
+    output::write_exr(&with_suffix(out, ".exr"), img)?;
+    output::write_png(&with_suffix(out, ".png"), img, exposure)?;
+    output::write_json(&with_suffix(out, ".json"), stats)?;
     Ok(())
-}
-
-/// `out` + "." + `ext` (unlike `with_extension`, keeps dots in names such as `glass-egg-1.1`).
-trait WithAdded {
-    fn with_added(&self, ext: &str) -> PathBuf;
-}
-
-impl WithAdded for Path {
-    fn with_added(&self, ext: &str) -> PathBuf {
-        let mut s = self.as_os_str().to_owned();
-        s.push(".");
-        s.push(ext);
-        PathBuf::from(s)
-    }
 }
 
 pub fn describe(out: &Path, img: &Image) -> String {
     format!(
         "wrote {} ({}×{}), {} and {}",
-        out.with_added("exr").display(),
+        with_suffix(out, ".exr").display(),
         img.width,
         img.height,
-        out.with_added("png").display(),
-        out.with_added("json").display()
+        with_suffix(out, ".png").display(),
+        with_suffix(out, ".json").display()
     )
 }
 

@@ -133,7 +133,7 @@ pub fn photons(path: &Path, photons: u64) -> Result<()> {
     let maps = pool.install(|| build_maps(&scene, &accel, &req, true))?;
     let passes = [maps.stats.global_pass, maps.stats.caustic_pass];
     let segments: u64 = passes.iter().flatten().map(|p| p.segments).sum();
-    let trace_s: f64 = passes.iter().flatten().map(|p| p.seconds).sum();
+    let trace_s = maps.stats.trace_seconds();
     let rec = Recorder { inner: &accel, rays: std::sync::Mutex::new(Vec::new()) };
     pool.install(|| build_maps(&scene, &rec, &req, true))?;
     let rays = rec.rays.into_inner().map_err(|_| anyhow::anyhow!("recorder poisoned"))?;

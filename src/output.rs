@@ -5,6 +5,14 @@ use crate::film::Image;
 use anyhow::{anyhow, Context, Result};
 use std::path::{Path, PathBuf};
 
+/// `out` with `suffix` appended to its file name: `with_suffix("out/glass-egg-1.1", ".png")` keeps the
+/// dots that `Path::with_extension` would cut, and `"-pt"` makes a sibling name.
+pub fn with_suffix(out: &Path, suffix: &str) -> PathBuf {
+    let mut s = out.as_os_str().to_owned();
+    s.push(suffix);
+    PathBuf::from(s)
+}
+
 fn temp_path(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp{}", std::process::id()))

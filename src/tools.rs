@@ -5,7 +5,7 @@ use crate::color::{luminance, Rgb};
 use crate::film::Image;
 use crate::font::{draw_text, text_width};
 use crate::metrics::{compare, Errors};
-use crate::output::{self, read_exr, to_srgb8, write_png_rgb8};
+use crate::output::{self, read_exr, to_srgb8, with_suffix, write_png_rgb8};
 use anyhow::{bail, Result};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -134,12 +134,6 @@ pub fn compare_cmd(a_path: &Path, b_path: &Path, reference: Option<&Path>, out: 
     }
     println!("wrote {}, {} and {}", png.display(), err_png.display(), with_suffix(out, ".json").display());
     Ok(())
-}
-
-pub fn with_suffix(out: &Path, suffix: &str) -> PathBuf {
-    let mut s = out.as_os_str().to_owned();
-    s.push(suffix);
-    PathBuf::from(s)
 }
 
 /// A reference image: the mean of two independent halves, with their RMSE as its noise estimate.

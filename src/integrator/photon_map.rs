@@ -35,6 +35,13 @@ pub struct MapsStats {
     pub photons_per_second: f64,
 }
 
+impl MapsStats {
+    /// Seconds spent tracing photons, over both passes.
+    pub fn trace_seconds(&self) -> f64 {
+        [self.global_pass, self.caustic_pass].iter().flatten().map(|p| p.seconds).sum()
+    }
+}
+
 /// What to trace: photons wanted per map, and whether caustic photons are aimed at specular shapes.
 pub struct MapRequest {
     pub want: [u64; 3],
