@@ -53,7 +53,6 @@ pub struct LightSample {
 #[derive(Clone, Copy, Debug)]
 pub struct EmittedRay {
     pub ray: Ray,
-    pub normal: Vec3,
     pub phi: Rgb,
 }
 
@@ -265,7 +264,7 @@ impl Lights {
             (lp.n, Frame::from_normal(lp.n).to_world(sampling::cosine_hemisphere(u_dir)))
         };
         let o = crate::math::offset_ray_origin(lp.p, n, d, lp.size);
-        Some(EmittedRay { ray: Ray::new(o, d), normal: n, phi })
+        Some(EmittedRay { ray: Ray::new(o, d), phi })
     }
 }
 
