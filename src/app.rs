@@ -256,10 +256,7 @@ fn render_view(
 
 /// Writes OUT.exr, OUT.png and OUT.json.
 pub fn write_outputs(out: &Path, img: &Image, exposure: f32, stats: &serde_json::Value) -> Result<()> {
-    output::write_exr(&with_suffix(out, ".exr"), img)?;
-    output::write_png(&with_suffix(out, ".png"), img, exposure)?;
-    output::write_json(&with_suffix(out, ".json"), stats)?;
-    Ok(())
+    output::write_image_set(out, img, exposure, stats)
 }
 
 pub fn describe(out: &Path, img: &Image) -> String {

@@ -33,8 +33,8 @@ pub enum Command {
         /// Reference image both are scored against (default: B is the reference for A).
         #[arg(long = "ref")]
         reference: Option<PathBuf>,
-        /// Output path without extension: OUT.png, OUT-error.png, OUT.json.
-        #[arg(short, long, default_value = "out/compare")]
+        /// Output path (a typed .png/.json is dropped): writes OUT.png, OUT-error.png, OUT.json.
+        #[arg(short, long, default_value = "out/compare", value_parser = out_base)]
         out: PathBuf,
         /// Exposure (stops) of the side-by-side preview.
         #[arg(long, default_value_t = 0.0)]
@@ -59,8 +59,9 @@ pub enum Command {
 pub struct RenderArgs {
     /// Scene file (TOML).
     pub scene: PathBuf,
-    /// Output path without extension: writes OUT.exr, OUT.png, OUT.json (default out/<scene name>).
-    #[arg(short, long)]
+    /// Output path (a typed .exr/.png/.json is dropped): writes OUT.exr, OUT.png, OUT.json
+    /// (default out/<scene name>).
+    #[arg(short, long, value_parser = out_base)]
     pub out: Option<PathBuf>,
     /// Samples per pixel (path tracer), overrides render.spp.
     #[arg(long)]
@@ -115,8 +116,8 @@ pub enum BenchCommand {
         /// Reference by photon mapping with this many photons instead (for point-light caustics).
         #[arg(long)]
         ref_photons: Option<u64>,
-        /// Output path without extension (default out/tve/<scene name>).
-        #[arg(short, long)]
+        /// Output path (a typed extension is dropped): OUT.csv, OUT.svg, OUT.png (default out/tve/<scene name>).
+        #[arg(short, long, value_parser = out_base)]
         out: Option<PathBuf>,
         /// Scene overrides for every render and the reference, e.g. --set camera.resolution=[128,128].
         #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -152,4 +153,13 @@ pub struct KnnArgs {
     pub radius: Option<f32>,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+}
+
+/// `-o` takes an output base; a known extension the user typed (`-o out/a.exr`) is dropped, since the
+/// commands append the extensions of the files they write.
+fn out_base(s: &str) -> Result<PathBuf, String> {
+    if s.is_empty() {
+        return Err("the output path is empty".into());
+    }
+    Ok(crate::output::output_base(std::path::Path::new(s)))
 }

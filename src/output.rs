@@ -13,34 +13,91 @@ pub fn with_suffix(out: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(s)
 }
 
+/// The output base a user meant by `-o`: `out/glass.exr`, `out/glass.png` and `out/glass.json` all mean
+/// `out/glass` (the commands append the extensions they write), so `-o x.exr` writes `x.exr`, not
+/// `x.exr.exr`. Other dots are kept (`glass-egg-1.1` stays as it is).
+pub fn output_base(out: &Path) -> PathBuf {
+    let known = [".exr", ".png", ".json", ".svg", ".csv"];
+    let name = out.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+    let lower = name.to_ascii_lowercase();
+    match known.iter().find(|e| lower.ends_with(*e) && lower.len() > e.len()) {
+        Some(e) => out.with_file_name(&name[..name.len() - e.len()]),
+        None => out.to_path_buf(),
+    }
+}
+
 fn temp_path(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp{}", std::process::id()))
 }
 
+/// Files written together: each goes to a temporary file beside its destination first; only when all
+/// are written, and no destination is a folder in the way, are they renamed into place. A run that
+/// fails while writing leaves every earlier file as it was, and no temporary file behind.
+#[derive(Default)]
+pub struct Batch {
+    staged: Vec<(PathBuf, PathBuf)>,
+}
+
+impl Batch {
+    /// Writes `path`'s content through `write` into its temporary file.
+    pub fn stage(&mut self, path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("cannot create folder {}", dir.display()))?;
+        }
+        let tmp = temp_path(path);
+        // Registered before writing, so a failed write's partial file is removed with the rest.
+        self.staged.push((tmp.clone(), path.to_path_buf()));
+        write(&tmp)
+    }
+
+    /// Renames every staged file into place.
+    pub fn commit(mut self) -> Result<()> {
+        for (_, dest) in &self.staged {
+            if dest.is_dir() {
+                return Err(anyhow!(
+                    "{}: a folder is in the way of the output file; nothing was written",
+                    dest.display()
+                ));
+            }
+        }
+        for (tmp, dest) in std::mem::take(&mut self.staged) {
+            if let Err(e) = std::fs::rename(&tmp, &dest) {
+                let _ = std::fs::remove_file(&tmp);
+                return Err(e).with_context(|| format!("cannot rename onto {}", dest.display()));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Batch {
+    fn drop(&mut self) {
+        for (tmp, _) in &self.staged {
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+}
+
 /// Writes via `write` into a temporary file, then renames it over `path`.
 pub fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create folder {}", dir.display()))?;
-    }
-    let tmp = temp_path(path);
-    let r = write(&tmp)
-        .and_then(|_| std::fs::rename(&tmp, path).with_context(|| format!("cannot rename onto {}", path.display())));
-    if r.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    r
+    let mut b = Batch::default();
+    b.stage(path, write)?;
+    b.commit()
 }
 
 pub fn write_exr(path: &Path, img: &Image) -> Result<()> {
-    atomic_write(path, |tmp| {
-        let w = img.width as usize;
-        exr::prelude::write_rgb_file(tmp, w, img.height as usize, |x, y| {
-            let c = img.pixels[y * w + x];
-            (c.x, c.y, c.z)
-        })
-        .map_err(|e| anyhow!("{}: EXR write failed: {e}", path.display()))
+    atomic_write(path, |tmp| encode_exr(tmp, img))
+}
+
+/// Writes `img` as a linear RGB EXR at `file`.
+pub fn encode_exr(file: &Path, img: &Image) -> Result<()> {
+    let w = img.width as usize;
+    exr::prelude::write_rgb_file(file, w, img.height as usize, |x, y| {
+        let c = img.pixels[y * w + x];
+        (c.x, c.y, c.z)
     })
+    .map_err(|e| anyhow!("{}: EXR write failed: {e}", file.display()))
 }
 
 pub fn read_exr(path: &Path) -> Result<Image> {
@@ -62,19 +119,22 @@ pub fn to_srgb8(img: &Image, exposure: f32) -> Vec<u8> {
 }
 
 pub fn write_png_rgb8(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<()> {
-    atomic_write(path, |tmp| {
-        let f = std::fs::File::create(tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(f), width, height);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-        enc.set_compression(png::Compression::Best);
-        enc.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
-        let mut w = enc.write_header()?;
-        w.write_image_data(data)?;
-        w.finish()?;
-        Ok(())
-    })
+    atomic_write(path, |tmp| encode_png_rgb8(tmp, width, height, data))
+}
+
+/// Writes 8-bit sRGB pixels as a PNG at `file`.
+pub fn encode_png_rgb8(file: &Path, width: u32, height: u32, data: &[u8]) -> Result<()> {
+    let f = std::fs::File::create(file).with_context(|| format!("cannot create {}", file.display()))?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(f), width, height);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    enc.set_compression(png::Compression::Best);
+    enc.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
+    let mut w = enc.write_header()?;
+    w.write_image_data(data)?;
+    w.finish()?;
+    Ok(())
 }
 
 pub fn write_png(path: &Path, img: &Image, exposure: f32) -> Result<()> {
@@ -82,10 +142,22 @@ pub fn write_png(path: &Path, img: &Image, exposure: f32) -> Result<()> {
 }
 
 pub fn write_json(path: &Path, v: &serde_json::Value) -> Result<()> {
-    atomic_write(path, |tmp| {
-        std::fs::write(tmp, serde_json::to_string_pretty(v)? + "\n")
-            .with_context(|| format!("cannot write {}", tmp.display()))
-    })
+    atomic_write(path, |tmp| encode_json(tmp, v))
+}
+
+/// Writes `v` as pretty JSON at `file`.
+pub fn encode_json(file: &Path, v: &serde_json::Value) -> Result<()> {
+    std::fs::write(file, serde_json::to_string_pretty(v)? + "\n")
+        .with_context(|| format!("cannot write {}", file.display()))
+}
+
+/// Writes OUT.exr (linear), OUT.png (preview at `exposure`) and OUT.json as one batch: all three or none.
+pub fn write_image_set(out: &Path, img: &Image, exposure: f32, stats: &serde_json::Value) -> Result<()> {
+    let mut b = Batch::default();
+    b.stage(&with_suffix(out, ".exr"), |t| encode_exr(t, img))?;
+    b.stage(&with_suffix(out, ".png"), |t| encode_png_rgb8(t, img.width, img.height, &to_srgb8(img, exposure)))?;
+    b.stage(&with_suffix(out, ".json"), |t| encode_json(t, stats))?;
+    b.commit()
 }
 
 /// Resident set size of this process in bytes (Linux), for the stats file.
@@ -94,4 +166,19 @@ pub fn peak_rss_bytes() -> Option<u64> {
     let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn output_base_strips_only_known_extensions() {
+        use super::output_base;
+        use std::path::Path;
+        assert_eq!(output_base(Path::new("out/a.exr")), Path::new("out/a"));
+        assert_eq!(output_base(Path::new("out/a.PNG")), Path::new("out/a"));
+        assert_eq!(output_base(Path::new("a.json")), Path::new("a"));
+        assert_eq!(output_base(Path::new("out/glass-egg-1.1")), Path::new("out/glass-egg-1.1"));
+        assert_eq!(output_base(Path::new("out/.exr")), Path::new("out/.exr"));
+        assert_eq!(output_base(Path::new("out/x.tar")), Path::new("out/x.tar"));
+    }
 }

@@ -1,8 +1,9 @@
 //! The planner: reads a scene and decides which photon maps, caustic targets and extra pixel samples it
 //! needs, and says why. Visibility questions go through a caller-supplied test (the renderer passes
 //! Embree's occlusion query), so this module stays below `accel` in the dependency order.
-use crate::math::{sampling, Rng};
+use crate::math::Rng;
 use crate::scene::file::DirectLight;
+use crate::scene::light::LightKind;
 use crate::scene::{Geometry, Scene};
 use glam::Vec3;
 use serde::Serialize;
@@ -30,22 +31,6 @@ pub struct Probe<'a> {
     pub first_hit: &'a dyn Fn(crate::math::Ray) -> Option<(u32, Vec3)>,
 }
 
-/// A point on shape `s` (uniform over its triangles by count, or over a sphere), and its normal.
-fn point_on(scene: &Scene, s: usize, rng: &mut Rng) -> (Vec3, Vec3) {
-    match &scene.shapes[s].geometry {
-        Geometry::Mesh(m) => {
-            let i = (rng.next_u32() as usize) % m.indices.len().max(1);
-            let [a, b, c] = m.triangle(i);
-            let bc = sampling::uniform_triangle(rng.next_2d());
-            (a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1], (b - a).cross(c - a).normalize_or_zero())
-        }
-        Geometry::Sphere { center, radius } => {
-            let n = sampling::uniform_sphere(rng.next_2d());
-            (*center + n * *radius, n)
-        }
-    }
-}
-
 fn planar(scene: &Scene, s: usize) -> bool {
     match &scene.shapes[s].geometry {
         Geometry::Mesh(m) if !m.indices.is_empty() => {
@@ -57,28 +42,43 @@ fn planar(scene: &Scene, s: usize) -> bool {
     }
 }
 
-/// Whether some light sample sees some point of shape `s` (tries `tries` random pairs).
-fn light_sees(scene: &Scene, s: usize, probe: &Probe, tries: u32) -> bool {
-    let mut rng = Rng::new(0x91A7, s as u64, 0);
-    for _ in 0..tries {
-        let (li, _) = sampling::sample_cdf(&scene.lights.cdf, rng.next_f32());
-        let Some(lp) = scene.lights.sample_point(scene, li, rng.next_2d()) else {
-            continue;
-        };
-        let (y, n) = point_on(scene, s, &mut rng);
-        let d = y - lp.p;
-        if lp.n != Vec3::ZERO && lp.n.dot(d) <= 0.0 {
-            continue;
+/// Corners of the bounding box of shape `s`.
+fn box_corners(scene: &Scene, s: usize) -> [Vec3; 8] {
+    let (lo, hi) = match &scene.shapes[s].geometry {
+        Geometry::Mesh(m) => {
+            m.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
         }
-        // Offset both ends a hair so neither surface occludes itself.
-        let eps = 1e-4 * scene.diagonal().max(1e-6);
-        let a = lp.p + d.normalize() * eps;
-        let b = y - d.normalize() * eps;
-        if n != Vec3::ZERO && (probe.visible)(a, b) {
-            return true;
+        Geometry::Sphere { center, radius } => (*center - Vec3::splat(*radius), *center + Vec3::splat(*radius)),
+    };
+    std::array::from_fn(|k| {
+        Vec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}
+
+/// Whether light can possibly arrive at shape `s` straight from an emitter. The only proof of
+/// darkness used is geometric and exact: every emitting triangle faces away from the shape's whole
+/// bounding box (triangles emit from their front only). Point and sphere lights shine everywhere, and
+/// occlusion is never used as a proof: a mirror lit through a gap a random probe misses stays a target.
+fn may_be_lit(scene: &Scene, s: usize) -> bool {
+    let corners = box_corners(scene, s);
+    scene.lights.list.iter().enumerate().any(|(i, light)| {
+        if scene.lights.power[i].max_element() <= 0.0 {
+            return false;
         }
-    }
-    false
+        match light {
+            LightKind::Triangle { shape, prim } => {
+                let Geometry::Mesh(m) = &scene.shapes[*shape as usize].geometry else { return true };
+                let [a, b, c] = m.triangle(*prim as usize);
+                let n = (b - a).cross(c - a);
+                corners.iter().any(|&q| (q - a).dot(n) > 0.0)
+            }
+            LightKind::Point { .. } | LightKind::Sphere { .. } => true,
+        }
+    })
 }
 
 pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
@@ -92,10 +92,13 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
 
     let mut targets = Vec::new();
     for &s in &specular {
-        if light_sees(scene, s, probe, 256) {
+        if may_be_lit(scene, s) {
             targets.push(s as u32);
         } else {
-            reasons.push(format!("{}: specular but no light reaches it: not a caustic target", scene.shapes[s].name));
+            reasons.push(format!(
+                "{}: specular but every light faces away from it: not a caustic target",
+                scene.shapes[s].name
+            ));
         }
     }
     let caustic = if r.force_all_passes || !targets.is_empty() {
@@ -105,12 +108,19 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
         reasons.push("no caustic map: no specular surface that a light can reach".into());
         0
     };
-    let bounce_possible = lit_diffuse.len() >= 2 || lit_diffuse.iter().any(|&s| !planar(scene, s));
+    // Light reflected by one diffuse surface reaches a diffuse surface again through a second diffuse
+    // surface, through a curved one lighting itself, or through a mirror or glass (L D S⁺ D).
+    let via_specular = !lit_diffuse.is_empty() && !specular.is_empty();
+    let bounce_possible = lit_diffuse.len() >= 2 || lit_diffuse.iter().any(|&s| !planar(scene, s)) || via_specular;
     let indirect = if r.force_all_passes || bounce_possible {
-        reasons.push("indirect map: diffuse surfaces can light each other".into());
+        reasons.push(if via_specular && lit_diffuse.len() < 2 {
+            "indirect map: a diffuse surface lights itself through a specular one".into()
+        } else {
+            "indirect map: diffuse surfaces can light each other".into()
+        });
         r.photons.indirect
     } else {
-        reasons.push("no indirect map: no diffuse surface can light another diffuse surface".into());
+        reasons.push("no indirect map: no diffuse surface can light another, or itself via a mirror".into());
         0
     };
     let direct = if r.force_all_passes || r.direct_light == DirectLight::PhotonMap {
@@ -142,9 +152,13 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     Plan { photons: [direct, indirect, caustic], caustic_targets: targets, specular_spp, nee_lights, reasons }
 }
 
-/// For each light, whether it directly reaches some diffuse point the camera sees (tried against the
-/// first hits of a 48×48 grid of camera rays, two light samples each). All triangles of an emissive
-/// shape share the answer.
+/// For each light, whether the path tracer's next-event estimation should sample it. Only area lights
+/// (triangles, spheres) can be left out: BSDF sampling hits them, and the path tracer's MIS weights
+/// follow the reduced distribution, so leaving one out changes noise, never the expectation, whatever
+/// this heuristic concludes. Point lights have no other strategy and are always kept; estimators
+/// without MIS (the photon-map eye pass) sample every light. An area light is left out when it reaches
+/// no diffuse point among the first hits of a 48×48 grid of camera rays (two light samples each).
+/// All triangles of an emissive shape share the answer.
 fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &mut Vec<String>) -> Vec<bool> {
     let lights = &scene.lights;
     let eps = 1e-4 * scene.diagonal().max(1e-6);
@@ -162,6 +176,10 @@ fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &
         while shape.is_some() && end < lights.list.len() && lights.list[end].shape() == shape {
             end += 1;
         }
+        if shape.is_none() {
+            i = end;
+            continue;
+        }
         let mut rng = Rng::new(0x11_6475, i as u64, 0);
         let reaches = targets.iter().any(|&p| {
             (0..2).any(|_| {
@@ -177,8 +195,10 @@ fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &
         });
         if !reaches {
             let name = shape.map_or_else(|| format!("point light {i}"), |s| scene.shapes[s as usize].name.clone());
-            reasons
-                .push(format!("{name}: reaches nothing the camera sees directly: left out of direct-light sampling"));
+            reasons.push(format!(
+                "{name}: reaches nothing the camera sees directly: left out of the path tracer's light \
+                 sampling (BSDF sampling with MIS still finds it)"
+            ));
             keep[i..end].iter_mut().for_each(|k| *k = false);
         }
         i = end;

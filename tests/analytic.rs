@@ -8,6 +8,7 @@ use caustica::integrator::path::PathTracer;
 use caustica::integrator::Counters;
 use caustica::math::{Ray, Rng};
 use caustica::scene::material::{fresnel_dielectric, Material};
+use caustica::scene::TransportMode;
 use glam::Vec3;
 
 #[test]
@@ -63,7 +64,8 @@ fn point_light_over_diffuse_plane_matches_inverse_square_cosine_law() {
 }
 
 /// Traces `n` flux carriers into a glass slab (y in [0, t]) at incidence `theta`; returns the fractions
-/// that leave upwards (reflected) and downwards (transmitted).
+/// that leave upwards (reflected) and downwards (transmitted), carrying radiance: each refraction scales
+/// by 1/η² going in and η² coming out, so R + T = 1 holds only if the two scales cancel exactly.
 fn slab(theta: f32, n: usize) -> (f64, f64) {
     let text = "[camera]\norigin = [0.0, 5.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\n\
         [materials]\nglass = { type = \"dielectric\", ior = 1.5 }\n\
@@ -83,7 +85,7 @@ fn slab(theta: f32, n: usize) -> (f64, f64) {
             };
             let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
             let wo = -ray.d;
-            let s = glass.sample(wo, si.ns, rng.next_2d(), rng.next_f32(), false).unwrap();
+            let s = glass.sample(wo, si.ns, rng.next_2d(), rng.next_f32(), TransportMode::Radiance).unwrap();
             w *= s.weight.x;
             ray = si.spawn(s.wi);
         }
@@ -119,9 +121,90 @@ fn total_internal_reflection_past_the_critical_angle() {
         let wo = Vec3::new(angle.sin(), -angle.cos(), 0.0); // points back into the glass
         let mut transmitted = 0;
         for _ in 0..2000 {
-            let s = glass.sample(wo, n, rng.next_2d(), rng.next_f32(), false).unwrap();
+            let s = glass.sample(wo, n, rng.next_2d(), rng.next_f32(), TransportMode::Radiance).unwrap();
             transmitted += s.transmitted as u32;
         }
         assert_eq!(transmitted == 0, must_reflect, "angle {} rad: {transmitted} transmitted", angle);
     }
+}
+
+#[test]
+fn refraction_scales_radiance_by_one_over_eta_squared_and_leaves_flux_alone() {
+    // One interface, n = 1.5 below y = 0. The mean weight of the refracted samples is (1 − F)·s with
+    // s = 1/η² for radiance entering glass, η² for radiance leaving it, and 1 for flux either way.
+    let glass = Material::Dielectric { ior: 1.5, tint: Vec3::ONE };
+    let n = Vec3::Y;
+    let count = 200_000;
+    for theta_deg in [0.0f32, 25.0, 40.0] {
+        let theta = theta_deg.to_radians();
+        for (entering, mode) in [
+            (true, TransportMode::Radiance),
+            (false, TransportMode::Radiance),
+            (true, TransportMode::Importance),
+            (false, TransportMode::Importance),
+        ] {
+            // wo points back along the path: above the surface when the path enters the glass.
+            let wo = if entering {
+                Vec3::new(theta.sin(), theta.cos(), 0.0)
+            } else {
+                Vec3::new(theta.sin(), -theta.cos(), 0.0)
+            };
+            let eta = if entering { 1.5f32 } else { 1.0 / 1.5 };
+            let (f, _) = fresnel_dielectric(theta.cos(), eta);
+            let scale = if mode == TransportMode::Radiance { 1.0 / (eta * eta) } else { 1.0 };
+            let expect = ((1.0 - f) * scale) as f64;
+            let mut rng = Rng::new(17, theta_deg as u64, entering as u64);
+            let mut sum = 0.0f64;
+            for _ in 0..count {
+                let s = glass.sample(wo, n, rng.next_2d(), rng.next_f32(), mode).unwrap();
+                if s.transmitted {
+                    sum += s.weight.x as f64;
+                    assert!((s.radiance_scale - scale).abs() < 1e-6 * scale);
+                }
+            }
+            let mean = sum / count as f64;
+            let sigma = scale as f64 * ((1.0 - f as f64) * f as f64 / count as f64).sqrt();
+            assert!(
+                (mean - expect).abs() < 5.0 * sigma + 1e-6,
+                "θ={theta_deg} entering={entering} {mode:?}: {mean} vs {expect}"
+            );
+        }
+    }
+}
+
+#[test]
+fn russian_roulette_does_not_count_refractions_radiance_scale_against_a_path() {
+    // A camera ray straight down through a clear glass slab onto a diffuse floor lit by a point light
+    // under the slab; roulette from the first bounce on. Inside the glass the radiance throughput is
+    // 1/η² = 0.44 but nothing was lost: roulette on it would end 56% of the paths there (relative
+    // variance ≥ 1/0.44 − 1 = 1.25). On the throughput without the scale only the Fresnel choice is
+    // random (≈0.09). The mean must match the closed form T² ρ/π I cos θ/d² either way.
+    let (rho, power) = (0.5f32, 40.0f32);
+    let text = format!(
+        "[camera]\norigin = [0.0, 3.0, 0.1]\ntarget = [0.0, 0.0, 0.0]\n\
+         [materials]\nglass = {{ type = \"dielectric\", ior = 1.5 }}\nm = {{ type = \"diffuse\", reflectance = [{rho}, {rho}, {rho}] }}\n\
+         [[shapes]]\ntype = \"box\"\nmin = [-50.0, 1.0, -50.0]\nmax = [50.0, 1.2, 50.0]\nmaterial = \"glass\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-50.0, 0.0, -50.0]\nedge_u = [0.0, 0.0, 100.0]\nedge_v = [100.0, 0.0, 0.0]\nmaterial = \"m\"\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.3, 0.5, 0.0]\npower = [{power}, {power}, {power}]\n"
+    );
+    let scene = common::scene(&text);
+    let accel = Accel::new(&scene).unwrap();
+    let pt = PathTracer { scene: &scene, tracer: &accel, max_depth: 16, rr_depth: 1 };
+    let n = 100_000;
+    let (mut s1, mut s2) = (0.0f64, 0.0f64);
+    let mut rng = Rng::new(8, 0, 0);
+    for _ in 0..n {
+        let v = pt.li(Ray::new(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y), &mut rng, &mut Counters::default()).x as f64;
+        s1 += v;
+        s2 += v * v;
+    }
+    let mean = s1 / n as f64;
+    let rel_var = (s2 / n as f64 - mean * mean) / (mean * mean);
+    let t = 1.0 - fresnel_dielectric(1.0, 1.5).0;
+    let d = Vec3::new(0.3, 0.5, 0.0);
+    let expect = (t * t * rho / std::f32::consts::PI * power / (4.0 * std::f32::consts::PI) * d.normalize().y
+        / d.length_squared()) as f64;
+    eprintln!("through glass: mean {mean:.5} (closed form {expect:.5}), relative variance {rel_var:.3}");
+    assert!((mean / expect - 1.0).abs() < 0.02, "mean {mean} vs closed form {expect}");
+    assert!(rel_var < 0.3, "relative variance {rel_var}: roulette cut paths inside the glass");
 }

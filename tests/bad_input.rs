@@ -211,3 +211,68 @@ fn a_failed_run_leaves_existing_outputs_alone() {
     assert_eq!(std::fs::read(&img).unwrap(), b"precious");
     assert!(std::fs::read_dir(&d).unwrap().count() == 1, "a temporary file was left behind");
 }
+
+#[test]
+fn a_run_that_fails_after_rendering_leaves_existing_outputs_intact() {
+    // The scene is fine and renders; then the JSON's place is taken by a folder. The EXR and PNG of the
+    // earlier run must survive untouched (all three files are renamed into place only once all are
+    // written and nothing is in the way), and no temporary file may be left behind.
+    let d = dir().join("after-render");
+    std::fs::create_dir_all(d.join("img.json")).unwrap();
+    std::fs::write(d.join("img.exr"), b"old exr").unwrap();
+    std::fs::write(d.join("img.png"), b"old png").unwrap();
+    let p = dir().join("fine.toml");
+    std::fs::write(&p, GOOD).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .args(["render", p.to_str().unwrap(), "-q", "--spp", "1", "-o", d.join("img").to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("img.json") && !err.contains("panicked"), "{err}");
+    assert_eq!(std::fs::read(d.join("img.exr")).unwrap(), b"old exr");
+    assert_eq!(std::fs::read(d.join("img.png")).unwrap(), b"old png");
+    let names: Vec<String> =
+        std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
+    assert_eq!(names.len(), 3, "left behind: {names:?}");
+}
+
+#[test]
+fn a_typed_extension_on_the_output_names_the_file_written() {
+    let d = dir().join("ext");
+    let p = dir().join("fine-ext.toml");
+    std::fs::write(&p, GOOD).unwrap();
+    for typed in ["img.exr", "img.png", "img.json", "img"] {
+        let _ = std::fs::remove_dir_all(&d);
+        let o = Command::new(env!("CARGO_BIN_EXE_caustica"))
+            .args(["render", p.to_str().unwrap(), "-q", "--spp", "1", "-o", d.join(typed).to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let mut names: Vec<String> =
+            std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
+        names.sort();
+        assert_eq!(names, ["img.exr", "img.json", "img.png"], "-o {typed}");
+    }
+}
+
+#[test]
+fn a_closed_pipe_ends_a_command_quietly() {
+    // `caustica info scene | head -1`: the reader goes away before we print. No panic, no message,
+    // exit 0 or 141 (SIGPIPE's), for the scene summary and for --help alike.
+    let p = dir().join("fine-pipe.toml");
+    std::fs::write(&p, GOOD).unwrap();
+    for args in [vec!["info", p.to_str().unwrap()], vec!["--help"]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_caustica"))
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(matches!(o.status.code(), Some(0) | Some(141)), "{args:?}: exit {:?}: {err}", o.status.code());
+        assert!(!err.contains("panicked") && !err.contains("Broken pipe"), "{args:?}: {err}");
+    }
+}

@@ -55,6 +55,7 @@ fn mutation() -> impl Strategy<Value = Mutation> {
         Just("camera.fov = 179.999".to_string()),
         Just("render.spp = 0".to_string()),
         Just("render.photons = { caustic = 9000000000 }".to_string()),
+        Just(OVERFLOWING_COUNTS.to_string()),
         Just("render.gather = { caustic = 4000000000 }".to_string()),
         Just("render.max_depth = 4294967295".to_string()),
         Just("render.mode = \"nothing\"".to_string()),
@@ -121,6 +122,10 @@ fn apply(text: &str, m: &Mutation) -> Vec<u8> {
     }
 }
 
+/// Counts whose sum wraps a u64 to 0: the memory guard must see through it.
+const OVERFLOWING_COUNTS: &str =
+    "render.photons = { direct = 9223372036854775807, indirect = 9223372036854775807, caustic = 2 }";
+
 static RENDERED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 static REFUSED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
@@ -150,7 +155,6 @@ fn run_case(name: &str, bytes: &[u8]) {
             r.specular_spp = r.specular_spp.min(1);
             r.final_gather = r.final_gather.min(2);
             r.max_depth = r.max_depth.min(32);
-            r.photons.max_bounces = r.photons.max_bounces.min(32);
             r.photons.max_shots_factor = r.photons.max_shots_factor.min(20);
             for c in [&mut r.photons.direct, &mut r.photons.indirect, &mut r.photons.caustic] {
                 *c = (*c).min(500);
@@ -186,5 +190,57 @@ fn the_corpus_is_the_bundled_scenes() {
     assert!(c.len() >= 7, "{:?}", c.iter().map(|x| &x.0).collect::<Vec<_>>());
     for (name, text) in &c {
         run_case(name, text.as_bytes());
+    }
+}
+
+/// `text` with its `[render.photons]` counts replaced by `counts` (TOML lines), the table added if absent.
+fn with_photon_counts(text: &str, counts: &str) -> String {
+    let mut out = Vec::new();
+    let mut in_table = false;
+    let mut found = false;
+    for line in text.lines() {
+        let t = line.trim_start();
+        if t.starts_with('[') {
+            in_table = t.starts_with("[render.photons]");
+            if in_table {
+                found = true;
+                out.push(line.to_string());
+                out.push(counts.to_string());
+                continue;
+            }
+        }
+        let is_count = ["direct", "indirect", "caustic"].iter().any(|k| t.starts_with(k));
+        if !(in_table && is_count) {
+            out.push(line.to_string());
+        }
+    }
+    if !found {
+        out.push(format!("[render.photons]\n{counts}"));
+    }
+    out.join("\n")
+}
+
+#[test]
+fn huge_photon_counts_reach_the_memory_guard_unclamped() {
+    // The fuzz cases clamp counts after loading (to render fast); here nothing is clamped: a scene file
+    // asking for more photons than memory allows must be refused at load, naming file and key. The
+    // first set wraps a u64 sum to 1 and slipped past the guard before the sum was checked.
+    let huge = [
+        "direct = 9223372036854775807\nindirect = 9223372036854775807\ncaustic = 2",
+        "indirect = 400000000",
+        "direct = 9223372036854775807\ncaustic = 9223372036854775807",
+    ];
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for (name, text) in corpus() {
+        for counts in huge {
+            let mutated = with_photon_counts(&text, counts);
+            match load_scene_str(&mutated, &name, &dir, &[]) {
+                Ok(s) => panic!("{name} with `{counts}` loaded with photons {:?}", s.render.photons),
+                Err(e) => {
+                    let e = e.to_string();
+                    assert!(e.contains(&name) && e.contains("render.photons"), "{e}");
+                }
+            }
+        }
     }
 }

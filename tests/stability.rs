@@ -227,7 +227,7 @@ fn snell_with_relative_index_under_water() {
     let m = &scene.materials[scene.material_names.iter().position(|n| n == "inwater").unwrap()];
     let theta = 40f32.to_radians();
     let wo = Vec3::new(-theta.sin(), theta.cos(), 0.0);
-    let s = m.sample(wo, Vec3::Y, [0.0, 0.0], 0.999_999, false).unwrap();
+    let s = m.sample(wo, Vec3::Y, [0.0, 0.0], 0.999_999, caustica::scene::TransportMode::Importance).unwrap();
     assert!(s.transmitted);
     let sin_t = s.wi.x.abs();
     assert!((sin_t - 1.33 / 1.5 * theta.sin()).abs() < 1e-5, "sin θt = {sin_t}");

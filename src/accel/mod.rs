@@ -48,30 +48,4 @@ pub trait Tracer: Sync + Send {
     }
 }
 
-/// Exact ray–sphere roots in f64 (shared by Embree's user geometry and the brute-force twin):
-/// returns the smallest root in (tmin, tmax).
-pub fn sphere_root(o: [f32; 3], d: [f32; 3], c: [f32; 3], r: f32, tmin: f32, tmax: f32) -> Option<f32> {
-    let oc = [o[0] as f64 - c[0] as f64, o[1] as f64 - c[1] as f64, o[2] as f64 - c[2] as f64];
-    let dd = [d[0] as f64, d[1] as f64, d[2] as f64];
-    let a = dd[0] * dd[0] + dd[1] * dd[1] + dd[2] * dd[2];
-    let b = oc[0] * dd[0] + oc[1] * dd[1] + oc[2] * dd[2];
-    let cc = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - (r as f64) * (r as f64);
-    let disc = b * b - a * cc;
-    if disc < 0.0 || a == 0.0 {
-        return None;
-    }
-    let s = disc.sqrt();
-    // Numerically stable pair of roots.
-    let q = if b > 0.0 { -(b + s) } else { -b + s };
-    let (mut t0, mut t1) = (q / a, if q != 0.0 { cc / q } else { q / a });
-    if t0 > t1 {
-        std::mem::swap(&mut t0, &mut t1);
-    }
-    for t in [t0, t1] {
-        let tf = t as f32;
-        if tf > tmin && tf < tmax {
-            return Some(tf);
-        }
-    }
-    None
-}
+pub use crate::math::sphere_root;

@@ -1,4 +1,5 @@
-//! Next-event estimation: one light sample with a shadow ray, MIS-weighted against BSDF sampling.
+//! Direct light: one light sample with a shadow ray, MIS-weighted against BSDF sampling where the
+//! caller's estimator also counts lights its BSDF samples hit.
 use super::Counters;
 use crate::accel::Tracer;
 use crate::color::Rgb;
@@ -6,7 +7,18 @@ use crate::math::{sampling::power_heuristic, Rng};
 use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 
-/// Direct light reflected towards `wo` at a non-delta surface (MIS weight applied when `mis`).
+/// How the caller combines this estimate with light found by BSDF sampling.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirectStrategy {
+    /// The path tracer: lights drawn from the next-event distribution (the planner may leave area
+    /// lights out of it) and MIS-weighted against BSDF sampling, which finds those lights too.
+    Mis,
+    /// Estimators that never count emission found by BSDF sampling (the photon-map eye pass): every
+    /// light by power, unweighted.
+    LightOnly,
+}
+
+/// Direct light reflected towards `wo` at a non-delta surface.
 pub fn estimate_direct(
     scene: &Scene,
     tracer: &dyn Tracer,
@@ -14,12 +26,13 @@ pub fn estimate_direct(
     wo: Vec3,
     rng: &mut Rng,
     c: &mut Counters,
-    mis: bool,
+    strategy: DirectStrategy,
 ) -> Rgb {
     let mat = scene.material_of(si.shape);
     let u_sel = rng.next_f32();
     let u = rng.next_2d();
-    let Some(ls) = scene.lights.sample(scene, si.p, u_sel, u) else {
+    let mis = strategy == DirectStrategy::Mis;
+    let Some(ls) = scene.lights.sample(scene, si.p, u_sel, u, mis) else {
         return Rgb::ZERO;
     };
     if ls.pdf <= 0.0 || ls.li == Rgb::ZERO {
@@ -33,11 +46,8 @@ pub fn estimate_direct(
     if f == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let mut shadow = si.spawn(ls.wi);
-    let o = shadow.o;
-    shadow.tmax = (ls.dist - (o - si.p).length()) * (1.0 - 1e-4);
     c.rays += 1;
-    if tracer.occluded(&shadow) {
+    if tracer.occluded(&si.spawn_to(ls.p)) {
         return Rgb::ZERO;
     }
     let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns)) };

@@ -1,11 +1,13 @@
 //! Unidirectional path tracer: next-event estimation with MIS (area and sphere lights), shadow rays for
-//! point lights, delta BSDFs sampled exactly, Russian roulette after `rr_depth` bounces.
-use super::direct::estimate_direct;
+//! point lights, delta BSDFs sampled exactly, Russian roulette after `rr_depth` bounces on the
+//! throughput without refraction's 1/η² radiance scale.
+use super::direct::{estimate_direct, DirectStrategy};
 use super::Counters;
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
-use crate::math::{max_component, sampling::power_heuristic, Ray, Rng};
-use crate::scene::Scene;
+use crate::math::sampling::{power_heuristic, russian_roulette};
+use crate::math::{max_component, Ray, Rng};
+use crate::scene::{Scene, TransportMode};
 
 pub struct PathTracer<'a> {
     pub scene: &'a Scene,
@@ -20,6 +22,8 @@ impl PathTracer<'_> {
         let scene = self.scene;
         let mut l = Rgb::ZERO;
         let mut beta = Rgb::ONE;
+        // Product of the refractions' radiance scales (1/η² each): divided out for Russian roulette.
+        let mut radiance_scale = 1.0f32;
         let mut specular = true;
         let mut prev_pdf = 0.0f32;
         let mut prev_p = ray.o;
@@ -42,21 +46,21 @@ impl PathTracer<'_> {
             }
             let mat = scene.material_of(hit.shape);
             if !mat.is_delta() {
-                l += beta * estimate_direct(scene, self.tracer, &si, wo, rng, c, true);
+                l += beta * estimate_direct(scene, self.tracer, &si, wo, rng, c, DirectStrategy::Mis);
             }
-            let Some((bs, next)) = si.scatter(mat, wo, rng, true) else {
+            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Radiance) else {
                 break;
             };
             beta *= bs.weight;
+            radiance_scale *= bs.radiance_scale;
             specular = bs.delta;
             prev_pdf = bs.pdf;
             prev_p = si.p;
             ray = next;
             if depth + 1 >= self.rr_depth {
-                let q = max_component(beta).min(0.95);
-                if q <= 0.0 || rng.next_f32() >= q {
+                let Some(q) = russian_roulette(max_component(beta) / radiance_scale, rng.next_f32()) else {
                     break;
-                }
+                };
                 beta /= q;
             }
         }

@@ -2,17 +2,17 @@
 //! glass by sampling until a diffuse hit, where direct light (shadow rays or the direct map), caustics
 //! (caustic map) and indirect light (indirect map, or a final gather that reads the maps one bounce
 //! further) are added. Also the map views: photon splats and single-map estimates.
-use super::direct::estimate_direct;
+use super::direct::{estimate_direct, DirectStrategy};
 use super::Counters;
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::{luminance, Rgb};
 use crate::film::Image;
-use crate::math::{sampling, Frame, Ray, Rng};
+use crate::math::{Ray, Rng};
 use crate::photon::estimate::{Gather, PhotonMap};
 use crate::photon::kdtree::KnnResult;
 use crate::photon::trace::{run_pass, PassSettings, PassStats, Targets, CAUSTIC, DIRECT, INDIRECT, MAP_NAMES};
 use crate::scene::file::DirectLight;
-use crate::scene::{Scene, SurfaceHit};
+use crate::scene::{Scene, SurfaceHit, TransportMode};
 use serde::Serialize;
 use std::cell::RefCell;
 
@@ -62,7 +62,8 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
         let want = [req.want[DIRECT], req.want[INDIRECT], 0];
         let s = PassSettings {
             want,
-            max_bounces: ps.max_bounces,
+            max_depth: scene.render.max_depth,
+            rr_depth: scene.render.rr_depth,
             max_shots: want.iter().max().copied().unwrap_or(0).saturating_mul(ps.max_shots_factor),
             seed: scene.render.seed,
             pass: 1,
@@ -78,7 +79,8 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
         let targeted = req.targeted && !targets.is_empty();
         let s = PassSettings {
             want: [0, 0, req.want[CAUSTIC]],
-            max_bounces: ps.max_bounces,
+            max_depth: scene.render.max_depth,
+            rr_depth: scene.render.rr_depth,
             max_shots: req.want[CAUSTIC].saturating_mul(ps.max_shots_factor),
             seed: scene.render.seed,
             pass: 2,
@@ -156,7 +158,7 @@ impl<'a> PhotonMapper<'a> {
         let Some(map) = &self.maps.maps[m] else {
             return Rgb::ZERO;
         };
-        SCRATCH.with(|s| map.radiance(si.p, si.ng, wo, rho, self.gather[m], &mut s.borrow_mut()))
+        SCRATCH.with(|s| map.radiance(si, wo, rho, self.gather[m], &mut s.borrow_mut()))
     }
 
     /// Radiance leaving a diffuse point: direct + caustic + indirect (`fg` final-gather rays, 0 = map).
@@ -167,25 +169,26 @@ impl<'a> PhotonMapper<'a> {
         }
         let direct = match (&self.maps.maps[DIRECT], self.scene.render.direct_light) {
             (Some(_), DirectLight::PhotonMap) => self.map_radiance(DIRECT, si, wo, rho),
-            _ => estimate_direct(self.scene, self.tracer, si, wo, rng, c, false),
+            _ => estimate_direct(self.scene, self.tracer, si, wo, rng, c, DirectStrategy::LightOnly),
         };
         let indirect =
-            if fg == 0 { self.map_radiance(INDIRECT, si, wo, rho) } else { self.final_gather(si, wo, rho, rng, c, fg) };
+            if fg == 0 { self.map_radiance(INDIRECT, si, wo, rho) } else { self.final_gather(si, wo, rng, c, fg) };
         direct + self.map_radiance(CAUSTIC, si, wo, rho) + indirect
     }
 
-    /// Indirect light by `n` cosine-distributed rays that read the maps where they land.
-    fn final_gather(&self, si: &SurfaceHit, wo: glam::Vec3, rho: Rgb, rng: &mut Rng, c: &mut Counters, n: u32) -> Rgb {
-        let side = if wo.dot(si.ng) < 0.0 { -si.ng } else { si.ng };
-        let frame = Frame::from_normal(side);
+    /// Indirect light by `n` rays sampled from the surface's BSDF (cosine about the shading normal, as
+    /// direct light and the path tracer use it) that read the maps where they land.
+    fn final_gather(&self, si: &SurfaceHit, wo: glam::Vec3, rng: &mut Rng, c: &mut Counters, n: u32) -> Rgb {
+        let mat = self.scene.material_of(si.shape);
         let mut sum = Rgb::ZERO;
         for _ in 0..n {
-            let wi = frame.to_world(sampling::cosine_hemisphere(rng.next_2d()));
-            let ray = si.spawn(wi);
+            let Some((bs, ray)) = si.scatter(mat, wo, rng, TransportMode::Radiance) else {
+                continue;
+            };
             // Emission seen by gather rays is direct light or a caustic, already counted: skip it.
-            sum += self.follow(ray, Rgb::ONE, rng, c, false, 0);
+            sum += self.follow(ray, bs.weight, rng, c, false, 0);
         }
-        sum * rho / n as f32
+        sum / n as f32
     }
 
     /// Follows a ray through specular surfaces to a diffuse one; `emission` adds lights seen on the way.
@@ -205,7 +208,7 @@ impl<'a> PhotonMapper<'a> {
                 l += beta * self.diffuse_radiance(&si, wo, rng, c, fg);
                 break;
             }
-            let Some((bs, next)) = si.scatter(mat, wo, rng, true) else {
+            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Radiance) else {
                 break;
             };
             beta *= bs.weight;

@@ -53,22 +53,73 @@ impl Frame {
 /// a fixed number of float ULPs far from the origin, an absolute epsilon near it. The paper's constants
 /// are for primitives of unit size; `scale` (the size of the primitive the point lies on) scales the
 /// near-origin ones, so geometry shrunk to 1e-4 or grown to 1e4 behaves like the unit one.
+/// The ULP step goes through the float's ordered-integer image, so it crosses zero and subnormals
+/// monotonically (adding to the raw bits of ±0.0 would give a NaN) and stops at the largest finite float.
 pub fn offset_ray_origin(p: Vec3, ng: Vec3, w: Vec3, scale: f32) -> Vec3 {
     let origin = scale / 32.0;
     let float_scale = scale / 65536.0;
     const INT_SCALE: f32 = 256.0;
-    let n = if ng.dot(w) < 0.0 { -ng } else { ng };
-    let of_i = [(INT_SCALE * n.x) as i32, (INT_SCALE * n.y) as i32, (INT_SCALE * n.z) as i32];
+    let n = face_forward(ng, w);
     let pa = p.to_array();
     let na = n.to_array();
     let mut out = [0.0f32; 3];
     for k in 0..3 {
-        let bits = pa[k].to_bits() as i32;
-        let delta = if pa[k] < 0.0 { -of_i[k] } else { of_i[k] };
-        let p_i = f32::from_bits(bits.wrapping_add(delta) as u32);
-        out[k] = if pa[k].abs() < origin { pa[k] + float_scale * na[k] } else { p_i };
+        out[k] = if pa[k].abs() < origin {
+            pa[k] + float_scale * na[k]
+        } else {
+            step_ulps(pa[k], (INT_SCALE * na[k]) as i32)
+        };
     }
     Vec3::from_array(out)
+}
+
+/// `x` moved by `ulps` representable floats (towards +∞ for positive `ulps`), through ±0 and the
+/// subnormals without a jump, saturating at ±f32::MAX. NaN stays NaN.
+pub fn step_ulps(x: f32, ulps: i32) -> f32 {
+    if x.is_nan() {
+        return x;
+    }
+    // Ordered image: negative floats map below zero, −0.0 and +0.0 both to 0, monotone in x.
+    let bits = x.to_bits();
+    let ord = if bits >> 31 == 1 { -((bits & 0x7FFF_FFFF) as i64) } else { bits as i64 };
+    let max = f32::MAX.to_bits() as i64;
+    let o = (ord + ulps as i64).clamp(-max, max);
+    if o < 0 {
+        f32::from_bits((-o) as u32 | 0x8000_0000)
+    } else {
+        f32::from_bits(o as u32)
+    }
+}
+
+/// `n` flipped, if needed, to the side of `w` (the one "orient n toward w" of the code base).
+pub fn face_forward(n: Vec3, w: Vec3) -> Vec3 {
+    if n.dot(w) < 0.0 {
+        -n
+    } else {
+        n
+    }
+}
+
+/// Nearest positive hit of a ray with a sphere, in f64 (Embree's user geometry, the brute-force twin
+/// and light sampling share it): the smallest root t of |o + t·d − c| = r in (tmin, tmax).
+pub fn sphere_root(o: [f32; 3], d: [f32; 3], c: [f32; 3], r: f32, tmin: f32, tmax: f32) -> Option<f32> {
+    let oc = [o[0] as f64 - c[0] as f64, o[1] as f64 - c[1] as f64, o[2] as f64 - c[2] as f64];
+    let dd = [d[0] as f64, d[1] as f64, d[2] as f64];
+    let a = dd[0] * dd[0] + dd[1] * dd[1] + dd[2] * dd[2];
+    let b = oc[0] * dd[0] + oc[1] * dd[1] + oc[2] * dd[2];
+    let cc = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - (r as f64) * (r as f64);
+    let disc = b * b - a * cc;
+    if disc < 0.0 || a == 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    // Numerically stable pair of roots.
+    let q = if b > 0.0 { -(b + s) } else { -b + s };
+    let (mut t0, mut t1) = (q / a, if q != 0.0 { cc / q } else { q / a });
+    if t0 > t1 {
+        std::mem::swap(&mut t0, &mut t1);
+    }
+    [t0, t1].into_iter().map(|t| t as f32).find(|&t| t > tmin && t < tmax)
 }
 
 /// Largest component of a vector.
@@ -109,5 +160,49 @@ mod tests {
             assert!((down - p).dot(n) < 0.0, "scale {scale}");
             assert!((up - p).length() < 1e-3 * scale.max(1.0));
         }
+    }
+
+    #[test]
+    fn offsets_stay_finite_and_on_the_requested_side_for_zero_subnormal_and_huge_coordinates() {
+        let specials = [0.0f32, -0.0, 1e-40, -1e-40, f32::MIN_POSITIVE, 1e30, -1e30, 3.0e38, -3.0e38, 0.5];
+        let mut rng = Rng::new(11, 0, 0);
+        for _ in 0..2000 {
+            let n = sampling::uniform_sphere(rng.next_2d());
+            let pick = |r: &mut Rng| specials[(r.next_u32() % specials.len() as u32) as usize];
+            let p = Vec3::new(pick(&mut rng), pick(&mut rng), pick(&mut rng));
+            for scale in [0.0f32, 1e-6, 1.0, 1e4] {
+                for w in [n, -n] {
+                    let q = offset_ray_origin(p, n, w, scale);
+                    assert!(q.is_finite(), "p {p:?} n {n:?} scale {scale}: {q:?}");
+                    // Each coordinate moves (or stays) towards the side of w.
+                    let side = face_forward(n, w);
+                    for k in 0..3 {
+                        let step = (q[k] as f64 - p[k] as f64) * side[k] as f64;
+                        assert!(step >= 0.0, "p {p:?} n {n:?} k {k}: {} -> {}", p[k], q[k]);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn ulp_steps_cross_zero_monotonically() {
+        assert_eq!(step_ulps(0.0, 1), f32::from_bits(1));
+        assert_eq!(step_ulps(-0.0, -1), -f32::from_bits(1));
+        assert_eq!(step_ulps(f32::from_bits(1), -2), -f32::from_bits(1));
+        assert_eq!(step_ulps(1.0, 1), f32::from_bits(1.0f32.to_bits() + 1));
+        assert_eq!(step_ulps(-1.0, 1), f32::from_bits((-1.0f32).to_bits() - 1));
+        assert_eq!(step_ulps(f32::MAX, 10), f32::MAX);
+        assert_eq!(step_ulps(-f32::MAX, -10), -f32::MAX);
+    }
+
+    #[test]
+    fn sphere_root_is_the_nearest_hit_in_range() {
+        let t = sphere_root([0.0, 0.0, -5.0], [0.0, 0.0, 1.0], [0.0; 3], 1.0, 0.0, f32::INFINITY);
+        assert!((t.unwrap() - 4.0).abs() < 1e-6);
+        let t = sphere_root([0.0, 0.0, 0.0], [0.0, 0.0, 2.0], [0.0; 3], 1.0, 0.0, f32::INFINITY);
+        assert!((t.unwrap() - 0.5).abs() < 1e-6, "inside: far side");
+        assert!(sphere_root([0.0, 0.0, -5.0], [0.0, 0.0, 1.0], [0.0; 3], 1.0, 0.0, 3.9).is_none());
+        assert!(sphere_root([0.0, 2.0, -5.0], [0.0, 0.0, 1.0], [0.0; 3], 1.0, 0.0, 100.0).is_none());
     }
 }

@@ -9,6 +9,12 @@ pub fn cosine_hemisphere(u: [f32; 2]) -> Vec3 {
     Vec3::new(d[0], d[1], z)
 }
 
+/// Cosine-weighted direction around the unit normal `n` (the one cosine sampler: diffuse BSDFs,
+/// emission from area lights); pdf = (wi · n) / π.
+pub fn cosine_around(n: Vec3, u: [f32; 2]) -> Vec3 {
+    crate::math::Frame::from_normal(n).to_world(cosine_hemisphere(u))
+}
+
 /// Shirley–Chiu concentric map from the square to the unit disk.
 pub fn concentric_disk(u: [f32; 2]) -> [f32; 2] {
     let a = 2.0 * u[0] - 1.0;
@@ -28,10 +34,14 @@ pub fn uniform_sphere(u: [f32; 2]) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
-/// Uniform direction in the cone around +z with cos θ ≥ `cos_max`; pdf = 1 / (2π (1 − cos_max)).
-pub fn uniform_cone(u: [f32; 2], cos_max: f32) -> Vec3 {
-    let cos_t = 1.0 - u[0] * (1.0 - cos_max);
-    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+/// Uniform direction in the cone around +z with cos θ ≥ cos_max, given `one_minus_cos_max`
+/// = 1 − cos_max (computed stably by the caller: a far, small cone has 1 − cos_max far below f32's
+/// epsilon around 1); pdf = 1 / (2π · one_minus_cos_max). sin θ comes from (1 − cos θ)(1 + cos θ),
+/// so the directions of a tiny cone keep their spread.
+pub fn uniform_cone(u: [f32; 2], one_minus_cos_max: f32) -> Vec3 {
+    let one_minus = u[0] * one_minus_cos_max;
+    let cos_t = 1.0 - one_minus;
+    let sin_t = (one_minus * (2.0 - one_minus)).max(0.0).sqrt();
     let phi = 2.0 * PI * u[1];
     Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
 }
@@ -54,6 +64,18 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     } else {
         a / (a + b)
     }
+}
+
+/// Russian roulette as pbrt-v4 plays it: a path whose throughput (without refraction's radiance scale)
+/// has fallen below 1 survives with that throughput as its probability, decided by the uniform `u`;
+/// one at 1 or above is never cut (a perfect mirror or a clear glass chain loses nothing, so killing it
+/// would only add noise). Returns the survival probability to divide by, or None when the path ends.
+/// Camera paths and photons share it, so both sides of a comparison cut paths alike.
+pub fn russian_roulette(throughput: f32, u: f32) -> Option<f32> {
+    if throughput >= 1.0 {
+        return Some(1.0);
+    }
+    (throughput > 0.0 && u < throughput).then_some(throughput)
 }
 
 /// Walker–Vose alias table: draws index i with probability w_i / Σw in O(1), one random access
@@ -126,7 +148,7 @@ mod tests {
     fn cone_stays_inside_and_sphere_is_unit() {
         let mut r = Rng::new(4, 0, 0);
         for _ in 0..10_000 {
-            let d = uniform_cone(r.next_2d(), 0.9);
+            let d = uniform_cone(r.next_2d(), 0.1);
             assert!(d.z >= 0.9 - 1e-6 && (d.length() - 1.0).abs() < 1e-5);
             assert!((uniform_sphere(r.next_2d()).length() - 1.0).abs() < 1e-5);
         }

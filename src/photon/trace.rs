@@ -1,13 +1,16 @@
 //! Photon tracing: emission from the lights (uniform, or aimed at specular surfaces for caustics),
-//! bounces through Embree, storage into the direct / indirect / caustic maps, Russian roulette at
-//! diffuse hits. Photon i's random numbers are keyed by (seed, pass, i), and batches are merged in index
+//! bounces through Embree, storage into the direct / indirect / caustic maps. Bounces go through the
+//! same BSDF sampling as camera paths, in importance mode (no 1/η², shading-normal adjoint). Depth
+//! follows the path tracer: a photon path plus the surface it is gathered at has at most
+//! `render.max_depth` scattering events; Russian roulette at diffuse hits by reflectance, and at
+//! specular hits past `render.rr_depth` on the throughput, as the path tracer does. Photon i's random numbers are keyed by (seed, pass, i), and batches are merged in index
 //! order, so the maps are identical for any thread count. Each map counts its own `n_emitted`: the
 //! number of photons shot up to the batch in which it reached its requested size.
 use crate::accel::Tracer;
 use crate::color::Rgb;
-use crate::math::{max_component, offset_ray_origin, sampling, Frame, Ray, Rng};
+use crate::math::{face_forward, max_component, offset_ray_origin, sampling, Ray, Rng};
 use crate::photon::photon::Photon;
-use crate::scene::{Geometry, Scene};
+use crate::scene::{Geometry, Scene, TransportMode};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -42,13 +45,13 @@ pub struct PassStats {
 pub struct Targets {
     shapes: Vec<u32>,
     cdf: Vec<f32>,
-    /// Per target: cumulative triangle areas (meshes only).
+    /// Per target: triangles drawn by area (meshes only).
     tri_pick: Vec<sampling::AliasTable>,
     pub total_area: f32,
 }
 
 impl Targets {
-    /// Every non-diffuse, non-emissive shape is a target.
+    /// Every non-diffuse shape is a target, or those of `only` (the planner's list).
     pub fn new(scene: &Scene, only: Option<&[u32]>) -> Targets {
         let mut t = Targets { shapes: Vec::new(), cdf: Vec::new(), tri_pick: Vec::new(), total_area: 0.0 };
         for (i, s) in scene.shapes.iter().enumerate() {
@@ -81,18 +84,13 @@ impl Targets {
     fn sample(&self, scene: &Scene, u_sel: f32, (bits, coin): (u32, f32), u: [f32; 2]) -> (u32, Vec3, Vec3) {
         let (i, _) = sampling::sample_cdf(&self.cdf, u_sel);
         let shape = self.shapes[i];
-        match &scene.shapes[shape as usize].geometry {
-            Geometry::Mesh(m) => {
-                let k = self.tri_pick[i].sample(bits, coin);
-                let [a, b, c] = m.triangle(k);
-                let bc = sampling::uniform_triangle(u);
-                (shape, a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1], (b - a).cross(c - a).normalize())
-            }
-            Geometry::Sphere { center, radius } => {
-                let n = sampling::uniform_sphere(u);
-                (shape, *center + n * *radius, n)
-            }
-        }
+        let geometry = &scene.shapes[shape as usize].geometry;
+        let prim = match geometry {
+            Geometry::Mesh(_) => self.tri_pick[i].sample(bits, coin),
+            Geometry::Sphere { .. } => 0,
+        };
+        let sp = geometry.point(prim, u);
+        (shape, sp.p, sp.n)
     }
 }
 
@@ -100,7 +98,10 @@ impl Targets {
 pub struct PassSettings {
     /// Requested stored photons per map (0 = map not built in this pass).
     pub want: [u64; 3],
-    pub max_bounces: u32,
+    /// Scattering events a photon path may have, counting the one at the gather point (render.max_depth).
+    pub max_depth: u32,
+    /// Specular bounces past which Russian roulette applies (render.rr_depth).
+    pub rr_depth: u32,
     /// Give up after this many photons shot.
     pub max_shots: u64,
     pub seed: u64,
@@ -126,14 +127,16 @@ fn trace_one(
     segs: &mut u64,
 ) {
     let (mut ray, mut phi) = (l.ray, l.phi);
+    let phi_launch = max_component(l.phi);
     let mut diffuse_bounces = 0u32;
     let mut specular_bounces = 0u32;
-    for bounce in 0..s.max_bounces {
+    // Hit `depth` follows `depth` scattering events; gathering there adds one more.
+    for depth in 0..s.max_depth {
         *segs += 1;
         let Some(hit) = tracer.intersect(&ray) else {
             return;
         };
-        if bounce == 0 {
+        if depth == 0 {
             if let Some((shape, dist)) = l.aim {
                 if hit.shape != shape || hit.t < dist * (1.0 - 1e-3) {
                     return;
@@ -143,6 +146,7 @@ fn trace_one(
         let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
         let mat = scene.material_of(hit.shape);
         let wo = -ray.d.normalize();
+        let last = depth + 1 >= s.max_depth;
         if mat.is_diffuse() {
             let map = if diffuse_bounces > 0 {
                 INDIRECT
@@ -152,35 +156,37 @@ fn trace_one(
                 DIRECT
             };
             if s.want[map] > 0 {
-                let n = if wo.dot(si.ng) < 0.0 { -si.ng } else { si.ng };
-                out[map].push(Photon { p: si.p, wi: ray.d.normalize(), phi, n });
+                out[map].push(Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) });
             }
             // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
-            if s.want[INDIRECT] == 0 {
+            if s.want[INDIRECT] == 0 || last {
                 return;
             }
-            let rho = mat.albedo();
-            let p = max_component(rho);
+            let p = max_component(mat.albedo());
             if p <= 0.0 || rng.next_f32() >= p {
                 return;
             }
-            phi *= rho / p;
-            let side = if wo.dot(si.ns) < 0.0 { -si.ns } else { si.ns };
-            let wi = Frame::from_normal(side).to_world(sampling::cosine_hemisphere(rng.next_2d()));
-            if wi.dot(si.ng) * wo.dot(si.ng) <= 0.0 {
+            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Importance) else {
+                return;
+            };
+            phi *= bs.weight / p;
+            diffuse_bounces += 1;
+            ray = next;
+        } else {
+            if last {
                 return;
             }
-            diffuse_bounces += 1;
-            ray = si.spawn(wi);
-        } else {
-            let Some((bs, next)) = si.scatter(mat, wo, rng, false) else {
+            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Importance) else {
                 return;
             };
             phi *= bs.weight;
-            if max_component(phi) <= 0.0 {
-                return;
-            }
             specular_bounces += 1;
+            if specular_bounces >= s.rr_depth {
+                let Some(q) = sampling::russian_roulette(max_component(phi) / phi_launch, rng.next_f32()) else {
+                    return;
+                };
+                phi /= q;
+            }
             ray = next;
         }
     }

@@ -361,7 +361,6 @@ pub struct PhotonSettings {
     pub direct: u64,
     pub indirect: u64,
     pub caustic: u64,
-    pub max_bounces: u32,
     /// Give up shooting after this many photons per requested photon (reported, never loops forever).
     pub max_shots_factor: u64,
     /// Aim caustic photons at specular surfaces (area-weighted); false = uniform emission.
@@ -374,7 +373,6 @@ impl Default for PhotonSettings {
             direct: 200_000,
             indirect: 500_000,
             caustic: 500_000,
-            max_bounces: 16,
             max_shots_factor: 50,
             caustic_targeting: true,
         }

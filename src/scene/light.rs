@@ -1,7 +1,7 @@
 //! Lights: point lights and emissive shapes (triangles of any mesh, analytic spheres), chosen by power.
 //! Sampling for next-event estimation (solid-angle pdfs, cone sampling for spheres) and for photon emission.
 use crate::color::{luminance, Rgb};
-use crate::math::{sampling, Frame, Ray};
+use crate::math::{offset_ray_origin, sampling, sphere_root, Frame, Ray};
 use crate::scene::{Geometry, Scene};
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -42,6 +42,9 @@ pub struct Lights {
 pub struct LightSample {
     pub wi: Vec3,
     pub dist: f32,
+    /// The sampled point on the light, moved off the emitter's surface towards the reference point
+    /// (robust offset): a shadow ray ends here and cannot hit the emitter itself.
+    pub p: Vec3,
     /// Incident radiance (area lights) or intensity / d² (point lights).
     pub li: Rgb,
     /// Solid-angle pdf including the light choice (for point lights: the choice probability).
@@ -130,18 +133,25 @@ impl Lights {
         (self.nee_cdf[i] - lo) / total
     }
 
-    /// Samples a light point for next-event estimation at `x`.
-    pub fn sample(&self, scene: &Scene, x: Vec3, u_sel: f32, u: [f32; 2]) -> Option<LightSample> {
-        if self.nee_cdf.last().is_none_or(|&t| t <= 0.0) {
+    /// Samples a light point for direct light at `x`: from the next-event distribution (`nee`, with
+    /// the planner's left-out lights at zero: only for estimators whose MIS gives those lights to BSDF
+    /// sampling) or from every light by power.
+    pub fn sample(&self, scene: &Scene, x: Vec3, u_sel: f32, u: [f32; 2], nee: bool) -> Option<LightSample> {
+        let cdf = if nee { &self.nee_cdf } else { &self.cdf };
+        if cdf.last().is_none_or(|&t| t <= 0.0) {
             return None;
         }
-        let (i, p_sel) = sampling::sample_cdf(&self.nee_cdf, u_sel);
+        let (i, p_sel) = sampling::sample_cdf(cdf, u_sel);
         match &self.list[i] {
             LightKind::Point { position, intensity } => {
                 let d = *position - x;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
-                Some(LightSample { wi: d / dist, dist, li: *intensity / dist2, pdf: p_sel, delta: true })
+                if dist.is_nan() || dist <= 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                Some(LightSample { wi, dist, p: *position, li: *intensity / dist2, pdf: p_sel, delta: true })
             }
             LightKind::Triangle { .. } => {
                 let lp = self.sample_point(scene, i, u)?;
@@ -154,7 +164,8 @@ impl Lights {
                     return None;
                 }
                 let pdf = p_sel * lp.pdf_area * dist2 / cos_l;
-                Some(LightSample { wi, dist, li: lp.le, pdf, delta: false })
+                let p = offset_ray_origin(lp.p, lp.n, -wi, lp.size);
+                Some(LightSample { wi, dist, p, li: lp.le, pdf, delta: false })
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];
@@ -167,15 +178,20 @@ impl Lights {
                     return None;
                 }
                 let dc = dc2.sqrt();
-                let (cos_max, one_minus) = cone_of(radius, dc2);
+                let one_minus = cone_of(radius, dc2);
                 if one_minus <= 0.0 {
                     return None;
                 }
                 let f = Frame::from_normal(d / dc);
-                let wi = f.to_world(sampling::uniform_cone(u, cos_max));
-                let dist = sphere_hit(x, wi, center, radius).unwrap_or(dc - radius);
+                let wi = f.to_world(sampling::uniform_cone(u, one_minus)).normalize();
+                // A direction rounded just past the silhouette still belongs to the cone: take the
+                // point of closest approach, which lies on the sphere to rounding.
+                let dist = sphere_root(x.to_array(), wi.to_array(), center.to_array(), radius, 0.0, f32::INFINITY)
+                    .unwrap_or_else(|| d.dot(wi).max(0.0));
+                let y = x + wi * dist;
+                let p = offset_ray_origin(y, (y - center).normalize_or_zero(), -wi, radius);
                 let pdf = p_sel / (2.0 * PI * one_minus);
-                Some(LightSample { wi, dist, li: s.emission, pdf, delta: false })
+                Some(LightSample { wi, dist, p, li: s.emission, pdf, delta: false })
             }
         }
     }
@@ -202,7 +218,7 @@ impl Lights {
                 if dc2 <= radius * radius * 1.0001 {
                     return 0.0;
                 }
-                let (_, one_minus) = cone_of(*radius, dc2);
+                let one_minus = cone_of(*radius, dc2);
                 if one_minus <= 0.0 {
                     return 0.0;
                 }
@@ -220,30 +236,13 @@ impl Lights {
             }
             LightKind::Triangle { shape, prim } => {
                 let s = &scene.shapes[*shape as usize];
-                let Geometry::Mesh(m) = &s.geometry else {
-                    return None;
-                };
-                let [a, b, c] = m.triangle(*prim as usize);
-                let bc = sampling::uniform_triangle(u);
-                let n = (b - a).cross(c - a);
-                let area = 0.5 * n.length();
-                let p = a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1];
-                let size = (b - a).length().max((c - a).length()).max((c - b).length());
-                LightPoint { p, n: n.normalize(), size, pdf_area: 1.0 / area, le: s.emission }
+                let sp = s.geometry.point(*prim as usize, u);
+                LightPoint { p: sp.p, n: sp.n, size: sp.size, pdf_area: 1.0 / sp.area, le: s.emission }
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];
-                let Geometry::Sphere { center, radius } = s.geometry else {
-                    return None;
-                };
-                let n = sampling::uniform_sphere(u);
-                LightPoint {
-                    p: center + n * radius,
-                    n,
-                    size: radius,
-                    pdf_area: 1.0 / (4.0 * PI * radius * radius),
-                    le: s.emission,
-                }
+                let sp = s.geometry.point(0, u);
+                LightPoint { p: sp.p, n: sp.n, size: sp.size, pdf_area: 1.0 / sp.area, le: s.emission }
             }
         })
     }
@@ -257,14 +256,14 @@ impl Lights {
         let (i, p_sel) = sampling::sample_cdf(&self.cdf, u_sel);
         let phi = self.power[i] / p_sel;
         let lp = self.sample_point(scene, i, u_pos)?;
-        let (n, d) = if lp.n == Vec3::ZERO {
-            let d = sampling::uniform_sphere(u_dir);
-            (d, d)
+        // A point light is no surface: its photons start exactly at it.
+        let ray = if lp.n == Vec3::ZERO {
+            Ray::new(lp.p, sampling::uniform_sphere(u_dir))
         } else {
-            (lp.n, Frame::from_normal(lp.n).to_world(sampling::cosine_hemisphere(u_dir)))
+            let d = sampling::cosine_around(lp.n, u_dir);
+            Ray::new(offset_ray_origin(lp.p, lp.n, d, lp.size), d)
         };
-        let o = crate::math::offset_ray_origin(lp.p, n, d, lp.size);
-        Some(EmittedRay { ray: Ray::new(o, d), phi })
+        Some(EmittedRay { ray, phi })
     }
 }
 
@@ -279,32 +278,10 @@ pub struct LightPoint {
     pub le: Rgb,
 }
 
-/// The cone a sphere of `radius` subtends from distance² `dc2`: (cos θmax, 1 − cos θmax), the latter
-/// computed as s²/(1 + √(1 − s²)) so a far, small sphere keeps a positive solid angle.
-fn cone_of(radius: f32, dc2: f32) -> (f32, f32) {
+/// 1 − cos θmax of the cone a sphere of `radius` subtends from distance² `dc2`, computed as
+/// s²/(1 + √(1 − s²)) so a far, small sphere keeps its (tiny, positive) solid angle.
+fn cone_of(radius: f32, dc2: f32) -> f32 {
     let s2 = (radius * radius / dc2).min(1.0);
     let c = (1.0 - s2).max(0.0).sqrt();
-    (c, s2 / (1.0 + c))
-}
-
-/// Nearest positive distance along the unit direction `d` from `o` to a sphere, if any.
-pub fn sphere_hit(o: Vec3, d: Vec3, c: Vec3, r: f32) -> Option<f32> {
-    let oc = (o - c).as_dvec3();
-    let dd = d.as_dvec3();
-    let b = oc.dot(dd);
-    let cc = oc.length_squared() - (r as f64) * (r as f64);
-    let disc = b * b - cc;
-    if disc < 0.0 {
-        return None;
-    }
-    let s = disc.sqrt();
-    let t0 = -b - s;
-    let t1 = -b + s;
-    if t0 > 0.0 {
-        Some(t0 as f32)
-    } else if t1 > 0.0 {
-        Some(t1 as f32)
-    } else {
-        None
-    }
+    s2 / (1.0 + c)
 }

@@ -222,13 +222,16 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
     if !r.exposure.is_finite() || r.exposure.abs() > 64.0 {
         return Err(cx.err("render.exposure", "must be within ±64 stops"));
     }
-    let total = r.photons.direct + r.photons.indirect + r.photons.caustic;
     // 20 bytes per stored photon plus about as much again while tracing and building.
-    let bytes = total.saturating_mul(48);
-    if bytes > 16 << 30 {
-        return Err(
-            cx.err("render.photons", format!("{total} photons need about {} GiB; the limit is 16 GiB", bytes >> 30))
-        );
+    let total = r.photons.direct.checked_add(r.photons.indirect).and_then(|t| t.checked_add(r.photons.caustic));
+    match total.and_then(|t| t.checked_mul(48)) {
+        Some(bytes) if bytes <= 16 << 30 => {}
+        Some(bytes) => {
+            let total = total.unwrap_or(u64::MAX);
+            let msg = format!("{total} photons need about {} GiB; the limit is 16 GiB", bytes >> 30);
+            return Err(cx.err("render.photons", msg));
+        }
+        None => return Err(cx.err("render.photons", "the photon counts add up to more than 16 GiB can hold")),
     }
     if r.photons.max_shots_factor == 0 {
         return Err(cx.err("render.photons.max_shots_factor", "must be ≥ 1"));

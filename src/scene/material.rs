@@ -1,7 +1,7 @@
 //! BSDFs: Lambertian diffuse, smooth or GGX-rough mirror/conductor, smooth dielectric (exact Fresnel, TIR).
 //! Directions point away from the surface; `n` is the shading normal (any side).
 use crate::color::Rgb;
-use crate::math::{reflect, sampling, Frame};
+use crate::math::{face_forward, reflect, sampling, Frame};
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -22,6 +22,15 @@ pub enum Material {
     },
 }
 
+/// Which quantity a path carries (pbrt-v4's TransportMode): camera paths carry radiance, light paths
+/// and photons carry importance (flux). Refraction scales radiance by 1/η² and leaves flux alone; light
+/// paths take Veach's shading-normal correction (`SurfaceHit::scatter` applies it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransportMode {
+    Radiance,
+    Importance,
+}
+
 /// The result of sampling a BSDF: the incident direction and f·|cos|/pdf.
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
@@ -31,6 +40,10 @@ pub struct BsdfSample {
     pub delta: bool,
     /// True when the sample crossed the surface (refraction).
     pub transmitted: bool,
+    /// Radiance scale of the sample: 1/η² for refraction in radiance mode, 1 otherwise. Russian
+    /// roulette divides it out of the throughput (pbrt-v4's etaScale), so the survival probability
+    /// inside glass does not drop to 1/η².
+    pub radiance_scale: f32,
 }
 
 /// Metal F0 colours (linear sRGB) for the `preset` key.
@@ -97,7 +110,8 @@ impl Material {
         matches!(self, Material::Diffuse { .. })
     }
 
-    /// Largest reflectance, the photon's Russian-roulette survival probability at diffuse hits.
+    /// Reflectance colour (diffuse reflectance, conductor F0, dielectric tint); its largest component is
+    /// the photon's Russian-roulette survival probability at diffuse hits.
     pub fn albedo(&self) -> Rgb {
         match self {
             Material::Diffuse { reflectance } => *reflectance,
@@ -117,7 +131,7 @@ impl Material {
                 }
             }
             Material::Conductor { f0, alpha, schlick: s } if *alpha > 0.0 => {
-                let f = Frame::from_normal(if wo.dot(n) < 0.0 { -n } else { n });
+                let f = Frame::from_normal(face_forward(n, wo));
                 let (lo, li) = (f.to_local(wo), f.to_local(wi));
                 if lo.z <= 0.0 || li.z <= 0.0 {
                     return Rgb::ZERO;
@@ -133,12 +147,9 @@ impl Material {
     /// Solid-angle density of `sample` choosing wi (0 for delta BSDFs).
     pub fn pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
         match self {
-            Material::Diffuse { .. } => {
-                let side = if wo.dot(n) < 0.0 { -n } else { n };
-                wi.dot(side).max(0.0) / PI
-            }
+            Material::Diffuse { .. } => wi.dot(face_forward(n, wo)).max(0.0) / PI,
             Material::Conductor { alpha, .. } if *alpha > 0.0 => {
-                let f = Frame::from_normal(if wo.dot(n) < 0.0 { -n } else { n });
+                let f = Frame::from_normal(face_forward(n, wo));
                 let (lo, li) = (f.to_local(wo), f.to_local(wi));
                 if lo.z <= 0.0 || li.z <= 0.0 {
                     return 0.0;
@@ -151,22 +162,30 @@ impl Material {
     }
 
     /// Samples wi given wo; `u` for the direction, `uc` for the discrete (reflect/refract) choice.
-    /// `radiance` = true for camera paths: refraction scales radiance by 1/η² (photons carry flux and
-    /// pass false), so a diffuse surface under water seen from air comes out right in both integrators.
-    pub fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], uc: f32, radiance: bool) -> Option<BsdfSample> {
-        let side = if wo.dot(n) < 0.0 { -n } else { n };
+    /// In `Radiance` mode (camera paths) refraction scales by 1/η²; photons carry flux (`Importance`),
+    /// so a diffuse surface under water seen from air comes out right in both integrators.
+    pub fn sample(&self, wo: Vec3, n: Vec3, u: [f32; 2], uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+        let side = face_forward(n, wo);
+        let sample = |wi, weight, pdf, delta, transmitted, radiance_scale| BsdfSample {
+            wi,
+            weight,
+            pdf,
+            delta,
+            transmitted,
+            radiance_scale,
+        };
         match self {
             Material::Diffuse { reflectance } => {
-                let wi = Frame::from_normal(side).to_world(sampling::cosine_hemisphere(u));
+                let wi = sampling::cosine_around(side, u);
                 let pdf = wi.dot(side) / PI;
-                (pdf > 0.0).then_some(BsdfSample { wi, weight: *reflectance, pdf, delta: false, transmitted: false })
+                (pdf > 0.0).then_some(sample(wi, *reflectance, pdf, false, false, 1.0))
             }
             Material::Conductor { f0, alpha, schlick: s } => {
                 if *alpha == 0.0 {
                     let wi = reflect(wo, side);
                     let c = wi.dot(side);
                     let fr = if *s { schlick(*f0, c) } else { *f0 };
-                    return Some(BsdfSample { wi, weight: fr, pdf: 1.0, delta: true, transmitted: false });
+                    return Some(sample(wi, fr, 1.0, true, false, 1.0));
                 }
                 let f = Frame::from_normal(side);
                 let lo = f.to_local(wo);
@@ -187,7 +206,7 @@ impl Material {
                     return None;
                 }
                 let weight = self.eval(wo, wi, n) * li.z / pdf;
-                Some(BsdfSample { wi, weight, pdf, delta: false, transmitted: false })
+                Some(sample(wi, weight, pdf, false, false, 1.0))
             }
             Material::Dielectric { ior, tint } => {
                 let entering = wo.dot(n) > 0.0;
@@ -195,12 +214,11 @@ impl Material {
                 let cos_i = wo.dot(side);
                 let (fr, cos_t) = fresnel_dielectric(cos_i, eta);
                 if uc < fr {
-                    let wi = reflect(wo, side);
-                    Some(BsdfSample { wi, weight: Rgb::ONE, pdf: fr, delta: true, transmitted: false })
+                    Some(sample(reflect(wo, side), Rgb::ONE, fr, true, false, 1.0))
                 } else {
                     let wi = (-wo / eta + (cos_i / eta - cos_t) * side).normalize();
-                    let scale = if radiance { 1.0 / (eta * eta) } else { 1.0 };
-                    Some(BsdfSample { wi, weight: *tint * scale, pdf: 1.0 - fr, delta: true, transmitted: true })
+                    let scale = if mode == TransportMode::Radiance { 1.0 / (eta * eta) } else { 1.0 };
+                    Some(sample(wi, *tint * scale, 1.0 - fr, true, true, scale))
                 }
             }
         }
@@ -231,7 +249,7 @@ mod tests {
         let mut albedo = 0.0f64;
         let count = 100_000;
         for _ in 0..count {
-            if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), true) {
+            if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), TransportMode::Radiance) {
                 let w = m.eval(wo, s.wi, n) * s.wi.dot(n) / m.pdf(wo, s.wi, n);
                 assert!((w - s.weight).length() < 1e-3 * w.length().max(1.0));
                 albedo += s.weight.x as f64;

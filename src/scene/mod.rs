@@ -14,7 +14,7 @@ pub use camera::Camera;
 pub use file::{RenderSettings, SceneFile};
 pub use light::Lights;
 pub use load::{load_scene, load_scene_str, load_scene_with};
-pub use material::Material;
+pub use material::{Material, TransportMode};
 pub use mesh::TriMesh;
 
 /// Everything that can be wrong with a scene; each names the file and, where it applies, the key.
@@ -36,6 +36,47 @@ pub enum SceneError {
 pub enum Geometry {
     Mesh(TriMesh),
     Sphere { center: Vec3, radius: f32 },
+}
+
+/// A point drawn uniformly by area on one primitive.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub p: Vec3,
+    /// Unit geometric normal (triangle winding, sphere outward); zero for a degenerate triangle.
+    pub n: Vec3,
+    /// Area of the primitive the point was drawn on (its area pdf is 1 / area).
+    pub area: f32,
+    /// Size of the primitive (longest triangle edge, sphere radius), for ray offsets.
+    pub size: f32,
+}
+
+impl Geometry {
+    /// The one point-on-shape sampler: a uniform point on triangle `prim` of a mesh, or on the whole
+    /// sphere (`prim` ignored). Lights, caustic targets and the planner all draw through it.
+    pub fn point(&self, prim: usize, u: [f32; 2]) -> SurfacePoint {
+        match self {
+            Geometry::Mesh(m) => {
+                let [a, b, c] = m.triangle(prim);
+                let bc = crate::math::sampling::uniform_triangle(u);
+                let cross = (b - a).cross(c - a);
+                SurfacePoint {
+                    p: a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1],
+                    n: cross.normalize_or_zero(),
+                    area: 0.5 * cross.length(),
+                    size: (b - a).length().max((c - a).length()).max((c - b).length()),
+                }
+            }
+            Geometry::Sphere { center, radius } => {
+                let n = crate::math::sampling::uniform_sphere(u);
+                SurfacePoint {
+                    p: *center + n * *radius,
+                    n,
+                    area: 4.0 * std::f32::consts::PI * radius * radius,
+                    size: *radius,
+                }
+            }
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -97,20 +138,45 @@ impl SurfaceHit {
         crate::math::Ray::new(crate::math::offset_ray_origin(self.p, self.ng, w, self.scale), w)
     }
 
-    /// Samples `mat` for light leaving towards `wo` and returns the sample with the ray it spawns;
-    /// None when sampling fails or the shading normal sent the direction to the wrong side of the
-    /// geometric surface (reflection below it, refraction that does not cross it).
+    /// A shadow ray from this surface to `target` (a point already moved off its own surface): it
+    /// covers the open segment, so only what lies strictly between the two can block it.
+    pub fn spawn_to(&self, target: Vec3) -> crate::math::Ray {
+        let o = crate::math::offset_ray_origin(self.p, self.ng, target - self.p, self.scale);
+        crate::math::Ray { o, d: target - o, tmin: 0.0, tmax: 1.0 - 1e-4 }
+    }
+
+    /// Samples `mat` at this surface for the direction `wo` the path arrived along (pointing away), and
+    /// returns the sample with the ray it spawns; None when sampling fails or the shading normal sent the
+    /// direction to the wrong side of the geometric surface (reflection below it, refraction that does
+    /// not cross it). In `Importance` mode the weight carries Veach's shading-normal correction
+    /// |wo·ns||wi·ng| / (|wo·ng||wi·ns|) (thesis §5.3), so photons and light paths see the adjoint BSDF.
     pub fn scatter(
         &self,
         mat: &Material,
         wo: Vec3,
         rng: &mut crate::math::Rng,
-        radiance: bool,
+        mode: TransportMode,
     ) -> Option<(material::BsdfSample, crate::math::Ray)> {
         let u = rng.next_2d();
-        let bs = mat.sample(wo, self.ns, u, rng.next_f32(), radiance)?;
+        let mut bs = mat.sample(wo, self.ns, u, rng.next_f32(), mode)?;
         let same_side = bs.wi.dot(self.ng) * wo.dot(self.ng) > 0.0;
-        (same_side != bs.transmitted).then(|| (bs, self.spawn(bs.wi)))
+        if same_side == bs.transmitted {
+            return None;
+        }
+        if mode == TransportMode::Importance {
+            bs.weight *= self.shading_correction(wo, bs.wi);
+        }
+        Some((bs, self.spawn(bs.wi)))
+    }
+
+    /// |wo·ns||wi·ng| / (|wo·ng||wi·ns|): the factor by which the adjoint BSDF differs from the BSDF
+    /// under shading normals (1 where they agree).
+    pub fn shading_correction(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let den = wo.dot(self.ng).abs() * wi.dot(self.ns).abs();
+        if den <= 0.0 {
+            return 0.0;
+        }
+        wo.dot(self.ns).abs() * wi.dot(self.ng).abs() / den
     }
 }
 

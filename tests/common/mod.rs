@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests: scenes built in code or from TOML text.
 #![allow(dead_code)]
 use caustica::scene::file::FovAxis;
-use caustica::scene::{load_scene_str, Camera, Lights, Scene, Shape};
+use caustica::scene::{load_scene_str, Camera, Lights, Scene, Shape, SurfaceHit};
 use glam::Vec3;
 use std::path::Path;
 
@@ -41,4 +41,9 @@ pub fn inward_box(lo: f32, hi: f32, material: &str, emission: Option<f32>) -> St
         .iter()
         .map(|(c, u, v)| format!("[[shapes]]\ntype = \"quad\"\ncorner = {c:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{material}\"\n{e}\n"))
         .collect()
+}
+
+/// A flat-shaded surface point with normal `n` (for querying photon maps directly).
+pub fn surface_at(p: Vec3, n: Vec3) -> SurfaceHit {
+    SurfaceHit { p, ng: n, ns: n, shape: 0, prim: 0, scale: 1.0 }
 }
