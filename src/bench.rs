@@ -79,13 +79,13 @@ pub fn plan(path: &Path) -> Result<()> {
         let scene = crate::scene::load_scene_with(path, &sets)?;
         let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
         let t = Instant::now();
-        let r = crate::app::render_pm_default(&scene, &accel, true)?;
+        let r = crate::pipeline::render_pm_default(&scene, &accel, true)?;
         out.push((t.elapsed().as_secs_f64(), r.image));
     }
     let plan = {
         let scene = load_scene(path)?;
         let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
-        crate::app::plan_for(&scene, &accel)
+        crate::pipeline::plan_for(&scene, &accel)
     };
     let e = crate::metrics::compare(&out[0].1, &out[1].1).ok_or_else(|| anyhow::anyhow!("image sizes differ"))?;
     println!("scene {}: plan {:?}", path.display(), plan.reasons);
@@ -174,6 +174,45 @@ macro_rules! kiddo_knn {
     };
 }
 
+/// kiddo's mutable tree on the same points, for reference: (build s, query s), or why its bulk build
+/// refused the input (it does for some, with UnsplittableBucket).
+#[cfg(feature = "oracle")]
+fn kiddo_mutable(
+    pts: &[[f32; 3]],
+    qs: &[[f32; 3]],
+    k: std::num::NonZeroUsize,
+    r2: f32,
+) -> std::result::Result<(f64, f64), String> {
+    let t = Instant::now();
+    let m = kiddo::MutableKdTree::<f32, 3>::new_from_slice(pts).map_err(|e| format!("{e:?}"))?;
+    let build = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    for q in qs {
+        std::hint::black_box(kiddo_knn!(m, q, k, r2));
+    }
+    Ok((build, t.elapsed().as_secs_f64()))
+}
+
+/// Queries whose sorted squared distances differ between our tree and kiddo's.
+#[cfg(feature = "oracle")]
+fn disagreements(
+    ours: &crate::photon::kdtree::KdTree<u32>,
+    theirs: &kiddo::ImmutableKdTree<f32, 3>,
+    qs: &[[f32; 3]],
+    k: std::num::NonZeroUsize,
+    r2: f32,
+) -> usize {
+    let mut res = crate::photon::kdtree::KnnResult::new();
+    qs.iter()
+        .filter(|q| {
+            ours.knn(**q, k.get(), r2, &mut res);
+            let mut d: Vec<f32> = kiddo_knn!(theirs, q, k, r2).iter().map(|r| r.distance).collect();
+            d.sort_by(f32::total_cmp);
+            d != res.sorted_d2()
+        })
+        .count()
+}
+
 /// Builds our tree and kiddo's on the same photons, checks that every query's sorted squared distances
 /// agree, and prints the build and query speed ratios (single-threaded queries).
 #[cfg(feature = "oracle")]
@@ -195,20 +234,7 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     let theirs: ImmutableKdTree<f32, 3> =
         ImmutableKdTree::new_from_slice_parallel(&pts).map_err(|e| anyhow::anyhow!("kiddo: {e:?}"))?;
     let their_build = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    // kiddo's mutable tree, for reference; its bulk build refuses some inputs (UnsplittableBucket).
-    let mutable = match kiddo::MutableKdTree::<f32, 3>::new_from_slice(&pts) {
-        Ok(m) => {
-            let build = t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            for q in &qs {
-                let found = kiddo_knn!(m, q, k, r2);
-                std::hint::black_box(found);
-            }
-            Ok((build, t.elapsed().as_secs_f64()))
-        }
-        Err(e) => Err(format!("{e:?}")),
-    };
+    let mutable = kiddo_mutable(&pts, &qs, k, r2);
     let mut res = KnnResult::new();
     let (mut bad, mut sum_ours, mut sum_theirs) = (0usize, 0f64, 0f64);
     let t = Instant::now();
@@ -223,15 +249,7 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
         sum_theirs += found.len() as f64;
     }
     let their_q = t.elapsed().as_secs_f64();
-    for q in qs.iter().take(20_000) {
-        ours.knn(*q, a.k, r2, &mut res);
-        let found = kiddo_knn!(theirs, q, k, r2);
-        let mut d: Vec<f32> = found.iter().map(|r| r.distance).collect();
-        d.sort_by(f32::total_cmp);
-        if d != res.sorted_d2() {
-            bad += 1;
-        }
-    }
+    bad += disagreements(&ours, &theirs, &qs[..qs.len().min(20_000)], k, r2);
     println!(
         "{} photons ({:?}), {} queries, k = {}, radius cap {}",
         a.points,

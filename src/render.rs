@@ -4,27 +4,13 @@ use crate::color::Rgb;
 use crate::film::Image;
 use crate::integrator::Counters;
 use crate::math::Rng;
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 const TILE: u32 = 16;
 
-/// Progress bar on stderr (hidden when `quiet` or when stderr is not a terminal).
-pub fn progress(len: u64, label: &str, quiet: bool) -> ProgressBar {
-    if quiet {
-        return ProgressBar::hidden();
-    }
-    let pb = ProgressBar::new(len);
-    pb.set_style(
-        ProgressStyle::with_template("{prefix:>10} [{bar:30}] {percent:>3}% {msg} ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    pb.set_prefix(label.to_string());
-    pb
-}
+pub use crate::progress::progress;
 
 pub struct RenderOutput {
     pub image: Image,

@@ -8,8 +8,8 @@ use crate::film::Image;
 use crate::font::{draw_text, text_width};
 use crate::metrics::{compare_masked, light_free_pixels};
 use crate::output::with_suffix;
+use crate::pipeline::reference;
 use crate::scene::load_scene_with;
-use crate::tools::reference;
 use anyhow::Result;
 use serde::Serialize;
 use std::path::Path;
@@ -53,6 +53,100 @@ pub fn pt_rmse_at(pt: &[Run], t: f64) -> Option<f64> {
     Some((w[0].rmse.ln() + f * (w[1].rmse.ln() - w[0].rmse.ln())).exp())
 }
 
+/// What every sweep shares: the scene's accelerator, the clamped reference, the scored pixels.
+struct Sweep<'a> {
+    o: &'a Options<'a>,
+    accel: Accel,
+    keep: Vec<bool>,
+    reference: Image,
+    /// Seconds each of the three sweeps may spend.
+    share: f64,
+    pb: indicatif::ProgressBar,
+}
+
+/// Radiance clamped to the displayable range [0, 1]: a light's mirror image counts for what it looks
+/// like, not for the thousands its radiance would weigh in a squared error.
+fn clamp(img: &Image) -> Image {
+    Image { pixels: img.pixels.iter().map(|p| p.clamp(Rgb::ZERO, Rgb::ONE)).collect(), ..img.clone() }
+}
+
+impl Sweep<'_> {
+    fn row(&self, series: &str, spp: u32, photons: u64, gather: u32, seconds: f64, img: &Image) -> Result<Run> {
+        let e = compare_masked(&clamp(img), &self.reference, &self.keep)
+            .ok_or_else(|| anyhow::anyhow!("reference size differs from the scene's resolution"))?;
+        self.pb.inc(1);
+        Ok(Run { series: series.into(), spp, photons, gather, seconds, rmse: e.rmse, rel_mse: e.rel_mse })
+    }
+
+    /// One planned photon-map render with `photons` caustic photons (half as many direct and indirect),
+    /// `spp` eye samples and, if given, gather count `k` for every map.
+    fn pm_run(&self, photons: u64, spp: u32, gather: Option<u32>) -> Result<(f64, Image)> {
+        let mut sets = self.o.sets.to_vec();
+        sets.extend([
+            format!("render.pm_spp={spp}"),
+            format!("render.photons.caustic={photons}"),
+            format!("render.photons.indirect={}", photons / 2),
+            format!("render.photons.direct={}", photons / 2),
+        ]);
+        if let Some(k) = gather {
+            sets.extend(["caustic", "indirect", "direct"].map(|m| format!("render.gather.{m}={k}")));
+        }
+        let s = load_scene_with(self.o.scene, &sets)?;
+        let out = crate::pipeline::render_pm_default(&s, &self.accel, true)?;
+        Ok((out.seconds, out.image))
+    }
+
+    fn path_tracing(&self, base: &crate::scene::Scene, runs: &mut Vec<Run>) -> Result<()> {
+        let mut spent = 0.0;
+        for spp in (0..12).map(|i| 1u32 << i) {
+            if spent > self.share {
+                break;
+            }
+            let out = crate::pipeline::render_path(base, &self.accel, spp, true);
+            spent += out.seconds;
+            runs.push(self.row("PT", spp, 0, 0, out.seconds, &out.image)?);
+        }
+        Ok(())
+    }
+
+    /// Photons ×4 and eye samples ×2 per step: both halves of PM's error (density blur, eye-pass noise)
+    /// shrink together, the way one would raise quality in practice.
+    fn photon_counts(&self, gather: u32, runs: &mut Vec<Run>) -> Result<()> {
+        let mut spent = 0.0;
+        for (i, p) in (0..8).map(|i| 10_000u64 << (2 * i)).enumerate() {
+            if spent > self.share {
+                break;
+            }
+            let spp = 1u32 << i;
+            let (secs, img) = self.pm_run(p, spp, None)?;
+            spent += secs;
+            runs.push(self.row("PM photons", spp, p, gather, secs, &img)?);
+        }
+        Ok(())
+    }
+
+    /// The gather sweep, at the photon count that did best against PT at equal time.
+    fn gather_counts(&self, runs: &mut Vec<Run>) -> Result<()> {
+        let pt: Vec<Run> = runs.iter().filter(|r| r.series == "PT").cloned().collect();
+        let versus_pt = |r: &Run| r.rmse / pt_rmse_at(&pt, r.seconds).unwrap_or(1.0);
+        let (photons, spp) = runs
+            .iter()
+            .filter(|r| r.series == "PM photons")
+            .min_by(|a, b| versus_pt(a).total_cmp(&versus_pt(b)))
+            .map_or((10_000, 1), |r| (r.photons, r.spp));
+        let mut spent = 0.0;
+        for k in [10u32, 30, 100, 300, 1000, 3000, 10000] {
+            if spent > self.share {
+                break;
+            }
+            let (secs, img) = self.pm_run(photons, spp, Some(k))?;
+            spent += secs;
+            runs.push(self.row("PM gather", spp, photons, k, secs, &img)?);
+        }
+        Ok(())
+    }
+}
+
 pub fn run(o: &Options) -> Result<()> {
     let dir = o.out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
@@ -67,114 +161,19 @@ pub fn run(o: &Options) -> Result<()> {
     let base = load_scene_with(o.scene, o.sets)?;
     let accel = Accel::new(&base).map_err(anyhow::Error::msg)?;
     let keep = light_free_pixels(&base, &accel, 4);
-    // Scored on radiance clamped to the displayable range [0, 1]: a light's mirror image counts for what
-    // it looks like, not for the thousands its radiance would weigh in a squared error.
-    let clamp = |img: &Image| Image {
-        pixels: img.pixels.iter().map(|p| p.clamp(Rgb::ZERO, Rgb::ONE)).collect(),
-        ..img.clone()
+    let sweep = Sweep {
+        o,
+        accel,
+        keep,
+        reference: clamp(&r.image),
+        share: o.budget_s / 3.0,
+        pb: crate::progress::progress(12 + 8 + 7, "sweep", o.quiet),
     };
-    let ref_clamped = clamp(&r.image);
-    let score = |img: &Image| {
-        compare_masked(&clamp(img), &ref_clamped, &keep)
-            .ok_or_else(|| anyhow::anyhow!("reference size differs from the scene's resolution"))
-    };
-    let spp_list: Vec<u32> = (0..12).map(|i| 1u32 << i).collect();
-    let photon_list: Vec<u64> = (0..8).map(|i| 10_000u64 << (2 * i)).collect();
-    let gathers = [10u32, 30, 100, 300, 1000, 3000, 10000];
-    let pb = crate::render::progress((spp_list.len() + photon_list.len() + gathers.len()) as u64, "sweep", o.quiet);
-    let share = o.budget_s / 3.0;
     let mut runs: Vec<Run> = Vec::new();
-    let mut spent = 0.0;
-    for &spp in &spp_list {
-        if spent > share {
-            break;
-        }
-        let out = crate::app::render_path(&base, &accel, spp, true);
-        spent += out.seconds;
-        let e = score(&out.image)?;
-        runs.push(Run {
-            series: "PT".into(),
-            spp,
-            photons: 0,
-            gather: 0,
-            seconds: out.seconds,
-            rmse: e.rmse,
-            rel_mse: e.rel_mse,
-        });
-        pb.inc(1);
-    }
-    let g = &base.render.gather;
-    let pm_run = |photons: u64, spp: u32, gather: Option<u32>| -> Result<(f64, Image)> {
-        let mut sets = o.sets.to_vec();
-        sets.extend([
-            format!("render.pm_spp={spp}"),
-            format!("render.photons.caustic={photons}"),
-            format!("render.photons.indirect={}", photons / 2),
-            format!("render.photons.direct={}", photons / 2),
-        ]);
-        if let Some(k) = gather {
-            sets.push(format!("render.gather.caustic={k}"));
-            sets.push(format!("render.gather.indirect={k}"));
-            sets.push(format!("render.gather.direct={k}"));
-        }
-        let s = load_scene_with(o.scene, &sets)?;
-        let out = crate::app::render_pm_default(&s, &accel, true)?;
-        Ok((out.seconds, out.image))
-    };
-    // Photons ×4 and eye samples ×2 per step: both halves of PM's error (density blur, eye-pass noise)
-    // shrink together, the way one would raise quality in practice.
-    spent = 0.0;
-    for (i, &p) in photon_list.iter().enumerate() {
-        if spent > share {
-            break;
-        }
-        let spp = 1u32 << i;
-        let (secs, img) = pm_run(p, spp, None)?;
-        spent += secs;
-        let e = score(&img)?;
-        runs.push(Run {
-            series: "PM photons".into(),
-            spp,
-            photons: p,
-            gather: g.caustic,
-            seconds: secs,
-            rmse: e.rmse,
-            rel_mse: e.rel_mse,
-        });
-        pb.inc(1);
-    }
-    // The gather sweep uses the photon count that did best against PT at equal time.
-    let pt: Vec<Run> = runs.iter().filter(|r| r.series == "PT").cloned().collect();
-    let best = runs
-        .iter()
-        .filter(|r| r.series == "PM photons")
-        .min_by(|a, b| {
-            let ra = a.rmse / pt_rmse_at(&pt, a.seconds).unwrap_or(1.0);
-            let rb = b.rmse / pt_rmse_at(&pt, b.seconds).unwrap_or(1.0);
-            ra.total_cmp(&rb)
-        })
-        .map_or((photon_list[0], 1), |r| (r.photons, r.spp));
-    let (best_photons, best_spp) = best;
-    spent = 0.0;
-    for &k in &gathers {
-        if spent > share {
-            break;
-        }
-        let (secs, img) = pm_run(best_photons, best_spp, Some(k))?;
-        spent += secs;
-        let e = score(&img)?;
-        runs.push(Run {
-            series: "PM gather".into(),
-            spp: best_spp,
-            photons: best_photons,
-            gather: k,
-            seconds: secs,
-            rmse: e.rmse,
-            rel_mse: e.rel_mse,
-        });
-        pb.inc(1);
-    }
-    pb.finish_and_clear();
+    sweep.path_tracing(&base, &mut runs)?;
+    sweep.photon_counts(base.render.gather.caustic, &mut runs)?;
+    sweep.gather_counts(&mut runs)?;
+    sweep.pb.finish_and_clear();
     report(o, &runs, r.halves_rmse)
 }
 

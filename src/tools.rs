@@ -1,6 +1,5 @@
 //! `caustica compare` (side-by-side with labels, error heat-map with a colour scale, metrics) and
 //! `caustica reference` (a long render in two independent halves, cached, with its own noise figure).
-use crate::accel::Accel;
 use crate::color::{luminance, Rgb};
 use crate::film::Image;
 use crate::font::{draw_text, text_width};
@@ -8,7 +7,7 @@ use crate::metrics::{compare, Errors};
 use crate::output::{self, read_exr, to_srgb8, with_suffix, write_png_rgb8};
 use anyhow::{bail, Result};
 use serde_json::json;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Heat-map colours from black through purple, red and yellow to white, for t in [0, 1].
 pub fn heat(t: f32) -> Rgb {
@@ -134,77 +133,4 @@ pub fn compare_cmd(a_path: &Path, b_path: &Path, reference: Option<&Path>, out: 
     }
     println!("wrote {}, {} and {}", png.display(), err_png.display(), with_suffix(out, ".json").display());
     Ok(())
-}
-
-/// A reference image: the mean of two independent halves, with their RMSE as its noise estimate.
-pub struct Reference {
-    pub image: Image,
-    /// RMSE between the two halves; the mean's own RMSE is about half of it.
-    pub halves_rmse: f64,
-    pub path: PathBuf,
-}
-
-/// Renders (or loads from the cache in `dir`) a path-traced reference at `spp`, or with `photons`
-/// (photon mapping at that many caustic and indirect photons, for scenes only PM can render).
-pub fn reference(
-    scene_path: &Path,
-    overrides: &[String],
-    spp: Option<u32>,
-    photons: Option<u64>,
-    dir: &Path,
-    quiet: bool,
-) -> Result<Reference> {
-    let mut text =
-        std::fs::read(scene_path).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", scene_path.display()))?;
-    // The cache key covers the scene text and the overrides.
-    for o in overrides {
-        text.extend_from_slice(o.as_bytes());
-    }
-    let key = crate::math::rng::mix64(
-        text.iter().fold(0xCBF2_9CE4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x100_0000_01B3)),
-    );
-    let stem = scene_path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
-    let what = match (spp, photons) {
-        (Some(s), None) => format!("{s}spp"),
-        (None, Some(p)) => format!("{p}photons"),
-        _ => bail!("give exactly one of --spp or --photons"),
-    };
-    let base = dir.join(format!("{stem}-{what}-{key:016x}"));
-    let exr = with_suffix(&base, ".exr");
-    let js = with_suffix(&base, ".json");
-    if exr.exists() && js.exists() {
-        let meta: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&js)?)?;
-        if let Some(n) = meta["halves_rmse"].as_f64() {
-            return Ok(Reference { image: read_exr(&exr)?, halves_rmse: n, path: exr });
-        }
-    }
-    let t0 = std::time::Instant::now();
-    let mut halves = Vec::new();
-    for half in 0..2u64 {
-        let mut sets = overrides.to_vec();
-        sets.push(format!("render.seed={}", 1_000_003 * (half + 1)));
-        if let Some(p) = photons {
-            sets.push(format!("render.photons.caustic={}", p / 2));
-            sets.push(format!("render.photons.indirect={}", p / 4));
-        }
-        let scene = crate::scene::load_scene_with(scene_path, &sets)?;
-        let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
-        let img = match spp {
-            Some(s) => crate::app::render_path(&scene, &accel, (s / 2).max(1), quiet).image,
-            None => crate::app::render_pm_default(&scene, &accel, quiet)?.image,
-        };
-        halves.push(img);
-    }
-    let halves_rmse = compare(&halves[0], &halves[1]).map(|e| e.rmse).unwrap_or(f64::NAN);
-    let mut image = halves[0].clone();
-    for (p, q) in image.pixels.iter_mut().zip(&halves[1].pixels) {
-        *p = (*p + *q) * 0.5;
-    }
-    output::write_exr(&exr, &image)?;
-    output::write_json(
-        &js,
-        &json!({ "scene": scene_path.display().to_string(), "kind": what, "halves_rmse": halves_rmse,
-        "mean_rmse_estimate": halves_rmse / 2.0, "seconds": t0.elapsed().as_secs_f64() }),
-    )?;
-    Ok(Reference { image, halves_rmse, path: exr })
 }

@@ -3,10 +3,10 @@
 //! (reflected + transmitted = incident, matching the two-interface Fresnel sum; TIR past the critical angle).
 mod common;
 use caustica::accel::{Accel, Tracer};
-use caustica::app::render_path;
 use caustica::integrator::path::PathTracer;
 use caustica::integrator::Counters;
 use caustica::math::{Ray, Rng};
+use caustica::pipeline::render_path;
 use caustica::scene::material::{fresnel_dielectric, Material};
 use caustica::scene::TransportMode;
 use glam::Vec3;

@@ -1,7 +1,7 @@
 //! Same image bits whatever the thread count: path tracing, and photon mapping (maps and eye pass).
 use caustica::accel::Accel;
-use caustica::app::{plan_for, render_path, render_photon_map};
 use caustica::integrator::photon_map::{build_maps, MapRequest};
+use caustica::pipeline::{plan_for, render_path, render_photon_map};
 use caustica::scene::load_scene_with;
 use std::path::Path;
 

@@ -4,7 +4,7 @@
 //! CI runs 1,000 seeded cases; `CAUSTICA_FUZZ_CASES=10000 cargo test --release --test hostile_input`
 //! runs the full set. The dragon scenes are left out of the corpus (each case would re-read a 30 MB mesh).
 use caustica::accel::Accel;
-use caustica::app::{render_path, render_pm_default};
+use caustica::pipeline::{render_path, render_pm_default};
 use caustica::scene::load_scene_str;
 use proptest::prelude::*;
 use std::path::PathBuf;

@@ -1,7 +1,7 @@
 //! The planner skips what a scene does not need, says why, and skipping changes nothing in the image.
 mod common;
 use caustica::accel::Accel;
-use caustica::app::{plan_for, render_pm_default};
+use caustica::pipeline::{plan_for, render_pm_default};
 use caustica::scene::load_scene_with;
 use std::path::PathBuf;
 
@@ -68,14 +68,15 @@ fn only_a_mirror_every_light_faces_away_from_is_not_a_target() {
     assert!(plan.reasons.iter().any(|r| r.contains("shapes[0]") && r.contains("faces away")), "{:?}", plan.reasons);
 }
 
-/// A closed room (inward walls, ρ = 0.6) with a 0.2 × 0.2 hole in the ceiling, a quad light above the
-/// hole facing down, a mirror ball under it and a camera inside looking at the floor.
+/// A closed room (inward walls, ρ = 0.6) with a 4 cm × 4 cm hole in its ceiling, a 2 m × 2 m quad light
+/// a metre above facing down, a mirror ball under the hole and a camera inside looking at the floor.
+/// About one light–ball segment in a thousand passes the hole.
 fn room_with_a_gap() -> String {
     let mut t = String::from(
         "[camera]\norigin = [0.0, 1.0, 0.9]\ntarget = [0.0, 0.0, 0.0]\nfov = 70\nresolution = [24, 24]\n\
          [materials]\nwhite = { type = \"diffuse\", reflectance = [0.6, 0.6, 0.6] }\nchrome = { type = \"mirror\" }\n\
          [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.3, 0.0]\nradius = 0.3\nmaterial = \"chrome\"\n\
-         [[lights]]\ntype = \"quad\"\ncorner = [-0.1, 2.2, -0.1]\nedge_u = [0.2, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.2]\npower = [20.0, 20.0, 20.0]\n",
+         [[lights]]\ntype = \"quad\"\ncorner = [-1.0, 3.0, -1.0]\nedge_u = [2.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, 2.0]\npower = [200.0, 200.0, 200.0]\n",
     );
     // Walls and floor of the box [-1, 1] × [0, 2] × [-1, 1]; the ceiling in four pieces round the hole.
     let quads = [
@@ -84,10 +85,10 @@ fn room_with_a_gap() -> String {
         ([-1.0, 0.0, 1.0], [0.0, 2.0, 0.0], [2.0, 0.0, 0.0]),
         ([-1.0, 0.0, -1.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]),
         ([1.0, 0.0, -1.0], [0.0, 0.0, 2.0], [0.0, 2.0, 0.0]),
-        ([-1.0, 2.0, -1.0], [2.0, 0.0, 0.0], [0.0, 0.0, 0.9]),
-        ([-1.0, 2.0, 0.1], [2.0, 0.0, 0.0], [0.0, 0.0, 0.9]),
-        ([-1.0, 2.0, -0.1], [0.9, 0.0, 0.0], [0.0, 0.0, 0.2]),
-        ([0.1, 2.0, -0.1], [0.9, 0.0, 0.0], [0.0, 0.0, 0.2]),
+        ([-1.0, 2.0, -1.0], [2.0, 0.0, 0.0], [0.0, 0.0, 0.98]),
+        ([-1.0, 2.0, 0.02], [2.0, 0.0, 0.0], [0.0, 0.0, 0.98]),
+        ([-1.0, 2.0, -0.02], [0.98, 0.0, 0.0], [0.0, 0.0, 0.04]),
+        ([0.02, 2.0, -0.02], [0.98, 0.0, 0.0], [0.0, 0.0, 0.04]),
     ];
     for (c, u, v) in quads {
         t += &format!(
@@ -106,9 +107,9 @@ fn a_mirror_lit_through_a_small_gap_keeps_its_caustic() {
     let plan = plan_for(&s, &a);
     assert!(plan.caustic_targets.contains(&0), "{:?}", plan.reasons);
     assert!(plan.photons[2] > 0, "{:?}", plan.reasons);
-    let (maps, _) = caustica::app::render_pm(&s, &a, &plan, true).unwrap();
+    let (maps, _) = caustica::pipeline::render_pm(&s, &a, &plan, true).unwrap();
     let caustic = maps.maps[2].as_ref().expect("a caustic map");
-    assert!(caustic.total_power().x > 0.0 && caustic.len() > 1000, "caustic map: {} photons", caustic.len());
+    assert!(caustic.total_power().x > 0.0 && caustic.len() > 100, "caustic map: {} photons", caustic.len());
 }
 
 fn pm_mean(s: &caustica::scene::Scene, a: &Accel) -> f64 {
@@ -146,9 +147,9 @@ fn culled_vs_unculled(text: &str) -> ([f64; 2], [f64; 2], Vec<bool>) {
     let mut s = common::scene(text);
     let a = Accel::new(&s).unwrap();
     let plan = plan_for(&s, &a);
-    let all = [mean(&caustica::app::render_path(&s, &a, 256, true).image), pm_mean(&s, &a)];
+    let all = [mean(&caustica::pipeline::render_path(&s, &a, 256, true).image), pm_mean(&s, &a)];
     s.lights.restrict_nee(|i| plan.nee_lights[i]);
-    let planned = [mean(&caustica::app::render_path(&s, &a, 256, true).image), pm_mean(&s, &a)];
+    let planned = [mean(&caustica::pipeline::render_path(&s, &a, 256, true).image), pm_mean(&s, &a)];
     (all, planned, plan.nee_lights)
 }
 
@@ -223,10 +224,10 @@ fn a_light_shut_in_a_box_is_left_out_of_direct_light_sampling_without_changing_t
     assert!(!plan.nee_lights[sphere], "{:?}", plan.reasons);
     assert!(plan.nee_lights.iter().enumerate().all(|(i, &k)| k || i == sphere));
     assert!(plan.reasons.iter().any(|r| r.contains("lights[1]") && r.contains("left out")), "{:?}", plan.reasons);
-    let reference = caustica::app::render_path(&s, &a, 2048, true).image;
-    let full = caustica::app::render_path(&s, &a, 8, true).image;
+    let reference = caustica::pipeline::render_path(&s, &a, 2048, true).image;
+    let full = caustica::pipeline::render_path(&s, &a, 8, true).image;
     s.lights.restrict_nee(|i| plan.nee_lights[i]);
-    let planned = caustica::app::render_path(&s, &a, 8, true).image;
+    let planned = caustica::pipeline::render_path(&s, &a, 8, true).image;
     let (ef, ep) = (
         caustica::metrics::compare(&full, &reference).unwrap(),
         caustica::metrics::compare(&planned, &reference).unwrap(),

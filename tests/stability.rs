@@ -4,10 +4,10 @@
 //! over every bundled scene in both modes.
 mod common;
 use caustica::accel::{Accel, Tracer};
-use caustica::app::{render_path, render_pm_default};
 use caustica::film::Image;
 use caustica::math::{sampling, Frame, Rng};
 use caustica::metrics::compare;
+use caustica::pipeline::{render_path, render_pm_default};
 use caustica::scene::light::LightKind;
 use caustica::scene::{load_scene_with, Geometry, Lights, Scene};
 use glam::Vec3;

@@ -53,7 +53,7 @@ pub struct MapRequest {
 pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: bool) -> anyhow::Result<PhotonMaps> {
     let ps = &scene.render.photons;
     let total: u64 = req.want.iter().sum();
-    let pb = crate::render::progress(total, "photons", quiet);
+    let pb = crate::progress::progress(total, "photons", quiet);
     let mut stats = MapsStats::default();
     let mut maps: [Option<PhotonMap>; 3] = Default::default();
     let t0 = std::time::Instant::now();

@@ -366,108 +366,120 @@ fn build_shape(
             }
         }
         ShapeSpec::Sphere { center, radius, material, transform, emission: e } => {
-            cx.positive(&format!("{key}.radius"), *radius)?;
-            let m = transform_matrix(key, transform, cx.shown)?;
-            let (sx, sy, sz) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
-            let s = sx.length();
-            let similar = (sy.length() - s).abs() < 1e-4 * s
-                && (sz.length() - s).abs() < 1e-4 * s
-                && sx.dot(sy).abs() < 1e-4 * s * s
-                && sx.dot(sz).abs() < 1e-4 * s * s
-                && sy.dot(sz).abs() < 1e-4 * s * s;
-            if !similar {
-                return Err(cx.err(
-                    &format!("{key}.transform"),
-                    "a sphere accepts only uniform scale, rotation and translation",
-                ));
-            }
-            let center = m.transform_point3(Vec3::from_array(*center));
-            shapes.push(Shape {
-                name: key.into(),
-                geometry: Geometry::Sphere { center, radius: radius * s },
-                material: lookup(material)?,
-                emission: emission(e)?,
-            });
+            let geometry = sphere_geometry(cx, key, *center, *radius, transform)?;
+            shapes.push(Shape { name: key.into(), geometry, material: lookup(material)?, emission: emission(e)? });
         }
-        ShapeSpec::Quad { corner, edge_u, edge_v, material, transform, emission: e } => {
-            let (eu, ev) = (Vec3::from_array(*edge_u), Vec3::from_array(*edge_v));
-            if eu.cross(ev).length() == 0.0 {
-                return Err(cx.err(&format!("{key}.edge_u"), "edge_u and edge_v span zero area"));
-            }
-            push(mesh::quad(Vec3::from_array(*corner), eu, ev), transform, lookup(material)?, emission(e)?)?;
+        ShapeSpec::Heightfield { material, transform, .. } => {
+            let mesh = generated_mesh(cx, key, spec)?;
+            push(mesh, transform, lookup(material)?, Rgb::ZERO)?;
         }
-        ShapeSpec::Disk { center, normal, radius, material, segments, transform, emission: e } => {
-            cx.positive(&format!("{key}.radius"), *radius)?;
-            if *segments < 3 || *segments > 1 << 20 {
-                return Err(cx.err(&format!("{key}.segments"), "must be in [3, 1048576]"));
-            }
-            let n = Vec3::from_array(*normal);
-            if n.length() == 0.0 {
-                return Err(cx.err(&format!("{key}.normal"), "is the zero vector"));
-            }
-            push(
-                mesh::disk(Vec3::from_array(*center), n, *radius, *segments),
-                transform,
-                lookup(material)?,
-                emission(e)?,
-            )?;
-        }
-        ShapeSpec::Lathe { profile, material, segments, smooth, transform, emission: e } => {
-            if profile.len() < 2 {
-                return Err(cx.err(&format!("{key}.profile"), "needs at least two [r, y] points"));
-            }
-            if let Some(p) = profile.iter().find(|p| p[0] < 0.0) {
-                return Err(cx.err(&format!("{key}.profile"), format!("radius {} is negative", p[0])));
-            }
-            if *segments < 3 || *segments > 1 << 16 {
-                return Err(cx.err(&format!("{key}.segments"), "must be in [3, 65536]"));
-            }
-            if profile.len() as u64 * *segments as u64 > 1 << 24 {
-                return Err(cx.err(&format!("{key}.profile"), "profile points × segments exceeds 16M vertices"));
-            }
-            let mut m = mesh::lathe(profile, *segments);
-            if m.indices.is_empty() {
-                return Err(cx.err(&format!("{key}.profile"), "the profile sweeps no area"));
-            }
-            if *smooth {
-                m.compute_smooth_normals();
-            }
-            push(m, transform, lookup(material)?, emission(e)?)?;
-        }
-        ShapeSpec::Heightfield { size, resolution, height, waves, material, transform } => {
-            if size[0] <= 0.0 || size[1] <= 0.0 {
-                return Err(cx.err(&format!("{key}.size"), "both sides must be > 0"));
-            }
-            if resolution[0] == 0 || resolution[1] == 0 || resolution[0] as u64 * resolution[1] as u64 > 1 << 22 {
-                return Err(cx.err(&format!("{key}.resolution"), "must be ≥ 1 and at most 4M cells"));
-            }
-            if let Some(w) = waves.iter().find(|w| w.wavelength <= 0.0) {
-                return Err(cx.err(&format!("{key}.waves"), format!("wavelength {} must be > 0", w.wavelength)));
-            }
-            let f = |x: f32, z: f32| {
-                height
-                    + waves
-                        .iter()
-                        .map(|w| {
-                            let a = w.angle.to_radians();
-                            w.amplitude
-                                * (std::f32::consts::TAU * (x * a.cos() + z * a.sin()) / w.wavelength + w.phase).sin()
-                        })
-                        .sum::<f32>()
-            };
-            let mut m = mesh::heightfield(*size, *resolution, f);
-            m.compute_smooth_normals();
-            push(m, transform, lookup(material)?, Rgb::ZERO)?;
-        }
-        ShapeSpec::Box { min, max, material, transform, emission: e } => {
-            let (a, b) = (Vec3::from_array(*min), Vec3::from_array(*max));
-            if (b - a).min_element() <= 0.0 {
-                return Err(cx.err(&format!("{key}.max"), "must exceed `min` on every axis"));
-            }
-            push(mesh::cuboid(a, b), transform, lookup(material)?, emission(e)?)?;
+        ShapeSpec::Quad { material, transform, emission: e, .. }
+        | ShapeSpec::Disk { material, transform, emission: e, .. }
+        | ShapeSpec::Lathe { material, transform, emission: e, .. }
+        | ShapeSpec::Box { material, transform, emission: e, .. } => {
+            let mesh = generated_mesh(cx, key, spec)?;
+            push(mesh, transform, lookup(material)?, emission(e)?)?;
         }
     }
     Ok(())
+}
+
+/// An analytic sphere after its transform, which may only rotate, translate and scale uniformly.
+fn sphere_geometry(cx: &Ctx, key: &str, center: V3, radius: f32, t: &TransformSpec) -> Result<Geometry, SceneError> {
+    cx.positive(&format!("{key}.radius"), radius)?;
+    let m = transform_matrix(key, t, cx.shown)?;
+    let (sx, sy, sz) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+    let s = sx.length();
+    let similar = (sy.length() - s).abs() < 1e-4 * s
+        && (sz.length() - s).abs() < 1e-4 * s
+        && sx.dot(sy).abs() < 1e-4 * s * s
+        && sx.dot(sz).abs() < 1e-4 * s * s
+        && sy.dot(sz).abs() < 1e-4 * s * s;
+    if !similar {
+        return Err(
+            cx.err(&format!("{key}.transform"), "a sphere accepts only uniform scale, rotation and translation")
+        );
+    }
+    Ok(Geometry::Sphere { center: m.transform_point3(Vec3::from_array(center)), radius: radius * s })
+}
+
+/// The triangle mesh of a generated shape (quad, disk, lathe, height field, box), its parameters checked.
+fn generated_mesh(cx: &Ctx, key: &str, spec: &ShapeSpec) -> Result<TriMesh, SceneError> {
+    let bad = |field: &str, msg: String| cx.err(&format!("{key}.{field}"), msg);
+    Ok(match spec {
+        ShapeSpec::Quad { corner, edge_u, edge_v, .. } => {
+            let (eu, ev) = (Vec3::from_array(*edge_u), Vec3::from_array(*edge_v));
+            if eu.cross(ev).length() == 0.0 {
+                return Err(bad("edge_u", "edge_u and edge_v span zero area".into()));
+            }
+            mesh::quad(Vec3::from_array(*corner), eu, ev)
+        }
+        ShapeSpec::Disk { center, normal, radius, segments, .. } => {
+            cx.positive(&format!("{key}.radius"), *radius)?;
+            if *segments < 3 || *segments > 1 << 20 {
+                return Err(bad("segments", "must be in [3, 1048576]".into()));
+            }
+            let n = Vec3::from_array(*normal);
+            if n.length() == 0.0 {
+                return Err(bad("normal", "is the zero vector".into()));
+            }
+            mesh::disk(Vec3::from_array(*center), n, *radius, *segments)
+        }
+        ShapeSpec::Lathe { profile, segments, smooth, .. } => lathe_mesh(cx, key, profile, *segments, *smooth)?,
+        ShapeSpec::Heightfield { size, resolution, height, waves, .. } => {
+            if size[0] <= 0.0 || size[1] <= 0.0 {
+                return Err(bad("size", "both sides must be > 0".into()));
+            }
+            if resolution[0] == 0 || resolution[1] == 0 || resolution[0] as u64 * resolution[1] as u64 > 1 << 22 {
+                return Err(bad("resolution", "must be ≥ 1 and at most 4M cells".into()));
+            }
+            if let Some(w) = waves.iter().find(|w| w.wavelength <= 0.0) {
+                return Err(bad("waves", format!("wavelength {} must be > 0", w.wavelength)));
+            }
+            let f = |x: f32, z: f32| {
+                let wave = |w: &crate::scene::file::Wave| {
+                    let a = w.angle.to_radians();
+                    w.amplitude * (std::f32::consts::TAU * (x * a.cos() + z * a.sin()) / w.wavelength + w.phase).sin()
+                };
+                height + waves.iter().map(wave).sum::<f32>()
+            };
+            let mut m = mesh::heightfield(*size, *resolution, f);
+            m.compute_smooth_normals();
+            m
+        }
+        ShapeSpec::Box { min, max, .. } => {
+            let (a, b) = (Vec3::from_array(*min), Vec3::from_array(*max));
+            if (b - a).min_element() <= 0.0 {
+                return Err(bad("max", "must exceed `min` on every axis".into()));
+            }
+            mesh::cuboid(a, b)
+        }
+        ShapeSpec::Mesh { .. } | ShapeSpec::Sphere { .. } => unreachable!("not a generated mesh"),
+    })
+}
+
+fn lathe_mesh(cx: &Ctx, key: &str, profile: &[[f32; 2]], segments: u32, smooth: bool) -> Result<TriMesh, SceneError> {
+    let bad = |msg: String| cx.err(&format!("{key}.profile"), msg);
+    if profile.len() < 2 {
+        return Err(bad("needs at least two [r, y] points".into()));
+    }
+    if let Some(p) = profile.iter().find(|p| p[0] < 0.0) {
+        return Err(bad(format!("radius {} is negative", p[0])));
+    }
+    if !(3..=1 << 16).contains(&segments) {
+        return Err(cx.err(&format!("{key}.segments"), "must be in [3, 65536]"));
+    }
+    if profile.len() as u64 * segments as u64 > 1 << 24 {
+        return Err(bad("profile points × segments exceeds 16M vertices".into()));
+    }
+    let mut m = mesh::lathe(profile, segments);
+    if m.indices.is_empty() {
+        return Err(bad("the profile sweeps no area".into()));
+    }
+    if smooth {
+        m.compute_smooth_normals();
+    }
+    Ok(m)
 }
 
 fn radiance_of(cx: &Ctx, key: &str, power: &Option<V3>, radiance: &Option<V3>, area: f32) -> Result<Rgb, SceneError> {

@@ -1,11 +1,12 @@
 //! k-nearest-neighbour search with a distance cap: near child first, far child only when its splitting
-//! plane is within the current bound, a bounded max-heap in a reusable buffer (no allocation per query).
+//! plane is within the current bound; candidates gather in an unsorted buffer of up to 2k that a partial
+//! selection trims back to the k nearest (reusable, no allocation per query).
 use super::KdTree;
 
-/// Reusable query buffers: the result heap (squared distance, tree index) and the traversal stack.
+/// Reusable query buffers: the candidates (squared distance, tree index) and the traversal stack.
 #[derive(Default, Debug, Clone)]
 pub struct KnnResult {
-    heap: Vec<(f32, u32)>,
+    found: Vec<(f32, u32)>,
     stack: Vec<Entry>,
 }
 
@@ -28,20 +29,20 @@ impl KnnResult {
 
     /// The found points as (squared distance, tree index), in no particular order.
     pub fn items(&self) -> &[(f32, u32)] {
-        &self.heap
+        &self.found
     }
 
     pub fn len(&self) -> usize {
-        self.heap.len()
+        self.found.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.heap.is_empty()
+        self.found.is_empty()
     }
 
     /// Squared distances in increasing order (for tests and tools).
     pub fn sorted_d2(&self) -> Vec<f32> {
-        let mut v: Vec<f32> = self.heap.iter().map(|e| e.0).collect();
+        let mut v: Vec<f32> = self.found.iter().map(|e| e.0).collect();
         v.sort_by(f32::total_cmp);
         v
     }
@@ -131,14 +132,14 @@ impl<T> KdTree<T> {
     /// Candidates go into an unsorted buffer of up to 2k entries; when it fills, a partial selection
     /// keeps the k nearest and tightens the bound (amortised O(1) per candidate, no heap sifting).
     pub fn knn(&self, q: [f32; 3], k: usize, max_r2: f32, res: &mut KnnResult) -> f32 {
-        res.heap.clear();
+        res.found.clear();
         if k == 0 {
             return 0.0;
         }
         // Never more slots than points: k beyond the tree's size only means "all within the radius".
         let cap = 2 * k.min(self.len()).max(super::BUCKET);
         // Slots are written unconditionally and kept by advancing `len` (branch-free compaction).
-        res.heap.resize(cap + super::BUCKET, (0.0, 0));
+        res.found.resize(cap + super::BUCKET, (0.0, 0));
         let mut len = 0usize;
         let mut stack = std::mem::take(&mut res.stack);
         let mut d2s = [0.0f32; super::BUCKET];
@@ -146,7 +147,7 @@ impl<T> KdTree<T> {
         self.traverse(q, max_r2, &mut stack, |lo, hi, bound| {
             let n = self.bucket_d2(q, lo, hi, &mut d2s);
             let b = *bound;
-            let slots = &mut res.heap[len..len + n];
+            let slots = &mut res.found[len..len + n];
             let mut kept = 0usize;
             for (i, &d2) in d2s[..n].iter().enumerate() {
                 slots[kept] = (d2, lo + i as u32);
@@ -155,19 +156,19 @@ impl<T> KdTree<T> {
             }
             len += kept;
             if len >= cap || (!have_bound && len >= k) {
-                *bound = select_k(&mut res.heap[..len], k);
+                *bound = select_k(&mut res.found[..len], k);
                 len = k;
                 have_bound = true;
             }
         });
         res.stack = stack;
-        res.heap.truncate(len);
+        res.found.truncate(len);
         if len > k {
-            select_k(&mut res.heap, k);
-            res.heap.truncate(k);
+            select_k(&mut res.found, k);
+            res.found.truncate(k);
         }
-        if res.heap.len() == k {
-            res.heap.iter().fold(0.0f32, |m, e| m.max(e.0))
+        if res.found.len() == k {
+            res.found.iter().fold(0.0f32, |m, e| m.max(e.0))
         } else {
             max_r2
         }
