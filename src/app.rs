@@ -54,6 +54,12 @@ fn overrides(a: &RenderArgs) -> Vec<String> {
     if let Some(m) = &a.mode {
         v.push(format!("render.mode=\"{m}\""));
     }
+    if let Some(n) = a.passes {
+        v.push(format!("render.progressive.passes={n}"));
+    }
+    if let Some(t) = a.time_s {
+        v.push(format!("render.progressive.time_s={t:?}"));
+    }
     v
 }
 

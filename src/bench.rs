@@ -129,6 +129,7 @@ pub fn photons(path: &Path, photons: u64) -> Result<()> {
         want: [photons, photons, photons],
         targeted: scene.render.photons.caustic_targeting,
         targets: None,
+        ..Default::default()
     };
     let maps = pool.install(|| build_maps(&scene, &accel, &req, true))?;
     let passes = [maps.stats.global_pass, maps.stats.caustic_pass];

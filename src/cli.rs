@@ -72,9 +72,17 @@ pub struct RenderArgs {
     /// Random seed, overrides render.seed.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// path | photon_map | both, overrides render.mode.
+    /// path | photon_map | both | ppm | sppm, overrides render.mode. ppm: progressive photon mapping
+    /// (independent passes with a shrinking radius, averaged); sppm: stochastic progressive photon
+    /// mapping (per-pixel radius and flux). Both converge to the right image as passes accumulate.
     #[arg(long)]
     pub mode: Option<String>,
+    /// Progressive modes: stop after this many passes (overrides render.progressive.passes).
+    #[arg(long)]
+    pub passes: Option<u32>,
+    /// Progressive modes: stop once this many seconds were spent (overrides render.progressive.time_s).
+    #[arg(long)]
+    pub time_s: Option<f64>,
     /// What to show: image (default), photons:direct|indirect|caustic|all, map:direct|indirect|caustic.
     #[arg(long, default_value = "image")]
     pub view: String,

@@ -30,6 +30,19 @@ pub fn render_modes(
     quiet: bool,
 ) -> Result<()> {
     let mode = scene.render.mode;
+    if matches!(mode, Mode::Ppm | Mode::Sppm) {
+        let r = render_progressive(scene, accel, plan, quiet, &[])?;
+        let mut stats = base;
+        stats["mode"] = json!(if mode == Mode::Ppm { "ppm" } else { "sppm" });
+        stats["plan"] = json!(plan);
+        stats["passes"] = json!(r.records);
+        stats["initial_radius"] = json!(crate::integrator::ppm::initial_radius(scene));
+        stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "render": r.output.seconds });
+        add_counters(&mut stats, &r.output);
+        write_outputs(out, &r.output.image, scene.render.exposure, &stats)?;
+        println!("{}", describe(out, &r.output.image));
+        return Ok(());
+    }
     let mut images = Vec::new();
     if mode != Mode::PhotonMap {
         let r = render_path(scene, accel, scene.render.spp, quiet);
@@ -98,6 +111,7 @@ pub fn render_pm(scene: &Scene, tracer: &dyn Tracer, plan: &Plan, quiet: bool) -
         want: plan.photons,
         targeted: scene.render.photons.caustic_targeting,
         targets: Some(plan.caustic_targets.clone()),
+        ..Default::default()
     };
     let maps = build_maps(scene, tracer, &req, quiet)?;
     let r = render_photon_map(scene, tracer, &maps, plan, None, quiet);
@@ -168,7 +182,7 @@ pub fn render_view(
     let maps = build_maps(
         scene,
         accel,
-        &MapRequest { want, targeted: ps.caustic_targeting, targets: Some(plan.caustic_targets.clone()) },
+        &MapRequest { want, targeted: ps.caustic_targeting, targets: Some(plan.caustic_targets.clone()), ..Default::default() },
         quiet,
     )?;
     let img = match kind {
@@ -274,4 +288,88 @@ pub fn reference(
     })?;
     files.commit()?;
     Ok(Reference { image, halves_rmse, path: exr })
+}
+
+/// A progressive render: the final image (with the total time and counters), a record per pass, and
+/// the images after the pass counts asked for as snapshots (with the seconds spent up to each).
+pub struct Progressive {
+    pub output: RenderOutput,
+    pub records: Vec<crate::integrator::ppm::PassRecord>,
+    pub snapshots: Vec<(u32, f64, Image)>,
+}
+
+/// `--mode ppm` or `--mode sppm` (the scene's `render.mode`): passes until `render.progressive.passes`
+/// or `render.progressive.time_s`, whichever comes first, with a progress line giving the pass, the
+/// radius relative to the scene's diagonal and photons per second. `snapshots` lists pass counts after
+/// which the current image is kept (time spent making snapshots is not counted).
+pub fn render_progressive(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    plan: &Plan,
+    quiet: bool,
+    snapshots: &[u32],
+) -> Result<Progressive> {
+    use crate::integrator::ppm::{initial_radius, ppm_pass, radius_at};
+    let p = &scene.render.progressive;
+    let sppm_mode = scene.render.mode == Mode::Sppm;
+    let r1 = initial_radius(scene);
+    let pixels = scene.camera.width as usize * scene.camera.height as usize;
+    let mut sum = vec![[0.0f64; 3]; pixels];
+    let mut sppm = sppm_mode.then(|| crate::integrator::sppm::Sppm::new(scene, tracer, plan));
+    let pb = crate::progress::progress(p.passes as u64, if sppm_mode { "sppm" } else { "ppm" }, quiet);
+    let (mut records, mut shots) = (Vec::new(), Vec::new());
+    let mut counters = Counters::default();
+    let (mut seconds, mut emitted) = (0.0f64, 0u64);
+    let mean = |sum: &[[f64; 3]], n: u32| {
+        let mut img = Image::new(scene.camera.width, scene.camera.height);
+        for (o, s) in img.pixels.iter_mut().zip(sum) {
+            *o = glam::Vec3::new((s[0] / n as f64) as f32, (s[1] / n as f64) as f32, (s[2] / n as f64) as f32);
+        }
+        img
+    };
+    let first = if sppm_mode { 1 } else { p.first_pass };
+    for i in first..first + p.passes {
+        let record = match sppm.as_mut() {
+            Some(s) => s.iterate(i)?,
+            None => {
+                let (img, c, record) = ppm_pass(scene, tracer, plan, i, radius_at(r1, p.alpha, i))?;
+                for (acc, px) in sum.iter_mut().zip(&img.pixels) {
+                    for k in 0..3 {
+                        acc[k] += px[k] as f64;
+                    }
+                }
+                counters += c;
+                record
+            }
+        };
+        seconds += record.seconds;
+        emitted += record.emitted.iter().sum::<u64>();
+        pb.set_position((i - first + 1) as u64);
+        pb.set_message(format!(
+            "pass {i}, radius {:.2e} of the diagonal, {:.2} M photons/s",
+            record.radius / scene.diagonal().max(1e-30),
+            emitted as f64 / seconds.max(1e-9) / 1e6
+        ));
+        records.push(record);
+        if snapshots.contains(&i) {
+            let img = match &sppm {
+                Some(s) => s.image(),
+                None => mean(&sum, records.len() as u32),
+            };
+            shots.push((i, seconds, img));
+        }
+        if p.time_s > 0.0 && seconds >= p.time_s {
+            break;
+        }
+    }
+    pb.finish_and_clear();
+    let n = records.len() as u32;
+    let image = match &sppm {
+        Some(s) => {
+            counters += s.counters;
+            s.image()
+        }
+        None => mean(&sum, n),
+    };
+    Ok(Progressive { output: RenderOutput { image, counters, seconds }, records, snapshots: shots })
 }

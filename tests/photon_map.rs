@@ -14,7 +14,7 @@ use caustica::scene::{Scene, TransportMode};
 use glam::Vec3;
 
 fn maps(scene: &Scene, accel: &Accel, want: [u64; 3], targeted: bool) -> PhotonMaps {
-    build_maps(scene, accel, &MapRequest { want, targeted, targets: None }, true).unwrap()
+    build_maps(scene, accel, &MapRequest { want, targeted, targets: None, ..Default::default() }, true).unwrap()
 }
 
 #[test]
@@ -200,7 +200,7 @@ fn indirect_photon_map_converges_to_the_path_traced_indirect_light() {
         let a = Accel::new(&s).unwrap();
         let plan = plan_for(&s, &a);
         let m =
-            build_maps(&s, &a, &MapRequest { want: [0, photons, 0], targeted: false, targets: None }, true).unwrap();
+            build_maps(&s, &a, &MapRequest { want: [0, photons, 0], targeted: false, targets: None, ..Default::default() }, true).unwrap();
         let img = render_photon_map(&s, &a, &m, &plan, Some(INDIRECT), true).image;
         let c = compare_masked(&img, &reference, &keep).unwrap();
         errors.push(c.rmse);

@@ -2,6 +2,8 @@
 pub mod direct;
 pub mod path;
 pub mod photon_map;
+pub mod ppm;
+pub mod sppm;
 
 /// Per-thread counters, summed after a render.
 #[derive(Clone, Copy, Debug, Default)]

@@ -43,17 +43,23 @@ impl MapsStats {
 }
 
 /// What to trace: photons wanted per map, and whether caustic photons are aimed at specular shapes.
+#[derive(Default)]
 pub struct MapRequest {
     pub want: [u64; 3],
     pub targeted: bool,
     /// Restrict caustic targets to these shapes (the planner's list); None = every specular shape.
     pub targets: Option<Vec<u32>>,
+    /// Progressive passes: shoot exactly this many photons in each tracing pass and keep every photon
+    /// stored (maps with a nonzero `want` are built); None = trace until each map holds `want`.
+    pub shots: Option<u64>,
+    /// Distinguishes the random streams of progressive passes (0 for the fixed photon map).
+    pub key: u64,
 }
 
 pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: bool) -> anyhow::Result<PhotonMaps> {
     let ps = &scene.render.photons;
-    let total: u64 = req.want.iter().sum();
-    let pb = crate::progress::progress(total, "photons", quiet);
+    let total: u64 = req.want.iter().fold(0u64, |a, &w| a.saturating_add(w));
+    let pb = crate::progress::progress(total, "photons", quiet || req.shots.is_some());
     let mut stats = MapsStats::default();
     let mut maps: [Option<PhotonMap>; 3] = Default::default();
     let t0 = std::time::Instant::now();
@@ -61,12 +67,14 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
     if req.want[DIRECT] + req.want[INDIRECT] > 0 {
         let want = [req.want[DIRECT], req.want[INDIRECT], 0];
         let s = PassSettings {
-            want,
+            want: req.shots.map_or(want, |_| want.map(|w| if w > 0 { u64::MAX } else { 0 })),
             max_depth: scene.render.max_depth,
             rr_depth: scene.render.rr_depth,
-            max_shots: want.iter().max().copied().unwrap_or(0).saturating_mul(ps.max_shots_factor),
+            max_shots: req
+                .shots
+                .unwrap_or_else(|| want.iter().max().copied().unwrap_or(0).saturating_mul(ps.max_shots_factor)),
             seed: scene.render.seed,
-            pass: 1,
+            pass: 1 + 2 * req.key,
         };
         let (m, st) = run_pass(scene, tracer, &s, None, &pb);
         let [d, i, _] = m;
@@ -78,12 +86,12 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
         let targets = Targets::new(scene, req.targets.as_deref());
         let targeted = req.targeted && !targets.is_empty();
         let s = PassSettings {
-            want: [0, 0, req.want[CAUSTIC]],
+            want: [0, 0, if req.shots.is_some() { u64::MAX } else { req.want[CAUSTIC] }],
             max_depth: scene.render.max_depth,
             rr_depth: scene.render.rr_depth,
-            max_shots: req.want[CAUSTIC].saturating_mul(ps.max_shots_factor),
+            max_shots: req.shots.unwrap_or_else(|| req.want[CAUSTIC].saturating_mul(ps.max_shots_factor)),
             seed: scene.render.seed,
-            pass: 2,
+            pass: 2 + 2 * req.key,
         };
         let (m, st) = run_pass(scene, tracer, &s, targeted.then_some(&targets), &pb);
         let [_, _, c] = m;
@@ -96,7 +104,7 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
     let t1 = std::time::Instant::now();
     for (i, c) in collected.into_iter().enumerate() {
         if let Some(c) = c {
-            if !c.complete && !quiet {
+            if !c.complete && !quiet && req.shots.is_none() {
                 eprintln!(
                     "warning: the {} map got {} photons of {} requested before the shot budget ran out ({} shot)",
                     MAP_NAMES[i],
@@ -132,6 +140,9 @@ pub struct PhotonMapper<'a> {
     pub only: Option<usize>,
     /// Extra eye samples where the first hit is not diffuse (the planner may set 0).
     pub specular_spp: u32,
+    /// Progressive passes: every map is read with this fixed gather radius (box kernel, all photons
+    /// within it) instead of its k nearest photons.
+    pub radius: Option<f32>,
 }
 
 impl<'a> PhotonMapper<'a> {
@@ -151,6 +162,7 @@ impl<'a> PhotonMapper<'a> {
             gather: [mk(g.direct), mk(g.indirect), mk(g.caustic)],
             only,
             specular_spp: scene.render.specular_spp,
+            radius: None,
         }
     }
 
@@ -158,7 +170,13 @@ impl<'a> PhotonMapper<'a> {
         let Some(map) = &self.maps.maps[m] else {
             return Rgb::ZERO;
         };
-        SCRATCH.with(|s| map.radiance(si, wo, rho, self.gather[m], &mut s.borrow_mut()))
+        SCRATCH.with(|s| match self.radius {
+            Some(r) => {
+                let (flux, _) = map.flux_within(si, wo, r, &mut s.borrow_mut());
+                flux * rho / (std::f32::consts::PI * std::f32::consts::PI * r * r)
+            }
+            None => map.radiance(si, wo, rho, self.gather[m], &mut s.borrow_mut()),
+        })
     }
 
     /// Radiance leaving a diffuse point: direct + caustic + indirect (`fg` final-gather rays, 0 = map).

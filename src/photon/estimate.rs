@@ -44,22 +44,17 @@ impl PhotonMap {
     }
 
     /// Reflected radiance towards `wo` at the surface point `si` of a Lambertian surface with reflectance
-    /// `rho`, estimated from this map. Photons carry flux per unit of geometric area; each is scaled by
-    /// |wi·ns| / |wi·ng| so the estimate integrates the cosine about the shading normal, as the path
-    /// tracer does (the last factor of the shading-normal adjoint; 1 on flat-shaded surfaces).
+    /// `rho`, estimated from the k nearest photons (cone filter if `g.cone_k` ≥ 1).
     pub fn radiance(&self, si: &SurfaceHit, wo: Vec3, rho: Rgb, g: Gather, res: &mut KnnResult) -> Rgb {
         if self.is_empty() || g.k == 0 {
             return Rgb::ZERO;
         }
-        let (p, n) = (si.p, si.ng);
-        let smooth = si.ns != si.ng;
-        let r2 = self.tree.knn(p.to_array(), g.k, g.max_r2, res);
+        let r2 = self.tree.knn(si.p.to_array(), g.k, g.max_r2, res);
         if r2.is_nan() || r2 <= 0.0 || !r2.is_finite() {
             return Rgb::ZERO;
         }
         let r = r2.sqrt();
-        let n_side = face_forward(n, wo);
-        let ns_side = face_forward(si.ns, wo);
+        let f = PhotonFilter::new(si, wo, r);
         let cone = g.cone_k >= 1.0;
         // When k photons were found, r is the k-th one's distance and that photon sits on the boundary:
         // given r, the other k − 1 are spread over the disc, so (k − 1)/(π r²) is the unbiased density,
@@ -72,26 +67,74 @@ impl PhotonMap {
             if Some(j) == boundary {
                 continue;
             }
-            let item = self.tree.item(i);
-            // Arrived from the viewer's side (travelled against the normal), on a surface facing the same
-            // way (not the other side of a thin wall, not the next wall round a corner).
-            if item.wi().dot(n_side) >= 0.0 || item.n().dot(n_side) < 0.6 {
+            let Some(w) = f.weight(self.tree.item(i), self.tree.position(i)) else {
                 continue;
-            }
-            // On this surface's tangent disc, not on a nearby surface facing elsewhere.
-            let q = Vec3::from_array(self.tree.position(i));
-            if (q - p).dot(n_side).abs() > 0.25 * r {
-                continue;
-            }
-            let mut w = if cone { (1.0 - d2.sqrt() / (g.cone_k * r)).max(0.0) } else { 1.0 };
-            if smooth {
-                // The Lambertian BSDF about the shading normal is zero for light arriving from below it.
-                let wi = item.wi();
-                w *= (-wi).dot(ns_side).max(0.0) / wi.dot(n).abs().max(1e-6);
-            }
-            sum += item.phi() * w;
+            };
+            let cone_w = if cone { (1.0 - d2.sqrt() / (g.cone_k * r)).max(0.0) } else { 1.0 };
+            sum += self.tree.item(i).phi() * (w * cone_w);
         }
         let norm = if cone { 1.0 - 2.0 / (3.0 * g.cone_k) } else { 1.0 };
         sum * rho / (std::f32::consts::PI * std::f32::consts::PI * r2 * norm)
+    }
+
+    /// Flux-weighted sum Σ w_p ΔΦ_p over the photons within radius `r` of `si` that pass the surface
+    /// tests (box kernel): divided by π r² it is the irradiance the progressive estimators accumulate.
+    /// Returns (sum, photons counted).
+    pub fn flux_within(&self, si: &SurfaceHit, wo: Vec3, r: f32, res: &mut KnnResult) -> (Rgb, u32) {
+        if self.is_empty() || !(r > 0.0) {
+            return (Rgb::ZERO, 0);
+        }
+        self.tree.within_res(si.p.to_array(), r * r, res);
+        let f = PhotonFilter::new(si, wo, r);
+        let mut sum = Rgb::ZERO;
+        let mut count = 0u32;
+        for &(_, i) in res.items() {
+            if let Some(w) = f.weight(self.tree.item(i), self.tree.position(i)) {
+                sum += self.tree.item(i).phi() * w;
+                count += 1;
+            }
+        }
+        (sum, count)
+    }
+}
+
+/// The per-photon tests and weight shared by every estimate at one surface point.
+struct PhotonFilter {
+    p: Vec3,
+    n: Vec3,
+    n_side: Vec3,
+    ns_side: Vec3,
+    smooth: bool,
+    r: f32,
+}
+
+impl PhotonFilter {
+    fn new(si: &SurfaceHit, wo: Vec3, r: f32) -> PhotonFilter {
+        PhotonFilter {
+            p: si.p,
+            n: si.ng,
+            n_side: face_forward(si.ng, wo),
+            ns_side: face_forward(si.ns, wo),
+            smooth: si.ns != si.ng,
+            r,
+        }
+    }
+
+    /// None when the photon does not belong to this surface point; else its weight: 1, or on
+    /// smooth-shaded surfaces |wi·ns| / |wi·ng| (photons carry flux per unit of geometric area, the path
+    /// tracer integrates the cosine about the shading normal: the last factor of the shading-normal
+    /// adjoint), zero for light arriving from below the shading normal.
+    fn weight(&self, item: &PhotonPayload, pos: [f32; 3]) -> Option<f32> {
+        let wi = item.wi();
+        // Arrived from the viewer's side (travelled against the normal), on a surface facing the same
+        // way (not the other side of a thin wall, not the next wall round a corner).
+        if wi.dot(self.n_side) >= 0.0 || item.n().dot(self.n_side) < 0.6 {
+            return None;
+        }
+        // On this surface's tangent disc, not on a nearby surface facing elsewhere.
+        if (Vec3::from_array(pos) - self.p).dot(self.n_side).abs() > 0.25 * self.r {
+            return None;
+        }
+        Some(if self.smooth { (-wi).dot(self.ns_side).max(0.0) / wi.dot(self.n).abs().max(1e-6) } else { 1.0 })
     }
 }

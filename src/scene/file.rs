@@ -299,6 +299,10 @@ pub enum Mode {
     Path,
     PhotonMap,
     Both,
+    /// Probabilistic progressive photon mapping (Knaus & Zwicker 2011).
+    Ppm,
+    /// Stochastic progressive photon mapping (Hachisuka & Jensen 2009).
+    Sppm,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
@@ -333,6 +337,35 @@ pub struct RenderSettings {
     pub force_all_passes: bool,
     pub photons: PhotonSettings,
     pub gather: GatherSettings,
+    pub progressive: ProgressiveSettings,
+}
+
+/// `[render.progressive]`: the progressive modes (`ppm`, `sppm`).
+///
+/// ```toml
+/// [render.progressive]
+/// passes = 64              # stop after this many passes ...
+/// first_pass = 1           # ppm: start at this pass (a share of a render: passes are independent)
+/// time_s = 0.0             # ... or after this many seconds (0 = no time limit)
+/// photons_per_pass = 100000
+/// alpha = 0.6667           # radius shrinkage: r_i² = r_1² Π (k + α)/(k + 1)
+/// radius = 0.0             # initial gather radius in scene units (0 = automatic)
+/// ```
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ProgressiveSettings {
+    pub passes: u32,
+    pub first_pass: u32,
+    pub time_s: f64,
+    pub photons_per_pass: u64,
+    pub alpha: f32,
+    pub radius: f32,
+}
+
+impl Default for ProgressiveSettings {
+    fn default() -> Self {
+        ProgressiveSettings { passes: 64, first_pass: 1, time_s: 0.0, photons_per_pass: 100_000, alpha: 2.0 / 3.0, radius: 0.0 }
+    }
 }
 
 impl Default for RenderSettings {
@@ -351,6 +384,7 @@ impl Default for RenderSettings {
             force_all_passes: false,
             photons: PhotonSettings::default(),
             gather: GatherSettings::default(),
+            progressive: ProgressiveSettings::default(),
         }
     }
 }

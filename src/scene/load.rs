@@ -202,6 +202,31 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
     if r.spp == 0 {
         return Err(cx.err("render.spp", "must be ≥ 1"));
     }
+    let pr = &r.progressive;
+    if pr.passes == 0 {
+        return Err(cx.err("render.progressive.passes", "must be ≥ 1"));
+    }
+    if pr.first_pass == 0 || pr.first_pass.checked_add(pr.passes).is_none() {
+        return Err(cx.err("render.progressive.first_pass", "must be ≥ 1, and first_pass + passes must fit in 32 bits"));
+    }
+    if pr.first_pass != 1 && r.mode == crate::scene::file::Mode::Sppm {
+        return Err(cx.err(
+            "render.progressive.first_pass",
+            "sppm iterations build on each other and must start at 1 (ppm passes are independent)",
+        ));
+    }
+    if !(pr.time_s.is_finite() && pr.time_s >= 0.0) {
+        return Err(cx.err("render.progressive.time_s", "must be ≥ 0 seconds (0 = no time limit)"));
+    }
+    if pr.photons_per_pass == 0 || pr.photons_per_pass > 100_000_000 {
+        return Err(cx.err("render.progressive.photons_per_pass", "must be in [1, 100000000]"));
+    }
+    if !(pr.alpha > 0.0 && pr.alpha < 1.0) {
+        return Err(cx.err("render.progressive.alpha", "must be in (0, 1); 2/3 is the usual choice"));
+    }
+    if !(pr.radius.is_finite() && pr.radius >= 0.0) {
+        return Err(cx.err("render.progressive.radius", "must be ≥ 0 (0 = chosen from the scene)"));
+    }
     if r.pm_spp == 0 {
         return Err(cx.err("render.pm_spp", "must be ≥ 1"));
     }

@@ -174,6 +174,13 @@ impl<T> KdTree<T> {
         }
     }
 
+    /// Every point within squared distance `r2` of `q`, into `res` (its buffers reused).
+    pub fn within_res(&self, q: [f32; 3], r2: f32, res: &mut KnnResult) {
+        let mut stack = std::mem::take(&mut res.stack);
+        self.within(q, r2, &mut res.found, &mut stack);
+        res.stack = stack;
+    }
+
     /// The single nearest point, if any: (tree index, squared distance).
     pub fn nearest(&self, q: [f32; 3], res: &mut KnnResult) -> Option<(u32, f32)> {
         let mut best: Option<(u32, f32)> = None;

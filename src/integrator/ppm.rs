@@ -1,0 +1,119 @@
+//! Probabilistic progressive photon mapping (Knaus & Zwicker 2011, "Progressive photon mapping: a
+//! probabilistic approach"). Pass i is an ordinary photon-map render with its own photons and eye
+//! samples (both keyed by i) and every map read with one fixed radius r_i,
+//! r_i² = r_1² Π_{k=1}^{i−1} (k + α)/(k + 1); the image is the mean of the passes, so bias and variance
+//! both vanish as passes accumulate. A pass is a pure function of (scene, seed, i): passes can run in
+//! any order or in separate processes and be averaged.
+use super::photon_map::{build_maps, MapRequest, PhotonMapper};
+use super::Counters;
+use crate::film::Image;
+use crate::plan::Plan;
+use crate::render::render;
+use crate::scene::{Geometry, Scene};
+use serde::Serialize;
+
+/// What one progressive pass did (recorded in the JSON stats).
+#[derive(Clone, Debug, Serialize)]
+pub struct PassRecord {
+    pub pass: u32,
+    pub seconds: f64,
+    /// Gather radius of the pass (scene units).
+    pub radius: f32,
+    /// Photons shot for the direct, indirect and caustic maps (0 = map not built).
+    pub emitted: [u64; 3],
+    pub stored: u64,
+}
+
+/// r_i for pass `i` (1-based): r_i² = r_1² Π_{k=1}^{i−1} (k + α)/(k + 1).
+pub fn radius_at(r1: f32, alpha: f32, i: u32) -> f32 {
+    let mut r2 = (r1 as f64) * (r1 as f64);
+    for k in 1..i.max(1) {
+        r2 *= (k as f64 + alpha as f64) / (k as f64 + 1.0);
+    }
+    r2.sqrt() as f32
+}
+
+/// The first pass's radius: `render.progressive.radius` if set, else the radius of a disc that would
+/// hold about 30 photons if one pass's photons covered the scene's diffuse surfaces evenly, capped at
+/// `render.gather.max_radius` of the scene diagonal.
+pub fn initial_radius(scene: &Scene) -> f32 {
+    let p = &scene.render.progressive;
+    if p.radius > 0.0 {
+        return p.radius;
+    }
+    let area: f64 = scene
+        .shapes
+        .iter()
+        .filter(|s| scene.materials[s.material as usize].is_diffuse() && matches!(s.geometry, Geometry::Mesh(_) | Geometry::Sphere { .. }))
+        .map(|s| s.area() as f64)
+        .sum();
+    let r = (30.0 * area / (std::f64::consts::PI * p.photons_per_pass as f64)).sqrt() as f32;
+    let cap = scene.render.gather.max_radius * scene.diagonal();
+    if r.is_finite() && r > 0.0 {
+        r.min(cap)
+    } else {
+        cap
+    }
+}
+
+/// Seed of pass `i`'s eye samples: every pass draws its own pixel samples.
+pub fn pass_seed(seed: u64, i: u32) -> u64 {
+    crate::math::rng::mix64(seed ^ (0x5050_u64 << 32 | i as u64))
+}
+
+/// The maps a progressive pass builds: those the plan wants, each from exactly `photons_per_pass` shots.
+pub fn pass_request(scene: &Scene, plan: &Plan, i: u32) -> MapRequest {
+    MapRequest {
+        want: plan.photons,
+        targeted: scene.render.photons.caustic_targeting,
+        targets: Some(plan.caustic_targets.clone()),
+        shots: Some(scene.render.progressive.photons_per_pass),
+        key: i as u64,
+    }
+}
+
+/// Pass `i` of probabilistic PPM at radius `r`: its image (one eye sample per pixel, more where the
+/// plan asks for them behind specular surfaces), counters and record.
+pub fn ppm_pass(
+    scene: &Scene,
+    tracer: &dyn crate::accel::Tracer,
+    plan: &Plan,
+    i: u32,
+    r: f32,
+) -> anyhow::Result<(Image, Counters, PassRecord)> {
+    let t0 = std::time::Instant::now();
+    let maps = build_maps(scene, tracer, &pass_request(scene, plan, i), true)?;
+    let mut pm = PhotonMapper::new(scene, tracer, &maps, None);
+    pm.specular_spp = plan.specular_spp;
+    pm.radius = Some(r);
+    let cam = &scene.camera;
+    let out = render(cam.width, cam.height, 1, pass_seed(scene.render.seed, i), "eye pass", true, |x, y, rng, c| {
+        pm.li(cam.ray(x, y), rng, c)
+    });
+    let record = PassRecord {
+        pass: i,
+        seconds: t0.elapsed().as_secs_f64(),
+        radius: r,
+        emitted: maps.stats.n_emitted,
+        stored: maps.stats.stored.iter().sum(),
+    };
+    Ok((out.image, out.counters, record))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::radius_at;
+
+    #[test]
+    fn radius_schedule_follows_knaus_zwicker() {
+        let r1 = 0.1f32;
+        assert_eq!(radius_at(r1, 2.0 / 3.0, 1), r1);
+        // r_2² = r_1² (1 + α)/2, r_3² = r_2² (2 + α)/3.
+        let a = 2.0f64 / 3.0;
+        let r3 = 0.1f64 * ((1.0 + a) / 2.0 * (2.0 + a) / 3.0).sqrt();
+        assert!((radius_at(r1, 2.0 / 3.0, 3) as f64 - r3).abs() < 1e-7);
+        // r_i² falls like i^(α−1): r_1000² / r_100² ≈ 10^(α−1).
+        let ratio = (radius_at(r1, 2.0 / 3.0, 1000) / radius_at(r1, 2.0 / 3.0, 100)).powi(2) as f64;
+        assert!((ratio / 10f64.powf(a - 1.0) - 1.0).abs() < 0.01, "{ratio}");
+    }
+}

@@ -1,0 +1,167 @@
+//! Stochastic progressive photon mapping (Hachisuka & Jensen 2009), as pbrt-v4's SPPMIntegrator. Each
+//! iteration: a camera pass finds every pixel's visible point (the first diffuse hit after the
+//! specular chain, with the chain's throughput) and adds what is seen along the way (emission, direct
+//! light by shadow rays); a photon pass traces this iteration's photons (the shared photon tracer, into
+//! the project's k-d trees); then each pixel gathers the photons within its own radius and updates its
+//! photon count N, radius r and flux τ: N' = N + αM, r'² = r² N'/(N + M), τ' = (τ + Φ) r'²/r².
+//! Every pixel updates only its own state, in parallel: no shared sums, the same bits on any thread
+//! count.
+use super::direct::{estimate_direct, DirectStrategy};
+use super::photon_map::build_maps;
+use super::ppm::{initial_radius, pass_request, pass_seed, PassRecord};
+use super::Counters;
+use crate::accel::{interact, Interaction, Tracer};
+use crate::color::Rgb;
+use crate::film::Image;
+use crate::math::Rng;
+use crate::photon::kdtree::KnnResult;
+use crate::plan::Plan;
+use crate::scene::file::DirectLight;
+use crate::scene::{Scene, SurfaceHit, TransportMode};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::cell::RefCell;
+
+thread_local! {
+    static SCRATCH: RefCell<KnnResult> = RefCell::new(KnnResult::new());
+}
+
+/// One pixel's running estimate.
+#[derive(Clone, Copy, Debug)]
+struct PixelState {
+    /// Sum over iterations of the light found by the camera pass (emission, direct light).
+    ld: [f64; 3],
+    n: f32,
+    r: f32,
+    tau: Rgb,
+}
+
+/// Where this iteration's camera path ended on a diffuse surface, and its throughput there.
+#[derive(Clone, Copy, Debug)]
+struct VisiblePoint {
+    si: SurfaceHit,
+    wo: Vec3,
+    beta: Rgb,
+}
+
+pub struct Sppm<'a> {
+    scene: &'a Scene,
+    tracer: &'a dyn Tracer,
+    plan: &'a Plan,
+    pixels: Vec<PixelState>,
+    iterations: u32,
+    pub counters: Counters,
+}
+
+impl<'a> Sppm<'a> {
+    pub fn new(scene: &'a Scene, tracer: &'a dyn Tracer, plan: &'a Plan) -> Sppm<'a> {
+        let r = initial_radius(scene);
+        let px = PixelState { ld: [0.0; 3], n: 0.0, r, tau: Rgb::ZERO };
+        let count = scene.camera.width as usize * scene.camera.height as usize;
+        Sppm { scene, tracer, plan, pixels: vec![px; count], iterations: 0, counters: Counters::default() }
+    }
+
+    /// Runs iteration `i` (1-based; the photons and eye samples of iteration i are keyed by i).
+    pub fn iterate(&mut self, i: u32) -> anyhow::Result<PassRecord> {
+        let t0 = std::time::Instant::now();
+        let seed = pass_seed(self.scene.render.seed, i);
+        let width = self.scene.camera.width as usize;
+        let camera: Vec<(Rgb, Option<VisiblePoint>, Counters)> = (0..self.pixels.len())
+            .into_par_iter()
+            .map(|k| {
+                let mut rng = Rng::new(seed, k as u64, 0);
+                let mut c = Counters::default();
+                let (l, vp) = self.camera_path((k % width) as f32, (k / width) as f32, &mut rng, &mut c);
+                (l, vp, c)
+            })
+            .collect();
+        let maps = build_maps(self.scene, self.tracer, &pass_request(self.scene, self.plan, i), true)?;
+        let alpha = self.scene.render.progressive.alpha;
+        let scene = self.scene;
+        self.pixels.par_iter_mut().zip(&camera).for_each(|(px, (l, vp, _))| {
+            for k in 0..3 {
+                px.ld[k] += l[k] as f64;
+            }
+            let Some(vp) = vp else {
+                return;
+            };
+            let (mut flux, mut m) = (Rgb::ZERO, 0u32);
+            SCRATCH.with(|s| {
+                for map in maps.maps.iter().flatten() {
+                    let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, &mut s.borrow_mut());
+                    flux += f;
+                    m += c;
+                }
+            });
+            if m > 0 {
+                let rho = scene.material_of(vp.si.shape).albedo();
+                let phi = vp.beta * rho / std::f32::consts::PI * flux;
+                let n_new = px.n + alpha * m as f32;
+                let r_new = px.r * (n_new / (px.n + m as f32)).sqrt();
+                px.tau = (px.tau + phi) * ((r_new * r_new) / (px.r * px.r));
+                px.n = n_new;
+                px.r = r_new;
+            }
+        });
+        for (_, _, c) in &camera {
+            self.counters += *c;
+        }
+        self.iterations = i;
+        let mean_r = self.pixels.iter().map(|p| p.r as f64).sum::<f64>() / self.pixels.len().max(1) as f64;
+        Ok(PassRecord {
+            pass: i,
+            seconds: t0.elapsed().as_secs_f64(),
+            radius: mean_r as f32,
+            emitted: maps.stats.n_emitted,
+            stored: maps.stats.stored.iter().sum(),
+        })
+    }
+
+    /// A camera sample through pixel (x, y): the light it finds before (and at) its first diffuse hit,
+    /// and that hit as a visible point. Direct light there comes from shadow rays, unless the scene reads
+    /// it from photons (`render.direct_light = "photon_map"`, gathered like the rest).
+    fn camera_path(&self, x: f32, y: f32, rng: &mut Rng, c: &mut Counters) -> (Rgb, Option<VisiblePoint>) {
+        let scene = self.scene;
+        let [u, v] = rng.next_2d();
+        let mut ray = scene.camera.ray(x + u, y + v);
+        let mut beta = Rgb::ONE;
+        let mut l = Rgb::ZERO;
+        for _ in 0..=scene.render.max_depth {
+            c.rays += 1;
+            let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
+                break;
+            };
+            l += beta * scene.emitted(&si, wo);
+            let mat = scene.material_of(hit.shape);
+            if mat.is_diffuse() {
+                if scene.render.direct_light == DirectLight::ShadowRays {
+                    l += beta * estimate_direct(scene, self.tracer, &si, wo, rng, c, DirectStrategy::LightOnly);
+                }
+                return (l, Some(VisiblePoint { si, wo, beta }));
+            }
+            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Radiance) else {
+                break;
+            };
+            beta *= bs.weight;
+            if beta == Rgb::ZERO {
+                break;
+            }
+            ray = next;
+        }
+        (l, None)
+    }
+
+    /// The current estimate: L = Ld / n + τ / (n π r²) after n iterations.
+    pub fn image(&self) -> Image {
+        let cam = &self.scene.camera;
+        let mut img = Image::new(cam.width, cam.height);
+        let n = self.iterations.max(1) as f64;
+        for (o, px) in img.pixels.iter_mut().zip(&self.pixels) {
+            let area = std::f64::consts::PI * (px.r as f64) * (px.r as f64);
+            for k in 0..3 {
+                o[k] = (px.ld[k] / n + px.tau[k] as f64 / (n * area)) as f32;
+            }
+        }
+        img
+    }
+}
