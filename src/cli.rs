@@ -115,7 +115,7 @@ pub enum BenchCommand {
     /// cached reference: CSV, log-log chart (SVG, PNG), and the equal-time RMSE ratio PM/PT.
     TimeVsError {
         scene: PathBuf,
-        /// Seconds to spend in all (split between PT, PM photons and PM gather sweeps).
+        /// Seconds to spend in all (split evenly between PT, PM photons, PM gather, PPM and SPPM).
         #[arg(long, default_value_t = 60.0)]
         budget_s: f64,
         /// Reference samples per pixel (path tracer).

@@ -182,7 +182,12 @@ pub fn render_view(
     let maps = build_maps(
         scene,
         accel,
-        &MapRequest { want, targeted: ps.caustic_targeting, targets: Some(plan.caustic_targets.clone()), ..Default::default() },
+        &MapRequest {
+            want,
+            targeted: ps.caustic_targeting,
+            targets: Some(plan.caustic_targets.clone()),
+            ..Default::default()
+        },
         quiet,
     )?;
     let img = match kind {
@@ -216,6 +221,8 @@ pub fn describe(out: &Path, img: &Image) -> String {
 /// A reference image: the mean of two independent halves, with their RMSE as its noise estimate.
 pub struct Reference {
     pub image: Image,
+    /// The two independent halves whose mean `image` is (for noise figures on any scale).
+    pub halves: [Image; 2],
     /// RMSE between the two halves; the mean's own RMSE is about half of it.
     pub halves_rmse: f64,
     pub path: PathBuf,
@@ -249,10 +256,12 @@ pub fn reference(
     let base = dir.join(format!("{stem}-{what}-{key:016x}"));
     let exr = with_suffix(&base, ".exr");
     let js = with_suffix(&base, ".json");
-    if exr.exists() && js.exists() {
+    let half_paths = [with_suffix(&base, "-half0.exr"), with_suffix(&base, "-half1.exr")];
+    if exr.exists() && js.exists() && half_paths.iter().all(|p| p.exists()) {
         let meta: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&js)?)?;
         if let Some(n) = meta["halves_rmse"].as_f64() {
-            return Ok(Reference { image: output::read_exr(&exr)?, halves_rmse: n, path: exr });
+            let halves = [output::read_exr(&half_paths[0])?, output::read_exr(&half_paths[1])?];
+            return Ok(Reference { image: output::read_exr(&exr)?, halves, halves_rmse: n, path: exr });
         }
     }
     let t0 = std::time::Instant::now();
@@ -279,6 +288,9 @@ pub fn reference(
     }
     let mut files = output::Batch::default();
     files.stage(&exr, |t| output::encode_exr(t, &image))?;
+    for (p, h) in half_paths.iter().zip(&halves) {
+        files.stage(p, |t| output::encode_exr(t, h))?;
+    }
     files.stage(&js, |t| {
         output::encode_json(
             t,
@@ -287,7 +299,8 @@ pub fn reference(
         )
     })?;
     files.commit()?;
-    Ok(Reference { image, halves_rmse, path: exr })
+    let [h0, h1]: [Image; 2] = halves.try_into().map_err(|_| anyhow::anyhow!("two halves expected"))?;
+    Ok(Reference { image, halves: [h0, h1], halves_rmse, path: exr })
 }
 
 /// A progressive render: the final image (with the total time and counters), a record per pass, and

@@ -22,7 +22,12 @@ pub struct Run {
     pub photons: u64,
     pub gather: u32,
     pub seconds: f64,
+    /// RMSE against the reference with the reference's own noise taken out: √(max(0, raw² − σ²)), σ the
+    /// reference mean's RMSE on the same clamped, masked scale (the two are independent, so raw²
+    /// estimates true² + σ²).
     pub rmse: f64,
+    /// RMSE as measured against the (noisy) reference.
+    pub rmse_raw: f64,
     pub rel_mse: f64,
 }
 
@@ -59,7 +64,9 @@ struct Sweep<'a> {
     accel: Accel,
     keep: Vec<bool>,
     reference: Image,
-    /// Seconds each of the three sweeps may spend.
+    /// Variance of the reference mean on the scoring scale (clamped, masked).
+    ref_var: f64,
+    /// Seconds each of the sweeps may spend.
     share: f64,
     pb: indicatif::ProgressBar,
 }
@@ -75,7 +82,8 @@ impl Sweep<'_> {
         let e = compare_masked(&clamp(img), &self.reference, &self.keep)
             .ok_or_else(|| anyhow::anyhow!("reference size differs from the scene's resolution"))?;
         self.pb.inc(1);
-        Ok(Run { series: series.into(), spp, photons, gather, seconds, rmse: e.rmse, rel_mse: e.rel_mse })
+        let rmse = (e.rmse * e.rmse - self.ref_var).max(0.0).sqrt();
+        Ok(Run { series: series.into(), spp, photons, gather, seconds, rmse, rmse_raw: e.rmse, rel_mse: e.rel_mse })
     }
 
     /// One planned photon-map render with `photons` caustic photons (half as many direct and indirect),
@@ -125,6 +133,37 @@ impl Sweep<'_> {
         Ok(())
     }
 
+    /// One progressive run (`ppm` or `sppm`) for the sweep's time share, read after 1, 2, 4, … passes:
+    /// the time of a point is the run's own time up to that pass.
+    fn progressive(&self, mode: crate::scene::file::Mode, runs: &mut Vec<Run>) -> Result<()> {
+        let mut sets = self.o.sets.to_vec();
+        let name = if mode == crate::scene::file::Mode::Ppm { "ppm" } else { "sppm" };
+        sets.push(format!("render.mode=\"{name}\""));
+        sets.push("render.progressive.passes=100000".into());
+        sets.push(format!("render.progressive.time_s={:?}", self.share));
+        let s = load_scene_with(self.o.scene, &sets)?;
+        let plan = crate::pipeline::plan_for(&s, &self.accel);
+        let marks: Vec<u32> = (0..17).map(|i| 1u32 << i).collect();
+        let p = crate::pipeline::render_progressive(&s, &self.accel, &plan, true, &marks)?;
+        let per_pass = s.render.progressive.photons_per_pass;
+        let series = name.to_uppercase();
+        for (i, secs, img) in &p.snapshots {
+            runs.push(self.row(&series, *i, per_pass * *i as u64, 0, *secs, img)?);
+        }
+        // The last pass too, when it was not a power of two.
+        if let Some(last) = p.records.last().filter(|r| !marks.contains(&r.pass)) {
+            runs.push(self.row(
+                &series,
+                last.pass,
+                per_pass * last.pass as u64,
+                0,
+                p.output.seconds,
+                &p.output.image,
+            )?);
+        }
+        Ok(())
+    }
+
     /// The gather sweep, at the photon count that did best against PT at equal time.
     fn gather_counts(&self, runs: &mut Vec<Run>) -> Result<()> {
         let pt: Vec<Run> = runs.iter().filter(|r| r.series == "PT").cloned().collect();
@@ -161,29 +200,37 @@ pub fn run(o: &Options) -> Result<()> {
     let base = load_scene_with(o.scene, o.sets)?;
     let accel = Accel::new(&base).map_err(anyhow::Error::msg)?;
     let keep = light_free_pixels(&base, &accel, 4);
+    // The reference's noise on the scale of the scores: halves differ by d, their mean errs by d/2.
+    let ref_noise = compare_masked(&clamp(&r.halves[0]), &clamp(&r.halves[1]), &keep).map_or(0.0, |e| e.rmse / 2.0);
+    eprintln!(
+        "reference noise on the scoring scale (clamped, lights masked): RMSE {ref_noise:.5}; subtracted in quadrature"
+    );
     let sweep = Sweep {
         o,
         accel,
         keep,
         reference: clamp(&r.image),
-        share: o.budget_s / 3.0,
-        pb: crate::progress::progress(12 + 8 + 7, "sweep", o.quiet),
+        ref_var: ref_noise * ref_noise,
+        share: o.budget_s / 5.0,
+        pb: crate::progress::progress(12 + 8 + 7 + 2 * 18, "sweep", o.quiet),
     };
     let mut runs: Vec<Run> = Vec::new();
     sweep.path_tracing(&base, &mut runs)?;
     sweep.photon_counts(base.render.gather.caustic, &mut runs)?;
     sweep.gather_counts(&mut runs)?;
+    sweep.progressive(crate::scene::file::Mode::Ppm, &mut runs)?;
+    sweep.progressive(crate::scene::file::Mode::Sppm, &mut runs)?;
     sweep.pb.finish_and_clear();
-    report(o, &runs, r.halves_rmse)
+    report(o, &runs, ref_noise)
 }
 
 fn report(o: &Options, runs: &[Run], ref_noise: f64) -> Result<()> {
     let csv = with_suffix(o.out, ".csv");
-    let mut text = String::from("series,spp,photons,gather,seconds,rmse,rel_mse\n");
+    let mut text = String::from("series,spp,photons,gather,seconds,rmse,rmse_raw,rel_mse\n");
     for r in runs {
         text += &format!(
-            "{},{},{},{},{:.4},{:.6},{:.6}\n",
-            r.series, r.spp, r.photons, r.gather, r.seconds, r.rmse, r.rel_mse
+            "{},{},{},{},{:.4},{:.6},{:.6},{:.6}\n",
+            r.series, r.spp, r.photons, r.gather, r.seconds, r.rmse, r.rmse_raw, r.rel_mse
         );
     }
     crate::output::atomic_write(&csv, |tmp| Ok(std::fs::write(tmp, &text)?))?;
@@ -212,7 +259,18 @@ fn report(o: &Options, runs: &[Run], ref_noise: f64) -> Result<()> {
         );
     }
     if let Some((x, r)) = best {
-        println!("equal-time RMSE ratio PM/PT: {x:.3} (best PM run: {} photons, gather {}, {:.2} s); reference noise (halves' RMSE) {ref_noise:.5}", r.photons, r.gather, r.seconds);
+        println!("equal-time RMSE ratio PM/PT: {x:.3} (best PM run: {} photons, gather {}, {:.2} s); reference noise (its mean's RMSE, clamped and masked, subtracted from every score) {ref_noise:.5}", r.photons, r.gather, r.seconds);
+    }
+    for name in ["PT", "PM photons", "PPM", "SPPM"] {
+        let s: Vec<&Run> = runs.iter().filter(|r| r.series == name).collect();
+        let Some(last) = s.last() else { continue };
+        let vs_pt = pt_rmse_at(&pt, last.seconds).map_or("-".into(), |p| format!("{:.3}", last.rmse / p));
+        println!(
+            "{name:<11} at its largest time ({:.1} s): RMSE {:.5}, ratio to PT {vs_pt}, log-log slope from 4 s on {}",
+            last.seconds,
+            last.rmse,
+            slope(&s, 4.0).map_or("-".into(), |k| format!("{k:.3}"))
+        );
     }
     chart_svg(&with_suffix(o.out, ".svg"), runs, &o.scene.display().to_string())?;
     let png = chart_png(runs, &o.scene.display().to_string());
@@ -221,8 +279,28 @@ fn report(o: &Options, runs: &[Run], ref_noise: f64) -> Result<()> {
     Ok(())
 }
 
-const SERIES: [(&str, [f32; 3]); 3] =
-    [("PT", [0.85, 0.2, 0.15]), ("PM photons", [0.15, 0.45, 0.85]), ("PM gather", [0.2, 0.7, 0.3])];
+const SERIES: [(&str, [f32; 3]); 5] = [
+    ("PT", [0.85, 0.2, 0.15]),
+    ("PM photons", [0.15, 0.45, 0.85]),
+    ("PM gather", [0.2, 0.7, 0.3]),
+    ("PPM", [0.75, 0.45, 0.05]),
+    ("SPPM", [0.55, 0.2, 0.75]),
+];
+
+/// Least-squares slope of log RMSE against log seconds over the runs from `from_s` seconds on (None
+/// with fewer than two such runs).
+pub fn slope(runs: &[&Run], from_s: f64) -> Option<f64> {
+    let pts: Vec<(f64, f64)> =
+        runs.iter().filter(|r| r.seconds >= from_s && r.rmse > 0.0).map(|r| (r.seconds.ln(), r.rmse.ln())).collect();
+    if pts.len() < 2 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
 
 fn bounds(runs: &[Run]) -> ((f64, f64), (f64, f64)) {
     let xs = runs.iter().map(|r| r.seconds.max(1e-4));
@@ -357,7 +435,7 @@ fn chart_png(runs: &[Run], title: &str) -> Image {
 mod tests {
     use super::*;
     fn run(s: f64, e: f64) -> Run {
-        Run { series: "PT".into(), spp: 1, photons: 0, gather: 0, seconds: s, rmse: e, rel_mse: 0.0 }
+        Run { series: "PT".into(), spp: 1, photons: 0, gather: 0, seconds: s, rmse: e, rmse_raw: e, rel_mse: 0.0 }
     }
     #[test]
     fn pt_interpolation_follows_the_power_law() {

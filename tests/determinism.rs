@@ -43,7 +43,12 @@ fn photon_mapper_is_bit_identical_for_1_and_2_threads() {
     let a = Accel::new(&s).unwrap();
     let run = || {
         let plan = plan_for(&s, &a);
-        let req = MapRequest { want: plan.photons, targeted: true, targets: Some(plan.caustic_targets.clone()), ..Default::default() };
+        let req = MapRequest {
+            want: plan.photons,
+            targeted: true,
+            targets: Some(plan.caustic_targets.clone()),
+            ..Default::default()
+        };
         let maps = build_maps(&s, &a, &req, true).unwrap();
         (maps.stats.stored, maps.stats.n_emitted, render_photon_map(&s, &a, &maps, &plan, None, true).image)
     };

@@ -199,8 +199,13 @@ fn indirect_photon_map_converges_to_the_path_traced_indirect_light() {
         let s = caustica::scene::load_scene_with(&p, &sets).unwrap();
         let a = Accel::new(&s).unwrap();
         let plan = plan_for(&s, &a);
-        let m =
-            build_maps(&s, &a, &MapRequest { want: [0, photons, 0], targeted: false, targets: None, ..Default::default() }, true).unwrap();
+        let m = build_maps(
+            &s,
+            &a,
+            &MapRequest { want: [0, photons, 0], targeted: false, targets: None, ..Default::default() },
+            true,
+        )
+        .unwrap();
         let img = render_photon_map(&s, &a, &m, &plan, Some(INDIRECT), true).image;
         let c = compare_masked(&img, &reference, &keep).unwrap();
         errors.push(c.rmse);

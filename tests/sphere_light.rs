@@ -76,8 +76,13 @@ fn direct_photon_map_matches_the_sphere_light_closed_form_within_its_blur() {
         let mut scene = floor_scene(center, radius, radiance, half);
         scene.render.photons.max_shots_factor = 20;
         let accel = Accel::new(&scene).unwrap();
-        let m = build_maps(&scene, &accel, &MapRequest { want: [400_000, 0, 0], targeted: false, targets: None, ..Default::default() }, true)
-            .unwrap();
+        let m = build_maps(
+            &scene,
+            &accel,
+            &MapRequest { want: [400_000, 0, 0], targeted: false, targets: None, ..Default::default() },
+            true,
+        )
+        .unwrap();
         let map = m.maps[DIRECT].as_ref().unwrap();
         let g = Gather { k: 500, max_r2: f32::INFINITY, cone_k: 0.0 };
         let mut res = KnnResult::new();

@@ -4,6 +4,8 @@
 //! light by shadow rays); a photon pass traces this iteration's photons (the shared photon tracer, into
 //! the project's k-d trees); then each pixel gathers the photons within its own radius and updates its
 //! photon count N, radius r and flux τ: N' = N + αM, r'² = r² N'/(N + M), τ' = (τ + Φ) r'²/r².
+//! Unless the scene fixes the radius, each pixel starts at the distance of the 30th nearest photon of
+//! the densest map at its first visible point (capped by the scene-wide initial radius).
 //! Every pixel updates only its own state, in parallel: no shared sums, the same bits on any thread
 //! count.
 use super::direct::{estimate_direct, DirectStrategy};
@@ -21,6 +23,9 @@ use crate::scene::{Scene, SurfaceHit, TransportMode};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::cell::RefCell;
+
+/// Photons a pixel's first radius is chosen to hold (in the densest map), when the scene sets none.
+const INITIAL_K: usize = 30;
 
 thread_local! {
     static SCRATCH: RefCell<KnnResult> = RefCell::new(KnnResult::new());
@@ -78,6 +83,10 @@ impl<'a> Sppm<'a> {
         let maps = build_maps(self.scene, self.tracer, &pass_request(self.scene, self.plan, i), true)?;
         let alpha = self.scene.render.progressive.alpha;
         let scene = self.scene;
+        // Unless the scene fixes it, a pixel's radius starts where its first visible point finds
+        // INITIAL_K photons in the densest map of the first iteration: small inside a caustic, large
+        // where photons are sparse (capped by the scene-wide initial radius).
+        let adapt = i == 1 && scene.render.progressive.radius <= 0.0;
         self.pixels.par_iter_mut().zip(&camera).for_each(|(px, (l, vp, _))| {
             for k in 0..3 {
                 px.ld[k] += l[k] as f64;
@@ -85,6 +94,18 @@ impl<'a> Sppm<'a> {
             let Some(vp) = vp else {
                 return;
             };
+            if adapt {
+                let g = crate::photon::estimate::Gather { k: INITIAL_K, max_r2: px.r * px.r, cone_k: 0.0 };
+                SCRATCH.with(|s| {
+                    let mut s = s.borrow_mut();
+                    for map in maps.maps.iter().flatten() {
+                        let r2 = map.tree.knn(vp.si.p.to_array(), g.k, g.max_r2, &mut s);
+                        if s.len() >= g.k && r2 > 0.0 {
+                            px.r = px.r.min(r2.sqrt());
+                        }
+                    }
+                });
+            }
             let (mut flux, mut m) = (Rgb::ZERO, 0u32);
             SCRATCH.with(|s| {
                 for map in maps.maps.iter().flatten() {

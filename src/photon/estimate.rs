@@ -81,7 +81,7 @@ impl PhotonMap {
     /// tests (box kernel): divided by π r² it is the irradiance the progressive estimators accumulate.
     /// Returns (sum, photons counted).
     pub fn flux_within(&self, si: &SurfaceHit, wo: Vec3, r: f32, res: &mut KnnResult) -> (Rgb, u32) {
-        if self.is_empty() || !(r > 0.0) {
+        if self.is_empty() || r.is_nan() || r <= 0.0 {
             return (Rgb::ZERO, 0);
         }
         self.tree.within_res(si.p.to_array(), r * r, res);

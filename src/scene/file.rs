@@ -364,7 +364,14 @@ pub struct ProgressiveSettings {
 
 impl Default for ProgressiveSettings {
     fn default() -> Self {
-        ProgressiveSettings { passes: 64, first_pass: 1, time_s: 0.0, photons_per_pass: 100_000, alpha: 2.0 / 3.0, radius: 0.0 }
+        ProgressiveSettings {
+            passes: 64,
+            first_pass: 1,
+            time_s: 0.0,
+            photons_per_pass: 100_000,
+            alpha: 2.0 / 3.0,
+            radius: 0.0,
+        }
     }
 }
 
