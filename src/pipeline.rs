@@ -40,7 +40,6 @@ pub fn render_modes(
         stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "render": r.output.seconds });
         add_counters(&mut stats, &r.output);
         write_outputs(out, &r.output.image, scene.render.exposure, &stats)?;
-        println!("{}", describe(out, &r.output.image));
         return Ok(());
     }
     let mut images = Vec::new();
@@ -52,7 +51,6 @@ pub fn render_modes(
         add_counters(&mut stats, &r);
         let o = if mode == Mode::Both { with_suffix(out, "-pt") } else { out.to_path_buf() };
         write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
-        println!("{}", describe(&o, &r.image));
         images.push(r.image);
     }
     if mode != Mode::Path {
@@ -65,7 +63,6 @@ pub fn render_modes(
         add_counters(&mut stats, &r);
         let o = if mode == Mode::Both { with_suffix(out, "-pm") } else { out.to_path_buf() };
         write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
-        println!("{}", describe(&o, &r.image));
         images.push(r.image);
     }
     if images.len() == 2 {
@@ -107,12 +104,7 @@ pub fn plan_for(scene: &Scene, tracer: &dyn Tracer) -> Plan {
 
 /// Photon mapping as `plan` says: the maps it asks for, then the eye pass (whose `seconds` it returns).
 pub fn render_pm(scene: &Scene, tracer: &dyn Tracer, plan: &Plan, quiet: bool) -> Result<(PhotonMaps, RenderOutput)> {
-    let req = MapRequest {
-        want: plan.photons,
-        targeted: scene.render.photons.caustic_targeting,
-        targets: Some(plan.caustic_targets.clone()),
-        ..Default::default()
-    };
+    let req = MapRequest::planned(scene, plan);
     let maps = build_maps(scene, tracer, &req, quiet)?;
     let r = render_photon_map(scene, tracer, &maps, plan, None, quiet);
     Ok((maps, r))
@@ -179,17 +171,7 @@ pub fn render_view(
     for &m in &which {
         want[m] = [ps.direct, ps.indirect, ps.caustic][m];
     }
-    let maps = build_maps(
-        scene,
-        accel,
-        &MapRequest {
-            want,
-            targeted: ps.caustic_targeting,
-            targets: Some(plan.caustic_targets.clone()),
-            ..Default::default()
-        },
-        quiet,
-    )?;
+    let maps = build_maps(scene, accel, &MapRequest { want, ..MapRequest::planned(scene, plan) }, quiet)?;
     let img = match kind {
         "photons" => splat_photons(scene, accel, &maps, &which),
         "map" => render_photon_map(scene, accel, &maps, plan, Some(which[0]), quiet).image,
@@ -198,24 +180,21 @@ pub fn render_view(
     stats["view"] = json!(view);
     stats["photon_maps"] = json!(maps.stats);
     write_outputs(out, &img, scene.render.exposure, &stats)?;
-    println!("{}", describe(out, &img));
     Ok(())
 }
 
-/// Writes OUT.exr, OUT.png and OUT.json.
-pub fn write_outputs(out: &Path, img: &Image, exposure: f32, stats: &serde_json::Value) -> Result<()> {
-    output::write_image_set(out, img, exposure, stats)
-}
-
-pub fn describe(out: &Path, img: &Image) -> String {
-    format!(
+/// Writes OUT.exr, OUT.png and OUT.json together, and says where they went.
+fn write_outputs(out: &Path, img: &Image, exposure: f32, stats: &serde_json::Value) -> Result<()> {
+    output::write_image_set(out, img, exposure, stats)?;
+    println!(
         "wrote {} ({}×{}), {} and {}",
         with_suffix(out, ".exr").display(),
         img.width,
         img.height,
         with_suffix(out, ".png").display(),
         with_suffix(out, ".json").display()
-    )
+    );
+    Ok(())
 }
 
 /// A reference image: the mean of two independent halves, with their RMSE as its noise estimate.

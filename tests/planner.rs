@@ -153,6 +153,19 @@ fn culled_vs_unculled(text: &str) -> ([f64; 2], [f64; 2], Vec<bool>) {
     (all, planned, plan.nee_lights)
 }
 
+/// PT and PM each keep their mean (2%) when the planner's light selection is applied.
+fn assert_same_means(all: [f64; 2], planned: [f64; 2]) {
+    for m in 0..2 {
+        assert!(
+            all[m] > 0.0 && (planned[m] / all[m] - 1.0).abs() < 0.02,
+            "{} planned {} vs {}",
+            ["PT", "PM"][m],
+            planned[m],
+            all[m]
+        );
+    }
+}
+
 #[test]
 fn a_point_light_the_camera_sees_only_by_its_bounce_is_not_culled() {
     // A point light shielded from below lights only the ceiling, which the camera does not see; the
@@ -170,15 +183,7 @@ fn a_point_light_the_camera_sees_only_by_its_bounce_is_not_culled() {
         all[0], planned[0], all[1], planned[1]
     );
     assert!(keep.iter().all(|&k| k), "a point light was left out");
-    for m in 0..2 {
-        assert!(
-            all[m] > 0.0 && (planned[m] / all[m] - 1.0).abs() < 0.02,
-            "{} planned {} vs {}",
-            ["PT", "PM"][m],
-            planned[m],
-            all[m]
-        );
-    }
+    assert_same_means(all, planned);
 }
 
 #[test]
@@ -195,15 +200,7 @@ fn an_area_light_seen_only_in_a_mirror_keeps_its_light_when_left_out_of_nee() {
     let (all, planned, keep) = culled_vs_unculled(text);
     eprintln!("light seen via a mirror: PT {:.5} vs {:.5}, PM {:.5} vs {:.5}", all[0], planned[0], all[1], planned[1]);
     assert!(keep.iter().any(|&k| !k), "the planner kept the light: nothing was tested");
-    for m in 0..2 {
-        assert!(
-            all[m] > 0.0 && (planned[m] / all[m] - 1.0).abs() < 0.02,
-            "{} planned {} vs {}",
-            ["PT", "PM"][m],
-            planned[m],
-            all[m]
-        );
-    }
+    assert_same_means(all, planned);
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! further) are added. Also the map views: photon splats and single-map estimates.
 use super::direct::{estimate_direct, DirectStrategy};
 use super::Counters;
-use crate::accel::{interact, Interaction, Tracer};
+use crate::accel::Tracer;
 use crate::color::{luminance, Rgb};
 use crate::film::Image;
 use crate::math::{Ray, Rng};
@@ -54,6 +54,18 @@ pub struct MapRequest {
     pub shots: Option<u64>,
     /// Distinguishes the random streams of progressive passes (0 for the fixed photon map).
     pub key: u64,
+}
+
+impl MapRequest {
+    /// The maps `plan` asks for, with the scene's targeting setting and the plan's caustic targets.
+    pub fn planned(scene: &Scene, plan: &crate::plan::Plan) -> MapRequest {
+        MapRequest {
+            want: plan.photons,
+            targeted: scene.render.photons.caustic_targeting,
+            targets: Some(plan.caustic_targets.clone()),
+            ..Default::default()
+        }
+    }
 }
 
 pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: bool) -> anyhow::Result<PhotonMaps> {
@@ -210,30 +222,11 @@ impl<'a> PhotonMapper<'a> {
     }
 
     /// Follows a ray through specular surfaces to a diffuse one; `emission` adds lights seen on the way.
-    fn follow(&self, mut ray: Ray, mut beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32) -> Rgb {
-        let scene = self.scene;
-        let mut l = Rgb::ZERO;
-        for _ in 0..=scene.render.max_depth {
-            c.rays += 1;
-            let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
-                break;
-            };
-            if emission && self.only.is_none() {
-                l += beta * scene.emitted(&si, wo);
-            }
-            let mat = scene.material_of(hit.shape);
-            if mat.is_diffuse() {
-                l += beta * self.diffuse_radiance(&si, wo, rng, c, fg);
-                break;
-            }
-            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Radiance) else {
-                break;
-            };
-            beta *= bs.weight;
-            if beta == Rgb::ZERO {
-                break;
-            }
-            ray = next;
+    fn follow(&self, ray: Ray, beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32) -> Rgb {
+        let (emitted, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c);
+        let mut l = if emission && self.only.is_none() { emitted } else { Rgb::ZERO };
+        if let Some(e) = end {
+            l += e.beta * self.diffuse_radiance(&e.si, e.wo, rng, c, fg);
         }
         l
     }

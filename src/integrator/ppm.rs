@@ -9,7 +9,7 @@ use super::Counters;
 use crate::film::Image;
 use crate::plan::Plan;
 use crate::render::render;
-use crate::scene::{Geometry, Scene};
+use crate::scene::Scene;
 use serde::Serialize;
 
 /// What one progressive pass did (recorded in the JSON stats).
@@ -44,10 +44,7 @@ pub fn initial_radius(scene: &Scene) -> f32 {
     let area: f64 = scene
         .shapes
         .iter()
-        .filter(|s| {
-            scene.materials[s.material as usize].is_diffuse()
-                && matches!(s.geometry, Geometry::Mesh(_) | Geometry::Sphere { .. })
-        })
+        .filter(|s| scene.materials[s.material as usize].is_diffuse())
         .map(|s| s.area() as f64)
         .sum();
     let r = (30.0 * area / (std::f64::consts::PI * p.photons_per_pass as f64)).sqrt() as f32;
@@ -67,11 +64,9 @@ pub fn pass_seed(seed: u64, i: u32) -> u64 {
 /// The maps a progressive pass builds: those the plan wants, each from exactly `photons_per_pass` shots.
 pub fn pass_request(scene: &Scene, plan: &Plan, i: u32) -> MapRequest {
     MapRequest {
-        want: plan.photons,
-        targeted: scene.render.photons.caustic_targeting,
-        targets: Some(plan.caustic_targets.clone()),
         shots: Some(scene.render.progressive.photons_per_pass),
         key: i as u64,
+        ..MapRequest::planned(scene, plan)
     }
 }
 

@@ -11,16 +11,15 @@
 use super::direct::{estimate_direct, DirectStrategy};
 use super::photon_map::build_maps;
 use super::ppm::{initial_radius, pass_request, pass_seed, PassRecord};
-use super::Counters;
-use crate::accel::{interact, Interaction, Tracer};
+use super::{specular_chain, ChainEnd, Counters};
+use crate::accel::Tracer;
 use crate::color::Rgb;
 use crate::film::Image;
 use crate::math::Rng;
 use crate::photon::kdtree::KnnResult;
 use crate::plan::Plan;
 use crate::scene::file::DirectLight;
-use crate::scene::{Scene, SurfaceHit, TransportMode};
-use glam::Vec3;
+use crate::scene::Scene;
 use rayon::prelude::*;
 use std::cell::RefCell;
 
@@ -39,14 +38,6 @@ struct PixelState {
     n: f32,
     r: f32,
     tau: Rgb,
-}
-
-/// Where this iteration's camera path ended on a diffuse surface, and its throughput there.
-#[derive(Clone, Copy, Debug)]
-struct VisiblePoint {
-    si: SurfaceHit,
-    wo: Vec3,
-    beta: Rgb,
 }
 
 pub struct Sppm<'a> {
@@ -71,7 +62,7 @@ impl<'a> Sppm<'a> {
         let t0 = std::time::Instant::now();
         let seed = pass_seed(self.scene.render.seed, i);
         let width = self.scene.camera.width as usize;
-        let camera: Vec<(Rgb, Option<VisiblePoint>, Counters)> = (0..self.pixels.len())
+        let camera: Vec<(Rgb, Option<ChainEnd>, Counters)> = (0..self.pixels.len())
             .into_par_iter()
             .map(|k| {
                 let mut rng = Rng::new(seed, k as u64, 0);
@@ -141,35 +132,14 @@ impl<'a> Sppm<'a> {
     /// A camera sample through pixel (x, y): the light it finds before (and at) its first diffuse hit,
     /// and that hit as a visible point. Direct light there comes from shadow rays, unless the scene reads
     /// it from photons (`render.direct_light = "photon_map"`, gathered like the rest).
-    fn camera_path(&self, x: f32, y: f32, rng: &mut Rng, c: &mut Counters) -> (Rgb, Option<VisiblePoint>) {
+    fn camera_path(&self, x: f32, y: f32, rng: &mut Rng, c: &mut Counters) -> (Rgb, Option<ChainEnd>) {
         let scene = self.scene;
         let [u, v] = rng.next_2d();
-        let mut ray = scene.camera.ray(x + u, y + v);
-        let mut beta = Rgb::ONE;
-        let mut l = Rgb::ZERO;
-        for _ in 0..=scene.render.max_depth {
-            c.rays += 1;
-            let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
-                break;
-            };
-            l += beta * scene.emitted(&si, wo);
-            let mat = scene.material_of(hit.shape);
-            if mat.is_diffuse() {
-                if scene.render.direct_light == DirectLight::ShadowRays {
-                    l += beta * estimate_direct(scene, self.tracer, &si, wo, rng, c, DirectStrategy::LightOnly);
-                }
-                return (l, Some(VisiblePoint { si, wo, beta }));
-            }
-            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Radiance) else {
-                break;
-            };
-            beta *= bs.weight;
-            if beta == Rgb::ZERO {
-                break;
-            }
-            ray = next;
+        let (mut l, end) = specular_chain(scene, self.tracer, scene.camera.ray(x + u, y + v), Rgb::ONE, rng, c);
+        if let (Some(e), DirectLight::ShadowRays) = (&end, scene.render.direct_light) {
+            l += e.beta * estimate_direct(scene, self.tracer, &e.si, e.wo, rng, c, DirectStrategy::LightOnly);
         }
-        (l, None)
+        (l, end)
     }
 
     /// The current estimate: L = Ld / n + τ / (n π r²) after n iterations.

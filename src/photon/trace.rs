@@ -3,8 +3,9 @@
 //! same BSDF sampling as camera paths, in importance mode (no 1/η², shading-normal adjoint). Depth
 //! follows the path tracer: a photon path plus the surface it is gathered at has at most
 //! `render.max_depth` scattering events; Russian roulette at diffuse hits by reflectance, and at
-//! specular hits past `render.rr_depth` on the throughput, as the path tracer does. Photon i's random numbers are keyed by (seed, pass, i), and batches are merged in index
-//! order, so the maps are identical for any thread count. Each map counts its own `n_emitted`: the
+//! specular hits past `render.rr_depth` on the throughput, as the path tracer does. Photon i's random
+//! numbers are keyed by (seed, pass, i), and batches are merged in index order, so the maps are
+//! identical for any thread count. Each map counts its own `n_emitted`: the
 //! number of photons shot up to the batch in which it reached its requested size.
 use crate::accel::Tracer;
 use crate::color::Rgb;
