@@ -15,6 +15,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(BenchCommand::Photons { scene, photons }) => crate::bench::photons(&scene, photons),
         Command::Bench(BenchCommand::Plan { scene }) => crate::bench::plan(&scene),
         Command::KnnCheck(a) => crate::bench::knn_check(&a),
+        Command::Merge { parts, out } => cmd_merge(&parts, &out),
         Command::Compare { a, b, reference, out, exposure } => {
             crate::tools::compare_cmd(&a, &b, reference.as_deref(), &out, exposure)
         }
@@ -64,6 +65,7 @@ fn overrides(a: &RenderArgs) -> Vec<String> {
 }
 
 fn cmd_render(a: RenderArgs) -> Result<()> {
+    let started = Instant::now();
     if let Some(n) = a.threads {
         if n == 0 {
             bail!("--threads must be ≥ 1");
@@ -94,9 +96,54 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         "resolution": [scene.camera.width, scene.camera.height],
     });
     if a.view != "image" {
+        if a.part.is_some() {
+            bail!("--part renders a share of the image; it does not combine with --view {}", a.view);
+        }
         return crate::pipeline::render_view(&scene, &accel, &plan, &a.view, &out, base, a.quiet);
     }
-    crate::pipeline::render_modes(&scene, &accel, &plan, &out, base, bvh_s, a.quiet)
+    let Some((i, n)) = a.part else {
+        return crate::pipeline::render_modes(&scene, &accel, &plan, &out, base, bvh_s, a.quiet);
+    };
+    let layers = crate::pipeline::render_layers(&scene, &accel, &plan, &base, bvh_s, a.part, a.quiet)?;
+    let header = crate::parts::PartHeader {
+        format: "caustica-part".into(),
+        version: 1,
+        scene: a.scene.display().to_string(),
+        scene_hash: scene.content_hash(),
+        settings: serde_json::to_value(&scene.render)?,
+        mode: layers.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join("+"),
+        seed: scene.render.seed,
+        part: i,
+        parts: n,
+        width: scene.camera.width,
+        height: scene.camera.height,
+        host: crate::parts::host_name(),
+        seconds: started.elapsed().as_secs_f64(),
+        layers: layers
+            .iter()
+            .map(|l| crate::parts::LayerHeader {
+                name: l.name.clone(),
+                split: l.split.clone(),
+                expected_weight: l.expected_weight,
+                stats: l.stats.clone(),
+            })
+            .collect(),
+    };
+    let sums: Vec<&crate::film::Sums> = layers.iter().map(|l| &l.sums).collect();
+    let path = crate::parts::write_partial(&out, &header, &sums)?;
+    println!(
+        "wrote {} (part {i} of {n}, {:.2} s); merge all {n} with: caustica merge {} -o {}",
+        path.display(),
+        header.seconds,
+        crate::parts::part_path(&out, 0, n).display().to_string().replace("-part-0-of-", "-part-*-of-"),
+        out.display()
+    );
+    Ok(())
+}
+
+fn cmd_merge(parts: &[PathBuf], out: &Path) -> Result<()> {
+    let merged = crate::parts::merge(parts)?;
+    crate::pipeline::write_layers(out, &merged.images, merged.exposure)
 }
 
 fn cmd_info(a: InfoArgs) -> Result<()> {

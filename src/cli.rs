@@ -7,7 +7,7 @@ use std::path::PathBuf;
     name = "caustica",
     version,
     about = "Photon mapping and path tracing side by side, through Embree, measured against each other",
-    after_help = "Examples:\n  caustica render scenes/cornell-glass.toml --mode both -o out/glass\n  caustica bench time-vs-error scenes/cornell-glass.toml --budget-s 120\n  caustica compare out/glass-pm.exr out/glass-pt.exr -o out/cmp\n  caustica bench photons scenes/cornell-glass.toml\n  caustica render scenes/cornell-box.toml --spp 256 --set render.max_depth=8\n  caustica info scenes/dragon.toml\n  caustica bench rays scenes/dragon.toml\n  caustica knn-check --points 1000000 --queries 100000 --k 50 --distribution clustered"
+    after_help = "Examples:\n  caustica render scenes/cornell-glass.toml --mode both -o out/glass\n  caustica bench time-vs-error scenes/cornell-glass.toml --budget-s 120\n  caustica compare out/glass-pm.exr out/glass-pt.exr -o out/cmp\n  caustica render scenes/cornell-box.toml --part 0/4 -o out/box   (then 1/4 … 3/4, anywhere)\n  caustica merge out/box-part-*-of-4.part -o out/box\n  caustica bench photons scenes/cornell-glass.toml\n  caustica render scenes/cornell-box.toml --spp 256 --set render.max_depth=8\n  caustica info scenes/dragon.toml\n  caustica bench rays scenes/dragon.toml\n  caustica knn-check --points 1000000 --queries 100000 --k 50 --distribution clustered"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -39,6 +39,20 @@ pub enum Command {
         /// Exposure (stops) of the side-by-side preview.
         #[arg(long, default_value_t = 0.0)]
         exposure: f32,
+    },
+    /// Add the N parts of a split render (`render --part i/N`) into OUT.exr, OUT.png and OUT.json (per-part
+    /// times and the imbalance in the JSON). Refuses, writing nothing, on a missing, repeated, damaged
+    /// or foreign part.
+    #[command(
+        after_help = "Example:\n  for i in 0 1 2 3; do caustica render scenes/cornell-box.toml --part $i/4 -o out/box; done\n  caustica merge out/box-part-*-of-4.part -o out/box"
+    )]
+    Merge {
+        /// The part files (OUT-part-i-of-N.part), in any order.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Output base (a typed .exr/.png/.json is dropped).
+        #[arg(short, long, value_parser = out_base)]
+        out: PathBuf,
     },
     /// A long reference render in two independent halves (cached in out/ref), with their RMSE as its
     /// noise estimate. --spp for the path tracer, --photons for scenes only photon mapping can render.
@@ -89,6 +103,12 @@ pub struct RenderArgs {
     /// Override any scene key, e.g. --set render.photons.caustic=200000 (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// Render only share i of N (0 ≤ i < N) and write OUT-part-i-of-N.part (with a .json header
+    /// beside it) instead of an image; `caustica merge` adds the N parts into the image one machine
+    /// would have made. Path tracing splits every pixel's samples, photon mapping the image rows (every
+    /// part builds the same photon maps), PPM the passes; SPPM cannot be split.
+    #[arg(long, value_name = "i/N", value_parser = parse_part)]
+    pub part: Option<(u32, u32)>,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -161,6 +181,17 @@ pub struct KnnArgs {
     pub radius: Option<f32>,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+}
+
+/// `--part i/N`: 0 ≤ i < N.
+fn parse_part(s: &str) -> Result<(u32, u32), String> {
+    let (i, n) = s.split_once('/').ok_or_else(|| format!("`{s}`: expected i/N, e.g. 0/4"))?;
+    let i: u32 = i.trim().parse().map_err(|_| format!("`{s}`: part index `{i}` is not a number"))?;
+    let n: u32 = n.trim().parse().map_err(|_| format!("`{s}`: part count `{n}` is not a number"))?;
+    if n == 0 || i >= n {
+        return Err(format!("`{s}`: need 0 ≤ i < N (parts are numbered 0 to N−1, as in a Slurm array 0-(N−1))"));
+    }
+    Ok((i, n))
 }
 
 /// `-o` takes an output base; a known extension the user typed (`-o out/a.exr`) is dropped, since the

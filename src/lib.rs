@@ -9,6 +9,7 @@ pub mod integrator;
 pub mod math;
 pub mod metrics;
 pub mod output;
+pub mod parts;
 pub mod photon;
 pub mod pipeline;
 pub mod plan;

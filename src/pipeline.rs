@@ -2,6 +2,7 @@
 //! one function per mode. Commands (app, bench, tools, timeerror) sit above it and never call each other.
 use crate::accel::{Accel, Tracer};
 use crate::film::Image;
+use crate::film::Sums;
 use crate::integrator::path::PathTracer;
 use crate::integrator::photon_map::{build_maps, splat_photons, MapRequest, PhotonMapper, PhotonMaps};
 use crate::integrator::Counters;
@@ -10,16 +11,32 @@ use crate::metrics::compare;
 use crate::output::{self, with_suffix};
 use crate::photon::trace::{CAUSTIC, DIRECT, INDIRECT};
 use crate::plan::{Plan, Probe};
-use crate::render::{render, RenderOutput};
+use crate::render::{render_share, RenderOutput, Share, ShareOutput};
 use crate::scene::file::Mode;
 use crate::scene::Scene;
 use anyhow::{bail, Result};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
-/// The render modes of `caustica render`: path tracing, photon mapping, or both side by side; writes
-/// OUT.exr/.png/.json (OUT-pt and OUT-pm plus a side-by-side OUT.png for both). `base` holds the stats
-/// every output's JSON shares.
+/// One image of a render, still as per-pixel sums: `pt`, `pm`, `ppm` or `sppm`, with the JSON stats of
+/// its output and the weight every pixel has once all shares of the render are added (`spp` for the
+/// path tracer, the eye samples for photon mapping, the passes for PPM, 1 for SPPM).
+pub struct Layer {
+    pub name: String,
+    pub sums: Sums,
+    pub expected_weight: f64,
+    /// How the layer splits across parts: `samples`, `rows`, `passes` (or `none`).
+    pub split: String,
+    pub stats: serde_json::Value,
+}
+
+/// Which share of the render to do: `None` for all of it, `Some((i, n))` for part i of n
+/// (path tracing splits every pixel's samples, a fixed photon map its rows, PPM its passes).
+pub type Part = Option<(u32, u32)>;
+
+/// The render modes of `caustica render`: path tracing, photon mapping, both side by side, PPM or
+/// SPPM; writes OUT.exr/.png/.json (OUT-pt and OUT-pm plus a side-by-side OUT.png for both). `base`
+/// holds the stats every output's JSON shares.
 pub fn render_modes(
     scene: &Scene,
     accel: &Accel,
@@ -29,46 +46,100 @@ pub fn render_modes(
     bvh_s: f64,
     quiet: bool,
 ) -> Result<()> {
+    let layers = render_layers(scene, accel, plan, &base, bvh_s, None, quiet)?;
+    let images: Vec<(String, Image, serde_json::Value)> =
+        layers.into_iter().map(|l| (l.name, l.sums.image(), l.stats)).collect();
+    write_layers(out, &images, scene.render.exposure)
+}
+
+/// The layers the scene's mode makes, or their share `part`.
+pub fn render_layers(
+    scene: &Scene,
+    accel: &Accel,
+    plan: &Plan,
+    base: &serde_json::Value,
+    bvh_s: f64,
+    part: Part,
+    quiet: bool,
+) -> Result<Vec<Layer>> {
     let mode = scene.render.mode;
+    let (i, n) = part.unwrap_or((0, 1));
+    let share = |rows: bool| match part {
+        None => Share::All,
+        Some(_) if rows => Share::Rows { part: i, parts: n },
+        Some(_) => Share::Samples { part: i, parts: n },
+    };
+    let need = |what: &str, have: u64, key: &str| -> Result<()> {
+        if part.is_some() && (n as u64) > have {
+            bail!("--part {i}/{n}: {n} parts but only {have} {what} ({key}); every part needs at least one");
+        }
+        Ok(())
+    };
+    let mut layers = Vec::new();
     if matches!(mode, Mode::Ppm | Mode::Sppm) {
-        let r = render_progressive(scene, accel, plan, quiet, &[])?;
-        let mut stats = base;
-        stats["mode"] = json!(if mode == Mode::Ppm { "ppm" } else { "sppm" });
+        if part.is_some() {
+            if mode == Mode::Sppm {
+                bail!("--part: sppm cannot be split (each iteration updates every pixel's radius and flux from the one before); use --mode ppm, whose passes are independent");
+            }
+            if scene.render.progressive.time_s > 0.0 {
+                bail!("--part: a part must do a fixed share of the passes; render.progressive.time_s (--time-s) cannot be split, give --passes instead");
+            }
+            need("passes", scene.render.progressive.passes as u64, "render.progressive.passes")?;
+        }
+        let r = render_progressive_share(scene, accel, plan, quiet, &[], (i, n))?;
+        let mut stats = base.clone();
+        let name = if mode == Mode::Ppm { "ppm" } else { "sppm" };
+        stats["mode"] = json!(name);
         stats["plan"] = json!(plan);
         stats["passes"] = json!(r.records);
         stats["initial_radius"] = json!(crate::integrator::ppm::initial_radius(scene));
         stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "render": r.output.seconds });
-        add_counters(&mut stats, &r.output);
-        write_outputs(out, &r.output.image, scene.render.exposure, &stats)?;
-        return Ok(());
+        add_counters(&mut stats, &r.output.counters, r.output.seconds);
+        let expected_weight = if mode == Mode::Ppm { scene.render.progressive.passes as f64 } else { 1.0 };
+        let split = if mode == Mode::Ppm { "passes" } else { "none" };
+        layers.push(Layer { name: name.into(), sums: r.sums, expected_weight, split: split.into(), stats });
+        return Ok(layers);
     }
-    let mut images = Vec::new();
     if mode != Mode::PhotonMap {
-        let r = render_path(scene, accel, scene.render.spp, quiet);
+        need("samples per pixel", scene.render.spp as u64, "render.spp")?;
+        let r = render_path_share(scene, accel, scene.render.spp, share(false), quiet);
         let mut stats = base.clone();
         stats["mode"] = json!("path");
         stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "render": r.seconds });
-        add_counters(&mut stats, &r);
-        let o = if mode == Mode::Both { with_suffix(out, "-pt") } else { out.to_path_buf() };
-        write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
-        images.push(r.image);
+        add_counters(&mut stats, &r.counters, r.seconds);
+        let split = if part.is_some() { "samples" } else { "none" };
+        let expected_weight = scene.render.spp as f64;
+        layers.push(Layer { name: "pt".into(), sums: r.sums, expected_weight, split: split.into(), stats });
     }
     if mode != Mode::Path {
-        let (maps, r) = render_pm(scene, accel, plan, quiet)?;
+        need("image rows", scene.camera.height as u64, "camera.resolution")?;
+        let maps = build_maps(scene, accel, &MapRequest::planned(scene, plan), quiet)?;
+        let r = render_photon_map_share(scene, accel, &maps, plan, None, share(true), quiet);
         let mut stats = base.clone();
         stats["mode"] = json!("photon_map");
         stats["plan"] = json!(plan);
         stats["photon_maps"] = json!(maps.stats);
         stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "photon_trace": maps.stats.trace_seconds(), "kdtree_build": maps.stats.build_seconds, "eye_pass": r.seconds });
-        add_counters(&mut stats, &r);
-        let o = if mode == Mode::Both { with_suffix(out, "-pm") } else { out.to_path_buf() };
-        write_outputs(&o, &r.image, scene.render.exposure, &stats)?;
-        images.push(r.image);
+        add_counters(&mut stats, &r.counters, r.seconds);
+        let split = if part.is_some() { "rows" } else { "none" };
+        let expected_weight = scene.render.pm_spp as f64;
+        layers.push(Layer { name: "pm".into(), sums: r.sums, expected_weight, split: split.into(), stats });
     }
-    if images.len() == 2 {
-        let side = Image::side_by_side(&[&images[0], &images[1]], 4);
+    Ok(layers)
+}
+
+/// Writes a render's images: one layer to OUT.exr/.png/.json; PT and PM to OUT-pt.* and OUT-pm.* with
+/// a side-by-side OUT.png.
+pub fn write_layers(out: &Path, layers: &[(String, Image, serde_json::Value)], exposure: f32) -> Result<()> {
+    let both = layers.len() == 2;
+    for (name, img, stats) in layers {
+        let o = if both { with_suffix(out, &format!("-{name}")) } else { out.to_path_buf() };
+        write_outputs(&o, img, exposure, stats)?;
+    }
+    if both {
+        let side = Image::side_by_side(&[&layers[0].1, &layers[1].1], 4);
         let p = with_suffix(out, ".png");
-        output::write_png(&p, &side, scene.render.exposure)?;
+        output::write_png(&p, &side, exposure)?;
         println!("wrote {} (left: path tracing, right: photon mapping)", p.display());
     }
     Ok(())
@@ -76,18 +147,27 @@ pub fn render_modes(
 
 /// Renders with the path tracer.
 pub fn render_path(scene: &Scene, tracer: &dyn Tracer, spp: u32, quiet: bool) -> RenderOutput {
+    finished(render_path_share(scene, tracer, spp, Share::All, quiet))
+}
+
+/// A share of a path-traced render.
+pub fn render_path_share(scene: &Scene, tracer: &dyn Tracer, spp: u32, share: Share, quiet: bool) -> ShareOutput {
     let r = &scene.render;
     let pt = PathTracer { scene, tracer, max_depth: r.max_depth, rr_depth: r.rr_depth };
     let cam = &scene.camera;
-    render(cam.width, cam.height, spp, r.seed, "path", quiet, |x, y, rng, c: &mut Counters| {
+    render_share(cam.width, cam.height, spp, r.seed, share, "path", quiet, |x, y, rng, c: &mut Counters| {
         pt.li(cam.ray(x, y), rng, c)
     })
 }
 
-fn add_counters(stats: &mut serde_json::Value, r: &RenderOutput) {
-    stats["rays"] = json!(r.counters.rays);
-    stats["rays_per_s"] = json!(r.counters.rays as f64 / r.seconds.max(1e-9));
-    stats["nonfinite_samples"] = json!(r.counters.nonfinite);
+fn finished(s: ShareOutput) -> RenderOutput {
+    RenderOutput { image: s.sums.image(), counters: s.counters, seconds: s.seconds }
+}
+
+fn add_counters(stats: &mut serde_json::Value, c: &Counters, seconds: f64) {
+    stats["rays"] = json!(c.rays);
+    stats["rays_per_s"] = json!(c.rays as f64 / seconds.max(1e-9));
+    stats["nonfinite_samples"] = json!(c.nonfinite);
     stats["peak_rss_bytes"] = json!(output::peak_rss_bytes());
 }
 
@@ -126,14 +206,28 @@ pub fn render_photon_map(
     only: Option<usize>,
     quiet: bool,
 ) -> RenderOutput {
+    finished(render_photon_map_share(scene, tracer, maps, plan, only, Share::All, quiet))
+}
+
+/// A share of the photon-map eye pass.
+pub fn render_photon_map_share(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    maps: &PhotonMaps,
+    plan: &Plan,
+    only: Option<usize>,
+    share: Share,
+    quiet: bool,
+) -> ShareOutput {
     let mut pm = PhotonMapper::new(scene, tracer, maps, only);
     pm.specular_spp = plan.specular_spp;
     let cam = &scene.camera;
-    render(
+    render_share(
         cam.width,
         cam.height,
         scene.render.pm_spp,
         scene.render.seed,
+        share,
         "eye pass",
         quiet,
         |x, y, rng, c: &mut Counters| pm.li(cam.ray(x, y), rng, c),
@@ -286,6 +380,8 @@ pub fn reference(
 /// the images after the pass counts asked for as snapshots (with the seconds spent up to each).
 pub struct Progressive {
     pub output: RenderOutput,
+    /// The image as sums (PPM: pass images summed, weight = passes; SPPM: its image, weight 1).
+    pub sums: Sums,
     pub records: Vec<crate::integrator::ppm::PassRecord>,
     pub snapshots: Vec<(u32, f64, Image)>,
 }
@@ -301,52 +397,55 @@ pub fn render_progressive(
     quiet: bool,
     snapshots: &[u32],
 ) -> Result<Progressive> {
+    render_progressive_share(scene, tracer, plan, quiet, snapshots, (0, 1))
+}
+
+/// `render_progressive`'s share `part` = (i, n) of the passes: PPM passes first + k with k ≡ i (mod n)
+/// (interleaved, so every part gets large and small radii alike). SPPM has only (0, 1).
+pub fn render_progressive_share(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    plan: &Plan,
+    quiet: bool,
+    snapshots: &[u32],
+    part: (u32, u32),
+) -> Result<Progressive> {
     use crate::integrator::ppm::{initial_radius, ppm_pass, radius_at};
     let p = &scene.render.progressive;
     let sppm_mode = scene.render.mode == Mode::Sppm;
     let r1 = initial_radius(scene);
-    let pixels = scene.camera.width as usize * scene.camera.height as usize;
-    let mut sum = vec![[0.0f64; 3]; pixels];
+    let mut sums = Sums::new(scene.camera.width, scene.camera.height);
     let mut sppm = sppm_mode.then(|| crate::integrator::sppm::Sppm::new(scene, tracer, plan));
-    let pb = crate::progress::progress(p.passes as u64, if sppm_mode { "sppm" } else { "ppm" }, quiet);
+    let first = if sppm_mode { 1 } else { p.first_pass };
+    let (part, parts) = if sppm_mode { (0, 1) } else { (part.0, part.1.max(1)) };
+    let passes: Vec<u32> = (first..first + p.passes).filter(|k| (k - first) % parts == part).collect();
+    let pb = crate::progress::progress(passes.len() as u64, if sppm_mode { "sppm" } else { "ppm" }, quiet);
     let (mut records, mut shots) = (Vec::new(), Vec::new());
     let mut counters = Counters::default();
     let (mut seconds, mut emitted) = (0.0f64, 0u64);
-    let mean = |sum: &[[f64; 3]], n: u32| {
-        let mut img = Image::new(scene.camera.width, scene.camera.height);
-        for (o, s) in img.pixels.iter_mut().zip(sum) {
-            *o = glam::Vec3::new((s[0] / n as f64) as f32, (s[1] / n as f64) as f32, (s[2] / n as f64) as f32);
-        }
-        img
-    };
-    let first = if sppm_mode { 1 } else { p.first_pass };
-    for i in first..first + p.passes {
+    for &i in &passes {
         let record = match sppm.as_mut() {
             Some(s) => s.iterate(i)?,
             None => {
                 let (img, c, record) = ppm_pass(scene, tracer, plan, i, radius_at(r1, p.alpha, i))?;
-                for (acc, px) in sum.iter_mut().zip(&img.pixels) {
-                    for k in 0..3 {
-                        acc[k] += px[k] as f64;
-                    }
-                }
+                sums.add_image(&img);
                 counters += c;
                 record
             }
         };
         seconds += record.seconds;
         emitted += record.emitted.iter().sum::<u64>();
-        pb.set_position((i - first + 1) as u64);
+        records.push(record);
+        pb.set_position(records.len() as u64);
         pb.set_message(format!(
             "pass {i}, radius {:.2e} of the diagonal, {:.2} M photons/s",
-            record.radius / scene.diagonal().max(1e-30),
+            records[records.len() - 1].radius / scene.diagonal().max(1e-30),
             emitted as f64 / seconds.max(1e-9) / 1e6
         ));
-        records.push(record);
         if snapshots.contains(&i) {
             let img = match &sppm {
                 Some(s) => s.image(),
-                None => mean(&sum, records.len() as u32),
+                None => sums.image(),
             };
             shots.push((i, seconds, img));
         }
@@ -355,13 +454,10 @@ pub fn render_progressive(
         }
     }
     pb.finish_and_clear();
-    let n = records.len() as u32;
-    let image = match &sppm {
-        Some(s) => {
-            counters += s.counters;
-            s.image()
-        }
-        None => mean(&sum, n),
-    };
-    Ok(Progressive { output: RenderOutput { image, counters, seconds }, records, snapshots: shots })
+    if let Some(s) = &sppm {
+        counters += s.counters;
+        sums = Sums::from_image(&s.image());
+    }
+    let image = sums.image();
+    Ok(Progressive { output: RenderOutput { image, counters, seconds }, sums, records, snapshots: shots })
 }

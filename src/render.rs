@@ -1,7 +1,8 @@
 //! The render loop: 16×16 tiles over rayon, per-pixel deterministic samplers, a progress bar with
-//! Mrays/s, and a guard that counts (and drops) non-finite samples.
+//! Mrays/s, and a guard that counts (and drops) non-finite samples. A render can be a share of the
+//! whole (`Share`): a range of every pixel's sample indices, or an interleaved set of rows.
 use crate::color::Rgb;
-use crate::film::Image;
+use crate::film::{Image, Sums};
 use crate::integrator::Counters;
 use crate::math::Rng;
 use rayon::prelude::*;
@@ -18,9 +19,66 @@ pub struct RenderOutput {
     pub seconds: f64,
 }
 
+/// Which part of a render to do: everything, share `part` of `parts` of every pixel's sample indices
+/// (a contiguous range, so the shares take equal time), or the rows y ≡ part (mod parts).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Share {
+    All,
+    Samples { part: u32, parts: u32 },
+    Rows { part: u32, parts: u32 },
+}
+
+impl Share {
+    /// The sample indices this share takes of `spp`.
+    pub fn samples(self, spp: u32) -> std::ops::Range<u32> {
+        match self {
+            Share::Samples { part, parts } => {
+                let at = |i: u32| ((spp as u64 * i as u64) / parts.max(1) as u64) as u32;
+                at(part)..at(part + 1)
+            }
+            _ => 0..spp,
+        }
+    }
+
+    pub fn has_row(self, y: u32) -> bool {
+        match self {
+            Share::Rows { part, parts } => y % parts.max(1) == part,
+            _ => true,
+        }
+    }
+}
+
+/// A share of a render, as per-pixel sums of samples in f64 (weight = samples taken; 0 for pixels the
+/// share skips).
+pub struct ShareOutput {
+    pub sums: Sums,
+    pub counters: Counters,
+    pub seconds: f64,
+}
+
 /// Renders `spp` samples per pixel with `sample(x, y, rng, counters)` returning one radiance sample for
 /// a film position; the sampler for (pixel, sample) is keyed by `seed`, so threads never change the result.
 pub fn render<F>(width: u32, height: u32, spp: u32, seed: u64, label: &str, quiet: bool, sample: F) -> RenderOutput
+where
+    F: Fn(f32, f32, &mut Rng, &mut Counters) -> Rgb + Sync,
+{
+    let s = render_share(width, height, spp, seed, Share::All, label, quiet, sample);
+    RenderOutput { image: s.sums.image(), counters: s.counters, seconds: s.seconds }
+}
+
+/// `render`'s share `share`: each pixel's samples are summed in f64 in sample order, so the sums of
+/// sample-index shares add up to the whole render's sums (to f64 rounding).
+#[allow(clippy::too_many_arguments)]
+pub fn render_share<F>(
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u64,
+    share: Share,
+    label: &str,
+    quiet: bool,
+    sample: F,
+) -> ShareOutput
 where
     F: Fn(f32, f32, &mut Rng, &mut Counters) -> Rgb + Sync,
 {
@@ -29,26 +87,30 @@ where
         (0..height.div_ceil(TILE)).flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
     let pb = progress(tiles.len() as u64, label, quiet);
     let rays = AtomicU64::new(0);
-    let results: Vec<(Vec<Rgb>, Counters)> = tiles
+    let range = share.samples(spp);
+    let taken = range.len() as f64;
+    let results: Vec<(Vec<[f64; 3]>, Counters)> = tiles
         .par_iter()
         .map(|&(tx, ty)| {
             let mut c = Counters::default();
             let mut px = Vec::with_capacity((TILE * TILE) as usize);
-            for y in ty * TILE..((ty + 1) * TILE).min(height) {
+            for y in (ty * TILE..((ty + 1) * TILE).min(height)).filter(|&y| share.has_row(y)) {
                 for x in tx * TILE..((tx + 1) * TILE).min(width) {
                     let pixel = (y as u64) * width as u64 + x as u64;
-                    let mut sum = Rgb::ZERO;
-                    for s in 0..spp {
+                    let mut sum = [0.0f64; 3];
+                    for s in range.clone() {
                         let mut rng = Rng::new(seed, pixel, s as u64);
                         let [jx, jy] = rng.next_2d();
                         let v = sample(x as f32 + jx, y as f32 + jy, &mut rng, &mut c);
                         if v.is_finite() {
-                            sum += v;
+                            for k in 0..3 {
+                                sum[k] += v[k] as f64;
+                            }
                         } else {
                             c.nonfinite += 1;
                         }
                     }
-                    px.push(sum / spp as f32);
+                    px.push(sum);
                 }
             }
             let total = rays.fetch_add(c.rays, Ordering::Relaxed) + c.rays;
@@ -59,17 +121,18 @@ where
         })
         .collect();
     pb.finish_and_clear();
-    let mut image = Image::new(width, height);
+    let mut sums = Sums::new(width, height);
     let mut counters = Counters::default();
     for (&(tx, ty), (px, c)) in tiles.iter().zip(results) {
         counters += c;
-        let mut i = 0;
-        for y in ty * TILE..((ty + 1) * TILE).min(height) {
+        let mut vals = px.into_iter();
+        for y in (ty * TILE..((ty + 1) * TILE).min(height)).filter(|&y| share.has_row(y)) {
             for x in tx * TILE..((tx + 1) * TILE).min(width) {
-                image.set(x, y, px[i]);
-                i += 1;
+                let i = (y * width + x) as usize;
+                sums.sum[i] = vals.next().unwrap_or_default();
+                sums.weight[i] = taken;
             }
         }
     }
-    RenderOutput { image, counters, seconds: t0.elapsed().as_secs_f64() }
+    ShareOutput { sums, counters, seconds: t0.elapsed().as_secs_f64() }
 }

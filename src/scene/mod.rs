@@ -181,6 +181,38 @@ impl SurfaceHit {
 }
 
 impl Scene {
+    /// SHA-256 (hex) of what the scene is, independent of where its files live: camera, materials,
+    /// lights, every shape's geometry (vertex and normal bits, indices) and emission. Render settings
+    /// are not part of it (they are compared on their own). Partial renders carry it, so parts of
+    /// different scenes are never merged.
+    pub fn content_hash(&self) -> String {
+        use sha2::{Digest, Sha256};
+        let mut h = Sha256::new();
+        // Debug output of floats round-trips exactly, so equal text means equal values.
+        h.update(format!(
+            "{:?}|{:?}|{:?}|{:?}|{:?}",
+            self.camera, self.materials, self.material_names, self.lights.list, self.lights.power
+        ));
+        for s in &self.shapes {
+            h.update(format!("|{}|{}|{:?}|", s.name, s.material, s.emission));
+            match &s.geometry {
+                Geometry::Mesh(m) => {
+                    for p in &m.positions {
+                        p.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
+                    }
+                    for t in &m.indices {
+                        t.iter().for_each(|i| h.update(i.to_le_bytes()));
+                    }
+                    for n in m.normals.iter().flatten() {
+                        n.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
+                    }
+                }
+                Geometry::Sphere { center, radius } => h.update(format!("sphere {center:?} {radius:?}")),
+            }
+        }
+        h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+    }
+
     pub fn material_of(&self, shape: u32) -> &Material {
         &self.materials[self.shapes[shape as usize].material as usize]
     }
