@@ -90,14 +90,20 @@ pub fn write_exr(path: &Path, img: &Image) -> Result<()> {
     atomic_write(path, |tmp| encode_exr(tmp, img))
 }
 
-/// Writes `img` as a linear RGB EXR at `file`.
+/// Writes `img` as a linear RGB EXR at `file`. Chunks are compressed in order on one thread, so the
+/// same image always gives the same bytes (the parallel writer stores chunks in the order they finish).
 pub fn encode_exr(file: &Path, img: &Image) -> Result<()> {
+    use exr::prelude::{SpecificChannels, Vec2, WritableImage};
     let w = img.width as usize;
-    exr::prelude::write_rgb_file(file, w, img.height as usize, |x, y| {
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
         let c = img.pixels[y * w + x];
         (c.x, c.y, c.z)
-    })
-    .map_err(|e| anyhow!("{}: EXR write failed: {e}", file.display()))
+    });
+    exr::prelude::Image::from_channels((w, img.height as usize), channels)
+        .write()
+        .non_parallel()
+        .to_file(file)
+        .map_err(|e| anyhow!("{}: EXR write failed: {e}", file.display()))
 }
 
 pub fn read_exr(path: &Path) -> Result<Image> {

@@ -110,23 +110,20 @@ pub fn write_partial(out: &Path, header: &PartHeader, layers: &[&Sums]) -> Resul
     Ok(path)
 }
 
-/// Reads and checks a part file: magic, header, part index, size, length and checksum.
-pub fn read_partial(path: &Path) -> Result<Partial> {
-    let shown = path.display();
-    let bytes = std::fs::read(path).map_err(|e| anyhow!("{shown}: cannot read: {e}"))?;
-    if bytes.len() < 16 || &bytes[..8] != MAGIC {
+/// Checks a part's start (`head`: at least its first 16 bytes, and the header if present) against the
+/// file's length: magic, header, part index, film size, and that the length is exactly what the header
+/// implies. Returns the header and where the pixel data starts.
+fn check_header(shown: &str, head: &[u8], file_len: u64) -> Result<(PartHeader, usize)> {
+    if head.len() < 16 || &head[..8] != MAGIC {
         bail!("{shown}: not a caustica part file (made by `caustica render --part i/N`)");
     }
-    let head_len = u64::from_le_bytes(bytes[8..16].try_into().expect("8 bytes"));
-    if head_len > (bytes.len() - 16) as u64 {
-        bail!(
-            "{shown}: truncated: the header says {head_len} bytes, the file has {} after its start",
-            bytes.len() - 16
-        );
+    let head_len = u64::from_le_bytes(head[8..16].try_into().expect("8 bytes"));
+    if head_len > file_len - 16 || head_len > (head.len() - 16) as u64 {
+        bail!("{shown}: truncated: the header says {head_len} bytes, the file has {} after its start", file_len - 16);
     }
     let head_end = 16 + head_len as usize;
     let header: PartHeader =
-        serde_json::from_slice(&bytes[16..head_end]).map_err(|e| anyhow!("{shown}: header: {e}"))?;
+        serde_json::from_slice(&head[16..head_end]).map_err(|e| anyhow!("{shown}: header: {e}"))?;
     if header.format != "caustica-part" || header.version != VERSION {
         bail!(
             "{shown}: format {} version {}; this caustica reads caustica-part version {VERSION}",
@@ -151,24 +148,43 @@ pub fn read_partial(path: &Path) -> Result<Partial> {
     }
     let payload = header.layers.len() as u64 * pixels * PIXEL_BYTES as u64;
     let expected = head_end as u64 + payload + 32;
-    if (bytes.len() as u64) < expected {
+    if file_len != expected {
         bail!(
-            "{shown}: truncated: {} bytes, a {}×{} part with {} layer(s) has {expected}",
-            bytes.len(),
+            "{shown}: {}: {file_len} bytes, a {}×{} part with {} layer(s) has {expected}",
+            if file_len < expected { "truncated" } else { "wrong size" },
             header.width,
             header.height,
             header.layers.len()
         );
     }
-    if (bytes.len() as u64) > expected {
-        bail!(
-            "{shown}: wrong size: {} bytes, a {}×{} part with {} layer(s) has {expected}",
-            bytes.len(),
-            header.width,
-            header.height,
-            header.layers.len()
-        );
+    Ok((header, head_end))
+}
+
+/// Reads only a part's header (and checks its length), for checking a set of parts before reading
+/// their pixels.
+pub fn read_header(path: &Path) -> Result<PartHeader> {
+    use std::io::Read;
+    let shown = path.display().to_string();
+    let mut f = std::fs::File::open(path).map_err(|e| anyhow!("{shown}: cannot read: {e}"))?;
+    let len = f.metadata().map_err(|e| anyhow!("{shown}: cannot read: {e}"))?.len();
+    let mut head = vec![0u8; 16];
+    if len < 16 || f.read_exact(&mut head).is_err() {
+        bail!("{shown}: not a caustica part file (made by `caustica render --part i/N`)");
     }
+    let head_len = u64::from_le_bytes(head[8..16].try_into().expect("8 bytes"));
+    // A header is a few kB; a larger claim is damage (checked against the length in check_header).
+    let want = head_len.min(len - 16).min(64 << 20) as usize;
+    head.resize(16 + want, 0);
+    f.read_exact(&mut head[16..]).map_err(|e| anyhow!("{shown}: cannot read: {e}"))?;
+    Ok(check_header(&shown, &head, len)?.0)
+}
+
+/// Reads and checks a whole part file: magic, header, part index, size, length and checksum.
+pub fn read_partial(path: &Path) -> Result<Partial> {
+    let shown = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| anyhow!("{shown}: cannot read: {e}"))?;
+    let (header, head_end) = check_header(&shown, &bytes, bytes.len() as u64)?;
+    let pixels = header.width as u64 * header.height as u64;
     let body_end = bytes.len() - 32;
     if Sha256::digest(&bytes[..body_end])[..] != bytes[body_end..] {
         bail!("{shown}: checksum mismatch: the file was changed or damaged after it was written");
@@ -228,14 +244,16 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
     if paths.is_empty() {
         bail!("merge: no part files given (expected OUT-part-i-of-N.part for i = 0 … N−1)");
     }
-    let mut parts = Vec::new();
+    // Headers first: the whole set is checked before any pixel is read, and pixels are then added one
+    // part at a time (memory: two parts, whatever N is).
+    let mut parts: Vec<(PartHeader, &PathBuf)> = Vec::new();
     for p in paths {
-        parts.push(read_partial(p)?);
+        parts.push((read_header(p)?, p));
     }
-    let first = &parts[0].header;
-    let fshown = parts[0].path.display().to_string();
-    for q in &parts[1..] {
-        let (h, shown) = (&q.header, q.path.display());
+    let first = &parts[0].0;
+    let fshown = parts[0].1.display().to_string();
+    for (h, path) in &parts[1..] {
+        let shown = path.display();
         if (h.width, h.height) != (first.width, first.height) {
             bail!("{shown}: {}×{} but {fshown} is {}×{}", h.width, h.height, first.width, first.height);
         }
@@ -269,17 +287,17 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
         }
     }
     let n = first.parts;
-    let mut by_index: Vec<Option<&Partial>> = vec![None; n as usize];
+    let mut by_index: Vec<Option<&(PartHeader, &PathBuf)>> = vec![None; n as usize];
     for q in &parts {
-        let slot = &mut by_index[q.header.part as usize];
+        let slot = &mut by_index[q.0.part as usize];
         if let Some(prev) = slot {
-            bail!("part {}/{n} given twice: {} and {}", q.header.part, prev.path.display(), q.path.display());
+            bail!("part {}/{n} given twice: {} and {}", q.0.part, prev.1.display(), q.1.display());
         }
         *slot = Some(q);
     }
     let missing: Vec<u32> = (0..n).filter(|&i| by_index[i as usize].is_none()).collect();
     if !missing.is_empty() {
-        let base = parts[0].path.display().to_string();
+        let base = parts[0].1.display().to_string();
         let stem = base.split("-part-").next().unwrap_or(&base).to_string();
         bail!(
             "missing part{} {} of {n} (expected {}); render {} and merge again; nothing was written",
@@ -293,32 +311,37 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged> {
             missing.iter().map(|i| format!("--part {i}/{n}")).collect::<Vec<_>>().join(", ")
         );
     }
-    let ordered: Vec<&Partial> = by_index.into_iter().flatten().collect();
-    let seconds: Vec<f64> = ordered.iter().map(|q| q.header.seconds).collect();
+    let ordered: Vec<&(PartHeader, &PathBuf)> = by_index.into_iter().flatten().collect();
+    let mut sums: Vec<Sums> = first.layers.iter().map(|_| Sums::new(first.width, first.height)).collect();
+    for (h, path) in &ordered {
+        let q = read_partial(path)?;
+        if q.header.part != h.part || q.header.scene_hash != h.scene_hash {
+            bail!("{}: changed while merging (its header is not the one first read)", path.display());
+        }
+        for (acc, layer) in sums.iter_mut().zip(&q.layers) {
+            acc.add(layer);
+        }
+    }
+    let seconds: Vec<f64> = ordered.iter().map(|q| q.0.seconds).collect();
     let mean_s = seconds.iter().sum::<f64>() / seconds.len() as f64;
     let max_s = seconds.iter().cloned().fold(0.0, f64::max);
     let mut images = Vec::new();
-    for (li, lh) in first.layers.iter().enumerate() {
-        let mut sums = Sums::new(first.width, first.height);
-        for q in &ordered {
-            sums.add(&q.layers[li]);
-        }
+    for ((li, lh), sums) in first.layers.iter().enumerate().zip(sums) {
         if let Some(i) = sums.weight.iter().position(|&w| w != lh.expected_weight) {
             bail!("layer `{}`: pixel {i} has weight {} after adding all {n} parts, {} expected: the parts do not cover the render", lh.name, sums.weight[i], lh.expected_weight);
         }
         let mut stats = lh.stats.clone();
-        let sum_of =
-            |key: &str| ordered.iter().map(|q| q.header.layers[li].stats[key].as_u64().unwrap_or(0)).sum::<u64>();
+        let sum_of = |key: &str| ordered.iter().map(|q| q.0.layers[li].stats[key].as_u64().unwrap_or(0)).sum::<u64>();
         stats["rays"] = json!(sum_of("rays"));
         stats["nonfinite_samples"] = json!(sum_of("nonfinite_samples"));
         stats.as_object_mut().map(|o| o.remove("rays_per_s"));
         stats["merged"] = json!({
-            "parts": ordered.iter().map(|q| json!({
-                "part": q.header.part,
-                "file": q.path.display().to_string(),
-                "host": q.header.host,
-                "seconds": q.header.seconds,
-                "times_s": q.header.layers[li].stats["times_s"],
+            "parts": ordered.iter().map(|(h, path)| json!({
+                "part": h.part,
+                "file": path.display().to_string(),
+                "host": h.host,
+                "seconds": h.seconds,
+                "times_s": h.layers[li].stats["times_s"],
             })).collect::<Vec<_>>(),
             "split": lh.split,
             "imbalance_max_over_mean": if mean_s > 0.0 { max_s / mean_s } else { 1.0 },
