@@ -11,25 +11,33 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(a) => cmd_render(a),
         Command::Info(a) => cmd_info(a),
-        Command::Bench(BenchCommand::Rays { scene, rounds }) => crate::bench::rays(&scene, rounds),
-        Command::Bench(BenchCommand::Photons { scene, photons }) => crate::bench::photons(&scene, photons),
-        Command::Bench(BenchCommand::Plan { scene }) => crate::bench::plan(&scene),
+        Command::Bench(BenchCommand::Rays { scene, set, rounds }) => crate::bench::rays(&scene, rounds, &set),
+        Command::Bench(BenchCommand::Photons { scene, photons, set }) => crate::bench::photons(&scene, photons, &set),
+        Command::Bench(BenchCommand::Plan { scene, set }) => crate::bench::plan(&scene, &set),
         Command::KnnCheck(a) => crate::bench::knn_check(&a),
         Command::Merge { parts, out } => cmd_merge(&parts, &out),
         Command::Compare { a, b, reference, out, exposure } => {
+            let stem = |p: &Path| p.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+            let name = format!("compare-{}-vs-{}", stem(&a), stem(&b));
+            let out = crate::output::in_folder(out.unwrap_or_else(|| PathBuf::from("out/")), &name);
             crate::tools::compare_cmd(&a, &b, reference.as_deref(), &out, exposure)
         }
         Command::Reference { scene, spp, photons, set, quiet } => {
             let r = crate::pipeline::reference(&scene, &set, spp, photons, Path::new("out/ref"), quiet)?;
+            let how = match r.rendered_s {
+                Some(s) => format!("rendered in {s:.1} s"),
+                None => "from the cache; delete it to render again".to_string(),
+            };
             println!(
-                "reference {} (two halves differ by RMSE {:.6}; the mean's own RMSE is about half)",
+                "reference {} ({how}; two halves differ by RMSE {:.6}; the mean's own RMSE is about half)",
                 r.path.display(),
                 r.halves_rmse
             );
             Ok(())
         }
         Command::Bench(BenchCommand::TimeVsError { scene, budget_s, ref_spp, ref_photons, out, set, quiet }) => {
-            let out = out.unwrap_or_else(|| PathBuf::from("out/tve").join(scene.file_stem().unwrap_or_default()));
+            let stem = scene.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+            let out = crate::output::in_folder(out.unwrap_or_else(|| PathBuf::from("out/tve/")), &stem);
             let ref_spp = if ref_photons.is_none() { Some(ref_spp.unwrap_or(1024)) } else { ref_spp };
             crate::timeerror::run(&crate::timeerror::Options {
                 scene: &scene,
@@ -67,13 +75,14 @@ fn overrides(a: &RenderArgs) -> Vec<String> {
 fn cmd_render(a: RenderArgs) -> Result<()> {
     let started = Instant::now();
     if let Some(n) = a.threads {
-        if n == 0 {
-            bail!("--threads must be ≥ 1");
-        }
-        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot set up the thread pool")?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n as usize)
+            .build_global()
+            .context("cannot set up the thread pool")?;
     }
     let mut scene = load_scene_with(&a.scene, &overrides(&a))?;
-    let out = a.out.clone().unwrap_or_else(|| PathBuf::from("out").join(a.scene.file_stem().unwrap_or_default()));
+    let stem = a.scene.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+    let out = crate::output::in_folder(a.out.clone().unwrap_or_else(|| PathBuf::from("out/")), &stem);
     let t0 = Instant::now();
     let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
     let bvh_s = t0.elapsed().as_secs_f64();
@@ -143,6 +152,9 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
 
 fn cmd_merge(parts: &[PathBuf], out: &Path) -> Result<()> {
     let merged = crate::parts::merge(parts)?;
+    let name = parts[0].file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+    let out = crate::output::in_folder(out.to_path_buf(), name.split("-part-").next().unwrap_or("merged"));
+    let out = out.as_path();
     crate::pipeline::write_layers(out, &merged.images, merged.exposure)
 }
 

@@ -2,7 +2,7 @@
 use crate::accel::{embree::RawPackets, Accel, Hit, Tracer};
 use crate::cli::KnnArgs;
 use crate::math::Ray;
-use crate::scene::load_scene;
+use crate::scene::load_scene_with;
 use anyhow::Result;
 use std::path::Path;
 use std::time::Instant;
@@ -25,9 +25,9 @@ fn camera_packets(scene: &crate::scene::Scene) -> Vec<[Ray; 16]> {
     packets
 }
 
-pub fn rays(path: &Path, rounds: u32) -> Result<()> {
+pub fn rays(path: &Path, rounds: u32, sets: &[String]) -> Result<()> {
     let t0 = Instant::now();
-    let scene = load_scene(path)?;
+    let scene = load_scene_with(path, sets)?;
     let load_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
@@ -72,10 +72,11 @@ pub fn rays(path: &Path, rounds: u32) -> Result<()> {
 }
 
 /// The planner's savings: photon mapping as planned vs with every pass forced on, same seed.
-pub fn plan(path: &Path) -> Result<()> {
+pub fn plan(path: &Path, user_sets: &[String]) -> Result<()> {
     let mut out = Vec::new();
     for forced in [false, true] {
-        let sets = [format!("render.force_all_passes={forced}")];
+        let mut sets = user_sets.to_vec();
+        sets.push(format!("render.force_all_passes={forced}"));
         let scene = crate::scene::load_scene_with(path, &sets)?;
         let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
         let t = Instant::now();
@@ -83,7 +84,7 @@ pub fn plan(path: &Path) -> Result<()> {
         out.push((t.elapsed().as_secs_f64(), r.image));
     }
     let plan = {
-        let scene = load_scene(path)?;
+        let scene = load_scene_with(path, user_sets)?;
         let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
         crate::pipeline::plan_for(&scene, &accel)
     };
@@ -120,9 +121,9 @@ impl Tracer for Recorder<'_> {
 
 /// Photon tracing throughput against a bare `rtcIntersect1` loop over the very same rays (recorded in a
 /// second, identical run), both on one thread: the ratio is what the photon pipeline costs beyond Embree.
-pub fn photons(path: &Path, photons: u64) -> Result<()> {
+pub fn photons(path: &Path, photons: u64, sets: &[String]) -> Result<()> {
     use crate::integrator::photon_map::{build_maps, MapRequest};
-    let scene = load_scene(path)?;
+    let scene = load_scene_with(path, sets)?;
     let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let req = MapRequest {

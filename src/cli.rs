@@ -28,14 +28,17 @@ pub enum Command {
     /// Compare two EXR images (optionally against a reference): labelled side by side, error heat-map
     /// with a colour scale, RMSE / relMSE / MAE / mean-luminance ratio (stdout and JSON).
     Compare {
+        /// First image (EXR), the one scored.
         a: PathBuf,
+        /// Second image (EXR); the reference for A unless --ref is given.
         b: PathBuf,
         /// Reference image both are scored against (default: B is the reference for A).
         #[arg(long = "ref")]
         reference: Option<PathBuf>,
-        /// Output path (a typed .png/.json is dropped): writes OUT.png, OUT-error.png, OUT.json.
-        #[arg(short, long, default_value = "out/compare", value_parser = out_base)]
-        out: PathBuf,
+        /// Output path (a typed .png/.json is dropped): writes OUT.png, OUT-error.png, OUT.json
+        /// (default out/compare-A-vs-B, named after the two files; a folder puts that name in it).
+        #[arg(short, long, value_parser = out_base)]
+        out: Option<PathBuf>,
         /// Exposure (stops) of the side-by-side preview.
         #[arg(long, default_value_t = 0.0)]
         exposure: f32,
@@ -57,13 +60,18 @@ pub enum Command {
     /// A long reference render in two independent halves (cached in out/ref), with their RMSE as its
     /// noise estimate. --spp for the path tracer, --photons for scenes only photon mapping can render.
     Reference {
+        /// Scene file (TOML).
         scene: PathBuf,
-        #[arg(long)]
+        /// Path-traced reference with this many samples per pixel (split over the two halves).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(2..))]
         spp: Option<u32>,
+        /// Photon-mapped reference with this many photons (half caustic, a quarter indirect per half).
         #[arg(long)]
         photons: Option<u64>,
+        /// Scene overrides, as for render (part of the cache key).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+        /// No progress bars.
         #[arg(short, long)]
         quiet: bool,
     },
@@ -78,24 +86,24 @@ pub struct RenderArgs {
     #[arg(short, long, value_parser = out_base)]
     pub out: Option<PathBuf>,
     /// Samples per pixel (path tracer), overrides render.spp.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     pub spp: Option<u32>,
     /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..4096))]
+    pub threads: Option<u32>,
     /// Random seed, overrides render.seed.
     #[arg(long)]
     pub seed: Option<u64>,
     /// path | photon_map | both | ppm | sppm, overrides render.mode. ppm: progressive photon mapping
     /// (independent passes with a shrinking radius, averaged); sppm: stochastic progressive photon
     /// mapping (per-pixel radius and flux). Both converge to the right image as passes accumulate.
-    #[arg(long)]
+    #[arg(long, value_parser = ["path", "photon_map", "both", "ppm", "sppm"])]
     pub mode: Option<String>,
     /// Progressive modes: stop after this many passes (overrides render.progressive.passes).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     pub passes: Option<u32>,
     /// Progressive modes: stop once this many seconds were spent (overrides render.progressive.time_s).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_seconds)]
     pub time_s: Option<f64>,
     /// What to show: image (default), photons:direct|indirect|caustic|all, map:direct|indirect|caustic.
     #[arg(long, default_value = "image")]
@@ -126,7 +134,11 @@ pub enum BenchCommand {
     /// Camera rays through the renderer's accel layer (16-ray packets and single rays) vs a bare
     /// rtcIntersect16 loop on the same rays, one thread.
     Rays {
+        /// Scene file (TOML).
         scene: PathBuf,
+        /// Scene overrides, e.g. --set camera.resolution=[256,256].
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Rounds of the whole camera-ray set per variant (best round is reported).
         #[arg(long, default_value_t = 5)]
         rounds: u32,
@@ -134,6 +146,7 @@ pub enum BenchCommand {
     /// PT at a sweep of spp and PM at sweeps of photon and gather counts, timed and scored against a
     /// cached reference: CSV, log-log chart (SVG, PNG), and the equal-time RMSE ratio PM/PT.
     TimeVsError {
+        /// Scene file (TOML).
         scene: PathBuf,
         /// Seconds to spend in all (split evenly between PT, PM photons, PM gather, PPM and SPPM).
         #[arg(long, default_value_t = 60.0)]
@@ -150,27 +163,41 @@ pub enum BenchCommand {
         /// Scene overrides for every render and the reference, e.g. --set camera.resolution=[128,128].
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+        /// No progress bars (the table and the files are still written).
         #[arg(short, long)]
         quiet: bool,
     },
     /// Photon mapping with the planner's choices vs with every pass forced on: time ratio and the
     /// difference between the two images.
-    Plan { scene: PathBuf },
+    Plan {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Scene overrides, e.g. --set camera.resolution=[64,64] to run it small.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+    },
     /// Photon tracing (segments/s, 1 thread) vs a bare rtcIntersect1 loop over the same rays.
     Photons {
+        /// Scene file (TOML).
         scene: PathBuf,
         /// Photons to store per map for the measurement.
         #[arg(long, default_value_t = 100_000)]
         photons: u64,
+        /// Scene overrides, e.g. --set render.max_depth=4.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
     },
 }
 
 #[derive(Args, Debug)]
 pub struct KnnArgs {
+    /// Photons (points) in the tree.
     #[arg(long, default_value_t = 1_000_000)]
     pub points: usize,
+    /// k-NN queries timed (each tree answers the same ones).
     #[arg(long, default_value_t = 100_000)]
     pub queries: usize,
+    /// Neighbours per query.
     #[arg(long, default_value_t = 50)]
     pub k: usize,
     /// uniform | clustered | plane
@@ -179,8 +206,17 @@ pub struct KnnArgs {
     /// Radius cap for the k-NN (default: none).
     #[arg(long)]
     pub radius: Option<f32>,
+    /// Seed of the random points and queries.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+}
+
+/// A time limit: a finite number of seconds above zero.
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(t) if t.is_finite() && t > 0.0 => Ok(t),
+        _ => Err(format!("`{s}`: expected a number of seconds above 0, e.g. 30 or 2.5")),
+    }
 }
 
 /// `--part i/N`: 0 ≤ i < N.

@@ -85,6 +85,25 @@ pub fn draw_text(img: &mut Image, x: i32, y: i32, text: &str, scale: u32, colour
     }
 }
 
+/// `img` scaled by 2^`exposure` under an 18-pixel black bar carrying `items` left to right, each text in
+/// its own colour (labels for previews, a legend for the photon views).
+pub fn label_bar(img: &Image, items: &[(&str, Rgb)], exposure: f32) -> Image {
+    let bar = 18;
+    let mut out = Image::new(img.width, img.height + bar);
+    let k = 2f32.powf(exposure);
+    for y in 0..img.height {
+        for x in 0..img.width {
+            out.set(x, y + bar, img.get(x, y) * k);
+        }
+    }
+    let mut x = 4;
+    for (text, colour) in items {
+        draw_text(&mut out, x, 5, text, 1, *colour);
+        x += text_width(text, 1) as i32 + 12;
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

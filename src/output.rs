@@ -26,6 +26,17 @@ pub fn output_base(out: &Path) -> PathBuf {
     }
 }
 
+/// `-o` as a folder: `out/` (trailing slash) or an existing folder gets `name` inside it, so outputs never
+/// become hidden files like `out/.exr`; anything else is the output base itself.
+pub fn in_folder(out: PathBuf, name: &str) -> PathBuf {
+    let s = out.as_os_str().to_string_lossy();
+    if s.ends_with('/') || s.ends_with(std::path::MAIN_SEPARATOR) || out.is_dir() {
+        out.join(name)
+    } else {
+        out
+    }
+}
+
 fn temp_path(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp{}", std::process::id()))
@@ -159,9 +170,18 @@ pub fn encode_json(file: &Path, v: &serde_json::Value) -> Result<()> {
 
 /// Writes OUT.exr (linear), OUT.png (preview at `exposure`) and OUT.json as one batch: all three or none.
 pub fn write_image_set(out: &Path, img: &Image, exposure: f32, stats: &serde_json::Value) -> Result<()> {
+    write_set(out, img, (img.width, img.height, to_srgb8(img, exposure)), stats)
+}
+
+/// Like `write_image_set`, with the PNG drawn from `preview` (already exposed: labels, legends).
+pub fn write_image_set_with_preview(out: &Path, img: &Image, preview: &Image, stats: &serde_json::Value) -> Result<()> {
+    write_set(out, img, (preview.width, preview.height, to_srgb8(preview, 0.0)), stats)
+}
+
+fn write_set(out: &Path, img: &Image, png: (u32, u32, Vec<u8>), stats: &serde_json::Value) -> Result<()> {
     let mut b = Batch::default();
     b.stage(&with_suffix(out, ".exr"), |t| encode_exr(t, img))?;
-    b.stage(&with_suffix(out, ".png"), |t| encode_png_rgb8(t, img.width, img.height, &to_srgb8(img, exposure)))?;
+    b.stage(&with_suffix(out, ".png"), |t| encode_png_rgb8(t, png.0, png.1, &png.2))?;
     b.stage(&with_suffix(out, ".json"), |t| encode_json(t, stats))?;
     b.commit()
 }

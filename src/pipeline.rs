@@ -4,7 +4,7 @@ use crate::accel::{Accel, Tracer};
 use crate::film::Image;
 use crate::film::Sums;
 use crate::integrator::path::PathTracer;
-use crate::integrator::photon_map::{build_maps, splat_photons, MapRequest, PhotonMapper, PhotonMaps};
+use crate::integrator::photon_map::{build_maps, splat_photons, MapRequest, PhotonMapper, PhotonMaps, PHOTON_TINTS};
 use crate::integrator::Counters;
 use crate::math::Ray;
 use crate::metrics::compare;
@@ -137,9 +137,16 @@ pub fn write_layers(out: &Path, layers: &[(String, Image, serde_json::Value)], e
         write_outputs(&o, img, exposure, stats)?;
     }
     if both {
-        let side = Image::side_by_side(&[&layers[0].1, &layers[1].1], 4);
+        let title = |(name, _, stats): &(String, Image, serde_json::Value)| match name.as_str() {
+            "pt" => format!("path tracing {} spp", stats["settings"]["spp"]),
+            _ => "photon mapping".to_string(),
+        };
+        let white = crate::color::Rgb::ONE;
+        let panels: Vec<Image> =
+            layers.iter().map(|l| crate::font::label_bar(&l.1, &[(title(l).as_str(), white)], exposure)).collect();
+        let side = Image::side_by_side(&[&panels[0], &panels[1]], 4);
         let p = with_suffix(out, ".png");
-        output::write_png(&p, &side, exposure)?;
+        output::write_png(&p, &side, 0.0)?;
         println!("wrote {} (left: path tracing, right: photon mapping)", p.display());
     }
     Ok(())
@@ -155,7 +162,7 @@ pub fn render_path_share(scene: &Scene, tracer: &dyn Tracer, spp: u32, share: Sh
     let r = &scene.render;
     let pt = PathTracer { scene, tracer, max_depth: r.max_depth, rr_depth: r.rr_depth };
     let cam = &scene.camera;
-    render_share(cam.width, cam.height, spp, r.seed, share, "path", quiet, |x, y, rng, c: &mut Counters| {
+    render_share(cam.width, cam.height, spp, r.sampler, r.seed, share, "path", quiet, |x, y, rng, c: &mut Counters| {
         pt.li(cam.ray(x, y), rng, c)
     })
 }
@@ -226,6 +233,7 @@ pub fn render_photon_map_share(
         cam.width,
         cam.height,
         scene.render.pm_spp,
+        scene.render.sampler,
         scene.render.seed,
         share,
         "eye pass",
@@ -265,6 +273,20 @@ pub fn render_view(
     for &m in &which {
         want[m] = [ps.direct, ps.indirect, ps.caustic][m];
     }
+    // A map the plan does not build holds nothing: say so at once instead of shooting photons for a
+    // black image.
+    let unplanned: Vec<usize> = which.iter().copied().filter(|&m| plan.photons[m] == 0).collect();
+    if unplanned.len() == which.len() {
+        let names: Vec<&str> = unplanned.iter().map(|&m| crate::photon::trace::MAP_NAMES[m]).collect();
+        bail!(
+            "--view {view}: this scene has no {} photons to show (the planner builds no such map: {})",
+            names.join(" or "),
+            if plan.reasons.is_empty() { "nothing reaches it".to_string() } else { plan.reasons.join("; ") }
+        );
+    }
+    for m in unplanned {
+        want[m] = 0;
+    }
     let maps = build_maps(scene, accel, &MapRequest { want, ..MapRequest::planned(scene, plan) }, quiet)?;
     let img = match kind {
         "photons" => splat_photons(scene, accel, &maps, &which),
@@ -273,7 +295,31 @@ pub fn render_view(
     };
     stats["view"] = json!(view);
     stats["photon_maps"] = json!(maps.stats);
-    write_outputs(out, &img, scene.render.exposure, &stats)?;
+    // The PNG carries a legend (the EXR stays the bare image): each map's name in its own tint, with
+    // the photons it stored; a map view names its map.
+    let names: Vec<String> = which
+        .iter()
+        .filter(|&&m| maps.stats.stored[m] > 0)
+        .map(|&m| format!("{} {}", crate::photon::trace::MAP_NAMES[m], maps.stats.stored[m]))
+        .collect();
+    let items: Vec<(&str, crate::color::Rgb)> = match kind {
+        "photons" => names
+            .iter()
+            .zip(which.iter().filter(|&&m| maps.stats.stored[m] > 0))
+            .map(|(n, &m)| (n.as_str(), PHOTON_TINTS[m]))
+            .collect(),
+        _ => names.iter().map(|n| (n.as_str(), crate::color::Rgb::ONE)).collect(),
+    };
+    let preview = crate::font::label_bar(&img, &items, scene.render.exposure);
+    output::write_image_set_with_preview(out, &img, &preview, &stats)?;
+    println!(
+        "wrote {} ({}×{}), {} (with a legend) and {}",
+        with_suffix(out, ".exr").display(),
+        img.width,
+        img.height,
+        with_suffix(out, ".png").display(),
+        with_suffix(out, ".json").display()
+    );
     Ok(())
 }
 
@@ -299,6 +345,8 @@ pub struct Reference {
     /// RMSE between the two halves; the mean's own RMSE is about half of it.
     pub halves_rmse: f64,
     pub path: PathBuf,
+    /// Seconds it took to render, or None when it came from the cache.
+    pub rendered_s: Option<f64>,
 }
 
 /// Renders (or loads from the cache in `dir`) a path-traced reference at `spp`, or with `photons`
@@ -334,7 +382,8 @@ pub fn reference(
         let meta: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&js)?)?;
         if let Some(n) = meta["halves_rmse"].as_f64() {
             let halves = [output::read_exr(&half_paths[0])?, output::read_exr(&half_paths[1])?];
-            return Ok(Reference { image: output::read_exr(&exr)?, halves, halves_rmse: n, path: exr });
+            let image = output::read_exr(&exr)?;
+            return Ok(Reference { image, halves, halves_rmse: n, path: exr, rendered_s: None });
         }
     }
     let t0 = std::time::Instant::now();
@@ -373,7 +422,7 @@ pub fn reference(
     })?;
     files.commit()?;
     let [h0, h1]: [Image; 2] = halves.try_into().map_err(|_| anyhow::anyhow!("two halves expected"))?;
-    Ok(Reference { image, halves: [h0, h1], halves_rmse, path: exr })
+    Ok(Reference { image, halves: [h0, h1], halves_rmse, path: exr, rendered_s: Some(t0.elapsed().as_secs_f64()) })
 }
 
 /// A progressive render: the final image (with the total time and counters), a record per pass, and

@@ -4,6 +4,7 @@
 use crate::color::Rgb;
 use crate::film::{Image, Sums};
 use crate::integrator::Counters;
+use crate::math::rng::Sampler;
 use crate::math::Rng;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -58,11 +59,21 @@ pub struct ShareOutput {
 
 /// Renders `spp` samples per pixel with `sample(x, y, rng, counters)` returning one radiance sample for
 /// a film position; the sampler for (pixel, sample) is keyed by `seed`, so threads never change the result.
-pub fn render<F>(width: u32, height: u32, spp: u32, seed: u64, label: &str, quiet: bool, sample: F) -> RenderOutput
+#[allow(clippy::too_many_arguments)]
+pub fn render<F>(
+    width: u32,
+    height: u32,
+    spp: u32,
+    sampler: Sampler,
+    seed: u64,
+    label: &str,
+    quiet: bool,
+    sample: F,
+) -> RenderOutput
 where
     F: Fn(f32, f32, &mut Rng, &mut Counters) -> Rgb + Sync,
 {
-    let s = render_share(width, height, spp, seed, Share::All, label, quiet, sample);
+    let s = render_share(width, height, spp, sampler, seed, Share::All, label, quiet, sample);
     RenderOutput { image: s.sums.image(), counters: s.counters, seconds: s.seconds }
 }
 
@@ -73,6 +84,7 @@ pub fn render_share<F>(
     width: u32,
     height: u32,
     spp: u32,
+    sampler: Sampler,
     seed: u64,
     share: Share,
     label: &str,
@@ -99,7 +111,7 @@ where
                     let pixel = (y as u64) * width as u64 + x as u64;
                     let mut sum = [0.0f64; 3];
                     for s in range.clone() {
-                        let mut rng = Rng::new(seed, pixel, s as u64);
+                        let mut rng = Rng::camera(sampler, seed, pixel, s as u64);
                         let [jx, jy] = rng.next_2d();
                         let v = sample(x as f32 + jx, y as f32 + jy, &mut rng, &mut c);
                         if v.is_finite() {

@@ -25,16 +25,7 @@ pub fn heat(t: f32) -> Rgb {
 
 /// A tone-mapped copy (linear values already in display range) with a label bar on top.
 fn labelled(img: &Image, label: &str, exposure: f32) -> Image {
-    let bar = 18;
-    let mut out = Image::new(img.width, img.height + bar);
-    let k = 2f32.powf(exposure);
-    for y in 0..img.height {
-        for x in 0..img.width {
-            out.set(x, y + bar, img.get(x, y) * k);
-        }
-    }
-    draw_text(&mut out, 4, 5, label, 1, Rgb::ONE);
-    out
+    crate::font::label_bar(img, &[(label, Rgb::ONE)], exposure)
 }
 
 /// Per-pixel absolute luminance error as a heat map scaled to `max`, with a colour bar and its scale.

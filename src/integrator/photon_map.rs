@@ -70,8 +70,8 @@ impl MapRequest {
 
 pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: bool) -> anyhow::Result<PhotonMaps> {
     let ps = &scene.render.photons;
-    let total: u64 = req.want.iter().fold(0u64, |a, &w| a.saturating_add(w));
-    let pb = crate::progress::progress(total, "photons", quiet || req.shots.is_some());
+    // One bar per photon pass, named, each running to 100% (progressive passes have their own line).
+    let bar = |len: u64, label: &str| crate::progress::progress(len, label, quiet || req.shots.is_some());
     let mut stats = MapsStats::default();
     let mut maps: [Option<PhotonMap>; 3] = Default::default();
     let t0 = std::time::Instant::now();
@@ -88,7 +88,9 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
             seed: scene.render.seed,
             pass: 1 + 2 * req.key,
         };
+        let pb = bar(want[DIRECT].saturating_add(want[INDIRECT]), "photons: direct+indirect");
         let (m, st) = run_pass(scene, tracer, &s, None, &pb);
+        pb.finish_and_clear();
         let [d, i, _] = m;
         collected[DIRECT] = (want[DIRECT] > 0).then_some(d);
         collected[INDIRECT] = (want[INDIRECT] > 0).then_some(i);
@@ -105,18 +107,19 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
             seed: scene.render.seed,
             pass: 2 + 2 * req.key,
         };
+        let pb = bar(req.want[CAUSTIC], "photons: caustic");
         let (m, st) = run_pass(scene, tracer, &s, targeted.then_some(&targets), &pb);
+        pb.finish_and_clear();
         let [_, _, c] = m;
         collected[CAUSTIC] = Some(c);
         stats.caustic_pass = Some(st);
         stats.caustic_targeted = targeted;
     }
-    pb.finish_and_clear();
     let trace_s = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
     for (i, c) in collected.into_iter().enumerate() {
         if let Some(c) = c {
-            if !c.complete && !quiet && req.shots.is_none() {
+            if !c.complete && req.shots.is_none() {
                 eprintln!(
                     "warning: the {} map got {} photons of {} requested before the shot budget ran out ({} shot)",
                     MAP_NAMES[i],
@@ -248,6 +251,9 @@ impl<'a> PhotonMapper<'a> {
 }
 
 /// Photon positions splatted onto the film (visible ones only), coloured by normalised power.
+/// The colours of the direct, indirect and caustic photons in `--view photons:…` (and its legend).
+pub const PHOTON_TINTS: [Rgb; 3] = [Rgb::new(1.0, 0.9, 0.6), Rgb::new(0.5, 0.7, 1.0), Rgb::new(1.0, 0.4, 0.9)];
+
 pub fn splat_photons(scene: &Scene, tracer: &dyn Tracer, maps: &PhotonMaps, which: &[usize]) -> Image {
     let cam = &scene.camera;
     let mut img = Image::new(cam.width, cam.height);
@@ -256,7 +262,7 @@ pub fn splat_photons(scene: &Scene, tracer: &dyn Tracer, maps: &PhotonMaps, whic
     let weight = (2.0 * img.pixels.len() as f32 / total.max(1) as f32).clamp(0.02, 0.5);
     for &m in which {
         let Some(map) = &maps.maps[m] else { continue };
-        let tint = [Rgb::new(1.0, 0.9, 0.6), Rgb::new(0.5, 0.7, 1.0), Rgb::new(1.0, 0.4, 0.9)][m];
+        let tint = PHOTON_TINTS[m];
         for i in 0..map.len() as u32 {
             let p = glam::Vec3::from_array(map.tree.position(i));
             let Some((x, y)) = cam.project(p) else {

@@ -85,9 +85,10 @@ pub fn ppm_pass(
     pm.specular_spp = plan.specular_spp;
     pm.radius = Some(r);
     let cam = &scene.camera;
-    let out = render(cam.width, cam.height, 1, pass_seed(scene.render.seed, i), "eye pass", true, |x, y, rng, c| {
-        pm.li(cam.ray(x, y), rng, c)
-    });
+    // Each pass is one eye sample per pixel with its own scramble (passes must stay independent).
+    let (sampler, seed) = (scene.render.sampler, pass_seed(scene.render.seed, i));
+    let out =
+        render(cam.width, cam.height, 1, sampler, seed, "eye pass", true, |x, y, rng, c| pm.li(cam.ray(x, y), rng, c));
     let record = PassRecord {
         pass: i,
         seconds: t0.elapsed().as_secs_f64(),

@@ -10,7 +10,7 @@
 //! count.
 use super::direct::{estimate_direct, DirectStrategy};
 use super::photon_map::build_maps;
-use super::ppm::{initial_radius, pass_request, pass_seed, PassRecord};
+use super::ppm::{initial_radius, pass_request, PassRecord};
 use super::{specular_chain, ChainEnd, Counters};
 use crate::accel::Tracer;
 use crate::color::Rgb;
@@ -60,12 +60,13 @@ impl<'a> Sppm<'a> {
     /// Runs iteration `i` (1-based; the photons and eye samples of iteration i are keyed by i).
     pub fn iterate(&mut self, i: u32) -> anyhow::Result<PassRecord> {
         let t0 = std::time::Instant::now();
-        let seed = pass_seed(self.scene.render.seed, i);
+        let (sampler, base_seed) = (self.scene.render.sampler, self.scene.render.seed);
         let width = self.scene.camera.width as usize;
         let camera: Vec<(Rgb, Option<ChainEnd>, Counters)> = (0..self.pixels.len())
             .into_par_iter()
             .map(|k| {
-                let mut rng = Rng::new(seed, k as u64, 0);
+                // Iteration i is camera sample i − 1 of each pixel: stratified across iterations.
+                let mut rng = Rng::camera(sampler, base_seed, k as u64, (i - 1) as u64);
                 let mut c = Counters::default();
                 let (l, vp) = self.camera_path((k % width) as f32, (k / width) as f32, &mut rng, &mut c);
                 (l, vp, c)

@@ -284,7 +284,8 @@ pub fn run_pass(
                 break;
             }
         }
-        let stored: u64 = maps.iter().map(|m| m.photons.len() as u64).sum();
+        // Each map counts up to what it wants, so the bar reaches 100% exactly when the pass is done.
+        let stored: u64 = maps.iter().zip(s.want).map(|(m, w)| (m.photons.len() as u64).min(w)).sum();
         progress.set_position(stored.min(progress.length().unwrap_or(u64::MAX)));
     }
     stats.shot = next;

@@ -324,6 +324,8 @@ pub struct RenderSettings {
     /// Bounces before Russian roulette starts.
     pub rr_depth: u32,
     pub seed: u64,
+    /// Camera samples: `sobol` (Owen-scrambled Sobol per pixel, the default) or `independent`.
+    pub sampler: crate::math::rng::Sampler,
     /// Preview exposure in stops (PNG only; the EXR is linear radiance).
     pub exposure: f32,
     /// Eye-pass samples per pixel for photon mapping.
@@ -383,6 +385,7 @@ impl Default for RenderSettings {
             max_depth: 64,
             rr_depth: 4,
             seed: 0,
+            sampler: crate::math::rng::Sampler::Sobol,
             exposure: 0.0,
             pm_spp: 4,
             specular_spp: 4,

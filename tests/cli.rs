@@ -1,0 +1,185 @@
+//! The command line as a new user meets it: output names, argument errors blamed on the argument (exit
+//! 2, clap's convention), work refused up front when the plan says it would produce nothing.
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("caustica-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn scene(name: &str) -> String {
+    format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn caustica(args: &[&str], cwd: &Path) -> (i32, String, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_caustica")).args(args).current_dir(cwd).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(!err.contains("panicked"), "caustica {args:?} panicked: {err}");
+    (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stdout).to_string(), err)
+}
+
+fn files(d: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn a_folder_as_output_gets_the_scene_name_not_hidden_files() {
+    let d = dir("folder");
+    let box_ = scene("cornell-box.toml");
+    let small = ["--set", "camera.resolution=[16,16]", "--spp", "1", "--mode", "path", "-q"];
+    let out = format!("{}/", d.join("out").display());
+    let (code, _, err) = caustica(&[&["render", box_.as_str(), "-o", out.as_str()], &small[..]].concat(), &d);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(files(&d.join("out")), ["cornell-box.exr", "cornell-box.json", "cornell-box.png"]);
+    // An existing folder without the slash means the same.
+    std::fs::create_dir_all(d.join("existing")).unwrap();
+    let out = d.join("existing").display().to_string();
+    let (code, _, err) = caustica(&[&["render", box_.as_str(), "-o", out.as_str()], &small[..]].concat(), &d);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(files(&d.join("existing")), ["cornell-box.exr", "cornell-box.json", "cornell-box.png"]);
+}
+
+#[test]
+fn compare_names_its_output_after_its_inputs() {
+    let d = dir("compare");
+    let box_ = scene("cornell-box.toml");
+    for seed in ["1", "2", "3"] {
+        let out = d.join(format!("s{seed}")).display().to_string();
+        let args = [
+            "render",
+            box_.as_str(),
+            "-o",
+            out.as_str(),
+            "--seed",
+            seed,
+            "--set",
+            "camera.resolution=[16,16]",
+            "--spp",
+            "1",
+            "--mode",
+            "path",
+            "-q",
+        ];
+        assert_eq!(caustica(&args, &d).0, 0);
+    }
+    assert_eq!(caustica(&["compare", "s1.exr", "s2.exr"], &d).0, 0);
+    assert_eq!(caustica(&["compare", "s1.exr", "s3.exr"], &d).0, 0);
+    let out = files(&d.join("out"));
+    assert!(
+        out.contains(&"compare-s1-vs-s2.json".to_string()) && out.contains(&"compare-s1-vs-s3.json".to_string()),
+        "{out:?}"
+    );
+}
+
+#[test]
+fn argument_errors_name_the_argument_and_exit_2() {
+    let d = dir("args");
+    let box_ = scene("cornell-box.toml");
+    for (args, expect) in [
+        (vec!["--spp", "0"], "--spp"),
+        (vec!["--spp", "-1"], "--spp"),
+        (vec!["--mode", "foo"], "photon_map"),
+        (vec!["--passes", "0"], "--passes"),
+        (vec!["--time-s", "-3"], "seconds above 0"),
+        (vec!["--threads", "0"], "--threads"),
+    ] {
+        let mut all = vec!["render", box_.as_str(), "-q"];
+        all.extend(&args);
+        let (code, _, err) = caustica(&all, &d);
+        assert_eq!(code, 2, "{args:?}: exit {code}: {err}");
+        assert!(err.contains(expect), "{args:?}: message lacks `{expect}`: {err}");
+        assert!(!err.contains("cornell-box.toml"), "{args:?}: blamed on the scene file: {err}");
+        assert!(!err.contains("-- -1"), "{args:?}: suggests `-- -1`: {err}");
+    }
+    assert!(files(&d).is_empty());
+}
+
+/// The plain Cornell box has no specular surface: no caustic map is planned, so a view of it is refused
+/// at once with the planner's reason, even under -q, instead of shooting photons for a black image.
+#[test]
+fn a_view_of_a_map_the_plan_does_not_build_is_refused_with_the_reason() {
+    let d = dir("view");
+    let box_ = scene("cornell-box.toml");
+    for view in ["map:caustic", "photons:caustic"] {
+        let t0 = std::time::Instant::now();
+        let (code, _, err) = caustica(&["render", box_.as_str(), "-q", "--view", view, "-o", "v"], &d);
+        assert_ne!(code, 0, "{view} accepted");
+        assert!(err.contains("no caustic photons") && err.contains("planner"), "{view}: {err}");
+        assert!(t0.elapsed().as_secs_f64() < 20.0, "{view}: refused only after {:?}", t0.elapsed());
+    }
+    assert!(files(&d).is_empty(), "{:?}", files(&d));
+    // A view the plan does build still works, with a legend on its PNG only (the EXR is the bare image).
+    let glass = scene("cornell-glass.toml");
+    let args = [
+        "render",
+        glass.as_str(),
+        "-q",
+        "--view",
+        "photons:all",
+        "-o",
+        "p",
+        "--set",
+        "camera.resolution=[32,24]",
+        "--set",
+        "render.photons.caustic=2000",
+        "--set",
+        "render.photons.indirect=2000",
+        "--set",
+        "render.photons.direct=2000",
+    ];
+    let (code, out, err) = caustica(&args, &d);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("legend"), "{out}");
+    let png = png_size(&d.join("p.png"));
+    assert_eq!(png, (32, 24 + 18), "the PNG should carry an 18-pixel legend bar above the image");
+}
+
+fn png_size(p: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(p).unwrap();
+    // IHDR: width and height are the big-endian u32s at bytes 16..24.
+    (u32::from_be_bytes(bytes[16..20].try_into().unwrap()), u32::from_be_bytes(bytes[20..24].try_into().unwrap()))
+}
+
+#[test]
+fn a_cached_reference_says_it_came_from_the_cache() {
+    let d = dir("reference");
+    let box_ = scene("cornell-box.toml");
+    let args = ["reference", box_.as_str(), "--spp", "2", "--set", "camera.resolution=[8,8]", "-q"];
+    let (code, first, err) = caustica(&args, &d);
+    assert_eq!(code, 0, "{err}");
+    assert!(first.contains("rendered in"), "{first}");
+    let (code, second, err) = caustica(&args, &d);
+    assert_eq!(code, 0, "{err}");
+    assert!(second.contains("from the cache"), "{second}");
+}
+
+#[test]
+fn bench_commands_take_scene_overrides() {
+    let d = dir("bench");
+    let box_ = scene("cornell-box.toml");
+    let (code, out, err) = caustica(
+        &[
+            "bench",
+            "plan",
+            box_.as_str(),
+            "--set",
+            "camera.resolution=[16,16]",
+            "--set",
+            "render.photons.indirect=2000",
+            "--set",
+            "render.photons.direct=2000",
+        ],
+        &d,
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("time ratio planned/forced"), "{out}");
+}
