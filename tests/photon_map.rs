@@ -290,7 +290,7 @@ fn uniform_photon_density_gives_the_lambertian_radiance_with_and_without_the_con
             photons.push(Photon { p, wi, phi: Rgb::splat(phi / (n * n) as f32), n: Vec3::Y });
         }
     }
-    let map = PhotonMap::build(MapPhotons { photons, n_emitted: 1, complete: true }).unwrap();
+    let map = PhotonMap::build(MapPhotons::from_photons(&photons, 1)).unwrap();
     let expect = rho * (phi / 4.0) / std::f32::consts::PI;
     let mut res = KnnResult::new();
     for cone_k in [0.0f32, 1.1, 2.0] {

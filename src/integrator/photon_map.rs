@@ -274,7 +274,7 @@ pub fn splat_photons(scene: &Scene, tracer: &dyn Tracer, maps: &PhotonMaps, whic
             if tracer.occluded(&r) {
                 continue;
             }
-            let phi = map.tree.item(i).phi();
+            let phi = map.phi(i);
             let lum = luminance(phi).max(1e-30);
             let px = img.get(x as u32, y as u32);
             img.set(x as u32, y as u32, px + tint * (phi / lum).min(glam::Vec3::splat(4.0)) * weight);

@@ -5,15 +5,17 @@
 use crate::color::Rgb;
 use crate::math::face_forward;
 use crate::photon::kdtree::{KdError, KdTree, KnnResult};
-use crate::photon::photon::{Photon, PhotonPayload};
+use crate::photon::photon::PhotonPayload;
 use crate::photon::trace::MapPhotons;
 use crate::scene::SurfaceHit;
 use glam::Vec3;
 
 pub struct PhotonMap {
+    /// Photons with their power as traced; `phi` divides it by `n_emitted`.
     pub tree: KdTree<PhotonPayload>,
     pub n_emitted: u64,
     pub complete: bool,
+    power_scale: f32,
 }
 
 /// Gather parameters of one map.
@@ -25,9 +27,16 @@ pub struct Gather {
 }
 
 impl PhotonMap {
+    /// Builds the tree over the traced photons, consuming them (their memory is released as the tree
+    /// fills).
     pub fn build(m: MapPhotons) -> Result<PhotonMap, KdError> {
-        let pts = m.photons.iter().map(|p: &Photon| (p.p.to_array(), p.payload())).collect();
-        Ok(PhotonMap { tree: KdTree::build(pts)?, n_emitted: m.n_emitted, complete: m.complete })
+        let power_scale = 1.0 / m.n_emitted.max(1) as f32;
+        Ok(PhotonMap { tree: KdTree::build(m.photons)?, n_emitted: m.n_emitted, complete: m.complete, power_scale })
+    }
+
+    /// Power of the photon at tree index `i` per emitted photon (W).
+    pub fn phi(&self, i: u32) -> Rgb {
+        self.tree.item(i).phi() * self.power_scale
     }
 
     pub fn len(&self) -> usize {
@@ -40,7 +49,7 @@ impl PhotonMap {
 
     /// Sum of stored photon powers (W), for conservation checks.
     pub fn total_power(&self) -> Rgb {
-        (0..self.tree.len() as u32).map(|i| self.tree.item(i).phi()).sum()
+        (0..self.tree.len() as u32).map(|i| self.phi(i)).sum()
     }
 
     /// Reflected radiance towards `wo` at the surface point `si` of a Lambertian surface with reflectance
@@ -71,7 +80,7 @@ impl PhotonMap {
                 continue;
             };
             let cone_w = if cone { (1.0 - d2.sqrt() / (g.cone_k * r)).max(0.0) } else { 1.0 };
-            sum += self.tree.item(i).phi() * (w * cone_w);
+            sum += self.phi(i) * (w * cone_w);
         }
         let norm = if cone { 1.0 - 2.0 / (3.0 * g.cone_k) } else { 1.0 };
         sum * rho / (std::f32::consts::PI * std::f32::consts::PI * r2 * norm)
@@ -90,7 +99,7 @@ impl PhotonMap {
         let mut count = 0u32;
         for &(_, i) in res.items() {
             if let Some(w) = f.weight(self.tree.item(i), self.tree.position(i)) {
-                sum += self.tree.item(i).phi() * w;
+                sum += self.phi(i) * w;
                 count += 1;
             }
         }

@@ -26,11 +26,24 @@ const BATCH: u64 = 4096;
 /// Photons gathered for one map, before the tree is built.
 #[derive(Debug, Default, Clone)]
 pub struct MapPhotons {
-    pub photons: Vec<Photon>,
+    /// Positions and compact payloads (20 bytes a photon), power not yet divided by `n_emitted`
+    /// (`PhotonMap` applies 1/n_emitted when it reads a photon).
+    pub photons: Vec<Stored>,
     /// Photons shot (stored or not) that this map's estimate is normalised by.
     pub n_emitted: u64,
     /// False when the shot budget ran out before the requested count was reached.
     pub complete: bool,
+}
+
+/// A photon as the tracer keeps it: position and compact payload (what the k-d tree stores).
+pub type Stored = ([f32; 3], crate::photon::photon::PhotonPayload);
+
+impl MapPhotons {
+    /// A map's photons from full records whose power is already per emitted photon (`n_emitted` = 1
+    /// keeps it so), e.g. photons built by hand in tests.
+    pub fn from_photons(photons: &[Photon], n_emitted: u64) -> MapPhotons {
+        MapPhotons { photons: photons.iter().map(|p| (p.p.to_array(), p.payload())).collect(), n_emitted, complete: true }
+    }
 }
 
 /// What a tracing pass did.
@@ -124,7 +137,7 @@ fn trace_one(
     l: Launch,
     rng: &mut Rng,
     s: &PassSettings,
-    out: &mut [Vec<Photon>; 3],
+    out: &mut [Vec<Stored>; 3],
     segs: &mut u64,
 ) {
     let (mut ray, mut phi) = (l.ray, l.phi);
@@ -157,7 +170,7 @@ fn trace_one(
                 DIRECT
             };
             if s.want[map] > 0 {
-                out[map].push(Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) });
+                out[map].push((si.p.to_array(), Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
             }
             // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
             if s.want[INDIRECT] == 0 || last {
@@ -237,18 +250,28 @@ pub fn run_pass(
 ) -> ([MapPhotons; 3], PassStats) {
     let t0 = std::time::Instant::now();
     let mut maps: [MapPhotons; 3] = Default::default();
+    // A map asked for a count gets its whole vector up front (the want, plus one round of batches of
+    // overshoot): untouched capacity costs no memory, and no doubling ever copies the photons or
+    // leaves spare capacity resident. Progressive passes (no count, a shot budget) just grow.
+    let round = rayon::current_num_threads() as u64 * 4 * BATCH * 4;
+    for (m, &w) in maps.iter_mut().zip(&s.want) {
+        if w > 0 && w < (1 << 34) {
+            m.photons = Vec::with_capacity((w + round) as usize);
+        }
+    }
+    let mut counts = [0u64; 3];
     let mut done = [s.want[0] == 0, s.want[1] == 0, s.want[2] == 0];
     let mut stats = PassStats::default();
     let threads = rayon::current_num_threads() as u64;
     let mut next = 0u64;
     while done.iter().any(|d| !d) && next < s.max_shots {
         let batches = (threads * 4).max(1);
-        let results: Vec<([Vec<Photon>; 3], u64, u64)> = (0..batches)
+        let results: Vec<([Vec<Stored>; 3], u64, u64)> = (0..batches)
             .into_par_iter()
             .map(|b| {
                 let start = (next + b * BATCH).min(s.max_shots);
                 let end = (start + BATCH).min(s.max_shots);
-                let mut out: [Vec<Photon>; 3] = Default::default();
+                let mut out: [Vec<Stored>; 3] = Default::default();
                 let mut segs = 0u64;
                 for i in start..end {
                     let mut rng = Rng::new(s.seed, s.pass, i);
@@ -272,9 +295,10 @@ pub fn run_pass(
                 if done[m] {
                     continue;
                 }
-                maps[m].photons.extend(photons);
+                counts[m] += photons.len() as u64;
+                maps[m].photons.extend_from_slice(&photons);
                 maps[m].n_emitted = end;
-                if maps[m].photons.len() as u64 >= s.want[m] {
+                if counts[m] >= s.want[m] {
                     done[m] = true;
                     maps[m].complete = true;
                 }
@@ -285,17 +309,11 @@ pub fn run_pass(
             }
         }
         // Each map counts up to what it wants, so the bar reaches 100% exactly when the pass is done.
-        let stored: u64 = maps.iter().zip(s.want).map(|(m, w)| (m.photons.len() as u64).min(w)).sum();
+        let stored: u64 = counts.iter().zip(s.want).map(|(&c, w)| c.min(w)).sum();
         progress.set_position(stored.min(progress.length().unwrap_or(u64::MAX)));
     }
     stats.shot = next;
     stats.budget_exhausted = done.iter().any(|d| !d);
     stats.seconds = t0.elapsed().as_secs_f64();
-    for m in maps.iter_mut() {
-        let scale = 1.0 / m.n_emitted.max(1) as f32;
-        for p in m.photons.iter_mut() {
-            p.phi *= scale;
-        }
-    }
     (maps, stats)
 }

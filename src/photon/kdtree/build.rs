@@ -11,7 +11,7 @@ struct Work<'a, T> {
     axes: &'a [std::sync::atomic::AtomicU8],
 }
 
-impl<T: Copy + Send + Sync> KdTree<T> {
+impl<T: Copy + Default + Send + Sync> KdTree<T> {
     /// Builds the tree; refuses non-finite positions (with their count).
     pub fn build(points: Vec<([f32; 3], T)>) -> Result<KdTree<T>, KdError> {
         let n = points.len();
@@ -29,18 +29,27 @@ impl<T: Copy + Send + Sync> KdTree<T> {
         let axes: Vec<std::sync::atomic::AtomicU8> = (0..inner).map(|_| Default::default()).collect();
         let mut pts = points;
         split_node(Work { pts: &mut pts, splits: &splits, axes: &axes }, 0, 0, depth);
-        let mut t = KdTree {
-            pos: Vec::with_capacity(n),
-            items: Vec::with_capacity(n),
+        // Into structure-of-arrays form from the back, a block at a time, shrinking the source as it
+        // empties: the points are held about once, not twice, at the peak (the positions' zeroed
+        // allocation is only backed by memory where it is written).
+        let mut pos = vec![[0.0f32; 3]; n];
+        let mut items = vec![T::default(); n];
+        const BLOCK: usize = 1 << 20;
+        while !pts.is_empty() {
+            let from = pts.len().saturating_sub(BLOCK);
+            for (i, (p, item)) in pts.drain(from..).enumerate() {
+                pos[from + i] = p;
+                items[from + i] = item;
+            }
+            pts.shrink_to_fit();
+        }
+        Ok(KdTree {
+            pos,
+            items,
             splits: splits.into_iter().map(|a| f32::from_bits(a.into_inner())).collect(),
             axes: axes.into_iter().map(|a| a.into_inner()).collect(),
             depth,
-        };
-        for (p, item) in pts {
-            t.pos.push(p);
-            t.items.push(item);
-        }
-        Ok(t)
+        })
     }
 }
 
