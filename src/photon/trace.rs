@@ -42,7 +42,11 @@ impl MapPhotons {
     /// A map's photons from full records whose power is already per emitted photon (`n_emitted` = 1
     /// keeps it so), e.g. photons built by hand in tests.
     pub fn from_photons(photons: &[Photon], n_emitted: u64) -> MapPhotons {
-        MapPhotons { photons: photons.iter().map(|p| (p.p.to_array(), p.payload())).collect(), n_emitted, complete: true }
+        MapPhotons {
+            photons: photons.iter().map(|p| (p.p.to_array(), p.payload())).collect(),
+            n_emitted,
+            complete: true,
+        }
     }
 }
 
@@ -170,7 +174,8 @@ fn trace_one(
                 DIRECT
             };
             if s.want[map] > 0 {
-                out[map].push((si.p.to_array(), Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
+                out[map]
+                    .push((si.p.to_array(), Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
             }
             // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
             if s.want[INDIRECT] == 0 || last {

@@ -433,10 +433,14 @@ pub struct GatherSettings {
     pub cone_k: f32,
     /// Largest gather radius, as a fraction of the scene's bounding-box diagonal.
     pub max_radius: f32,
+    /// Final gather: read indirect and caustic light where gather rays land from radiance precomputed
+    /// at every `cache_stride`-th indirect photon (Christensen 1999) instead of two k-NN gathers per
+    /// ray; 0 turns the cache off.
+    pub cache_stride: u32,
 }
 
 impl Default for GatherSettings {
     fn default() -> Self {
-        GatherSettings { direct: 50, indirect: 200, caustic: 100, cone_k: 1.1, max_radius: 0.05 }
+        GatherSettings { direct: 50, indirect: 200, caustic: 100, cone_k: 1.1, max_radius: 0.05, cache_stride: 4 }
     }
 }
