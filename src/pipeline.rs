@@ -312,29 +312,26 @@ pub fn render_view(
     };
     let preview = crate::font::label_bar(&img, &items, scene.render.exposure);
     output::write_image_set_with_preview(out, &img, &preview, &stats)?;
-    println!(
-        "wrote {} ({}×{}), {} (with a legend) and {}",
-        with_suffix(out, ".exr").display(),
-        img.width,
-        img.height,
-        with_suffix(out, ".png").display(),
-        with_suffix(out, ".json").display()
-    );
+    say_written(out, &img, " (with a legend)");
     Ok(())
 }
 
 /// Writes OUT.exr, OUT.png and OUT.json together, and says where they went.
 fn write_outputs(out: &Path, img: &Image, exposure: f32, stats: &serde_json::Value) -> Result<()> {
     output::write_image_set(out, img, exposure, stats)?;
+    say_written(out, img, "");
+    Ok(())
+}
+
+fn say_written(out: &Path, img: &Image, png_note: &str) {
     println!(
-        "wrote {} ({}×{}), {} and {}",
+        "wrote {} ({}×{}), {}{png_note} and {}",
         with_suffix(out, ".exr").display(),
         img.width,
         img.height,
         with_suffix(out, ".png").display(),
         with_suffix(out, ".json").display()
     );
-    Ok(())
 }
 
 /// A reference image: the mean of two independent halves, with their RMSE as its noise estimate.

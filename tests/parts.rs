@@ -1,7 +1,8 @@
 //! Split renders: `render --part i/N` then `merge` must give the image one `render` gives with the same
 //! seed, and `merge` must refuse (non-zero exit, a message naming the file, no output written) every
 //! set of parts that is not exactly the N parts of one render.
-use caustica::output::read_exr;
+mod common;
+
 use caustica::parts::{read_partial, write_partial};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -65,24 +66,6 @@ fn merge(parts: &[PathBuf], out: &Path) -> (i32, String) {
     caustica(&args.iter().map(String::as_str).collect::<Vec<_>>())
 }
 
-/// Largest relative per-pixel difference and the number of pixels that are not bit-identical.
-fn difference(a: &Path, b: &Path) -> (f64, usize) {
-    let (a, b) = (read_exr(a).unwrap(), read_exr(b).unwrap());
-    assert_eq!((a.width, a.height), (b.width, b.height));
-    let mut worst = 0.0f64;
-    let mut differ = 0;
-    for (p, q) in a.pixels.iter().zip(&b.pixels) {
-        for k in 0..3 {
-            if p[k].to_bits() != q[k].to_bits() {
-                differ += 1;
-                let rel = (p[k] as f64 - q[k] as f64).abs() / (p[k].abs().max(q[k].abs()) as f64).max(1e-30);
-                worst = worst.max(rel);
-            }
-        }
-    }
-    (worst, differ)
-}
-
 fn split_equals_single(name: &str, scene: &str, extra: &[&str], n: u32, must_be_identical: bool) {
     let d = dir(name);
     let single = d.join("single");
@@ -94,7 +77,7 @@ fn split_equals_single(name: &str, scene: &str, extra: &[&str], n: u32, must_be_
     let parts: Vec<PathBuf> = (0..n).map(|i| part(&d.join("split"), i, n)).collect();
     let (code, err) = merge(&parts, &d.join("merged"));
     assert_eq!(code, 0, "merge failed: {err}");
-    let (worst, differ) = difference(&d.join("single.exr"), &d.join("merged.exr"));
+    let (differ, worst) = common::exr_difference(&d.join("single.exr"), &d.join("merged.exr"));
     println!(
         "{name}: {n} parts vs one render: {differ} channel values differ, largest relative difference {worst:.3e}"
     );

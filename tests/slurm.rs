@@ -9,7 +9,8 @@
 //! ```
 //!
 //! Without a Slurm they fail (they are never skipped silently once asked for).
-use caustica::output::read_exr;
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -58,23 +59,6 @@ fn single(scene: &str, out: &Path, render: &[&str]) {
         .args(render));
 }
 
-/// (number of channel values that differ in their bits, largest relative difference).
-fn difference(a: &Path, b: &Path) -> (usize, f64) {
-    let (a, b) = (read_exr(a).unwrap(), read_exr(b).unwrap());
-    assert_eq!((a.width, a.height), (b.width, b.height));
-    let mut n = 0;
-    let mut worst = 0.0f64;
-    for (p, q) in a.pixels.iter().zip(&b.pixels) {
-        for k in 0..3 {
-            if p[k].to_bits() != q[k].to_bits() {
-                n += 1;
-                worst = worst.max((p[k] - q[k]).abs() as f64 / (p[k].abs().max(q[k].abs()) as f64).max(1e-30));
-            }
-        }
-    }
-    (n, worst)
-}
-
 fn job_ids(text: &str) -> (String, String) {
     let line = text.lines().find(|l| l.starts_with("ARRAY_JOB=")).unwrap_or_else(|| panic!("no job ids in:\n{text}"));
     let mut ids = line.split_whitespace().map(|kv| kv.split_once('=').unwrap().1.to_string());
@@ -87,7 +71,7 @@ fn array_and_merge_equal_one_machine(name: &str, scene: &str, render: &[&str], b
     single(scene, &d.join("single"), render);
     let (ok, text) = cluster_render(scene, &d.join("cluster"), &["--wait"], render);
     assert!(ok, "cluster render failed:\n{text}");
-    let (n, worst) = difference(&d.join("single.exr"), &d.join("cluster.exr"));
+    let (n, worst) = common::exr_difference(&d.join("single.exr"), &d.join("cluster.exr"));
     println!("{name}: Slurm 4-task array + merge vs one machine: {n} values differ, worst relative {worst:.3e}");
     if bit_identical {
         assert_eq!(n, 0);
@@ -177,7 +161,7 @@ fn slurm_cancelled_task_is_named_and_resubmitting_it_completes_the_image() {
 
     let (ok, text) = cluster_render("cornell-box.toml", &out, &["--only", "2", "--wait"], &render);
     assert!(ok, "resubmitting part 2 failed:\n{text}");
-    let (n, worst) = difference(&full.with_extension("exr"), &out.with_extension("exr"));
+    let (n, worst) = common::exr_difference(&full.with_extension("exr"), &out.with_extension("exr"));
     println!("resubmitted part 2: {n} values differ from the complete run (worst {worst:e})");
     assert_eq!(n, 0, "the resubmitted run differs from the complete run");
 }

@@ -47,3 +47,21 @@ pub fn inward_box(lo: f32, hi: f32, material: &str, emission: Option<f32>) -> St
 pub fn surface_at(p: Vec3, n: Vec3) -> SurfaceHit {
     SurfaceHit { p, ng: n, ns: n, shape: 0, prim: 0, scale: 1.0 }
 }
+
+/// How two EXR files differ: (channel values whose bits differ, largest relative difference among them).
+pub fn exr_difference(a: &Path, b: &Path) -> (usize, f64) {
+    let (a, b) = (caustica::output::read_exr(a).unwrap(), caustica::output::read_exr(b).unwrap());
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let mut n = 0;
+    let mut worst = 0.0f64;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        for k in 0..3 {
+            if p[k].to_bits() != q[k].to_bits() {
+                n += 1;
+                let rel = (p[k] as f64 - q[k] as f64).abs() / (p[k].abs().max(q[k].abs()) as f64).max(1e-30);
+                worst = worst.max(rel);
+            }
+        }
+    }
+    (n, worst)
+}
