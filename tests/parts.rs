@@ -7,17 +7,8 @@ use caustica::parts::{read_partial, write_partial};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const BOX: &[&str] = &["--set", "camera.resolution=[64,48]", "--spp", "16"];
-const GLASS_PM: &[&str] = &[
-    "--set",
-    "camera.resolution=[64,48]",
-    "--mode",
-    "photon_map",
-    "--set",
-    "render.photons.caustic=20000",
-    "--set",
-    "render.photons.indirect=20000",
-];
+use common::{SMALL_BOX as BOX, SMALL_GLASS_PM as GLASS_PM};
+
 const GLASS_PPM: &[&str] = &[
     "--set",
     "camera.resolution=[48,36]",

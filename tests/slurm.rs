@@ -83,29 +83,14 @@ fn array_and_merge_equal_one_machine(name: &str, scene: &str, render: &[&str], b
 #[test]
 #[ignore = "needs a running Slurm (scripts/local-slurm start); scripts/test runs it"]
 fn slurm_array_path_tracing_merges_to_the_single_render() {
-    array_and_merge_equal_one_machine(
-        "pt",
-        "cornell-box.toml",
-        &["--set", "camera.resolution=[64,48]", "--spp", "16"],
-        false,
-    );
+    array_and_merge_equal_one_machine("pt", "cornell-box.toml", common::SMALL_BOX, false);
 }
 
 /// Photon mapping, 4 array tasks, each a quarter of the rows over the same (deterministic) maps.
 #[test]
 #[ignore = "needs a running Slurm (scripts/local-slurm start); scripts/test runs it"]
 fn slurm_array_photon_mapping_merges_bit_identically() {
-    let render = [
-        "--set",
-        "camera.resolution=[64,48]",
-        "--mode",
-        "photon_map",
-        "--set",
-        "render.photons.caustic=20000",
-        "--set",
-        "render.photons.indirect=20000",
-    ];
-    array_and_merge_equal_one_machine("pm", "cornell-glass.toml", &render, true);
+    array_and_merge_equal_one_machine("pm", "cornell-glass.toml", common::SMALL_GLASS_PM, true);
 }
 
 /// A cancelled task: the merge job never runs, `merge` by hand refuses naming the missing part and
@@ -114,14 +99,14 @@ fn slurm_array_photon_mapping_merges_bit_identically() {
 #[ignore = "needs a running Slurm (scripts/local-slurm start); scripts/test runs it"]
 fn slurm_cancelled_task_is_named_and_resubmitting_it_completes_the_image() {
     require_slurm();
-    let render = ["--set", "camera.resolution=[64,48]", "--spp", "16"];
+    let render = common::SMALL_BOX;
     let d = dir("cancel");
     let full = d.join("full");
-    let (ok, text) = cluster_render("cornell-box.toml", &full, &["--wait"], &render);
+    let (ok, text) = cluster_render("cornell-box.toml", &full, &["--wait"], render);
     assert!(ok, "complete run failed:\n{text}");
 
     let out = d.join("box");
-    let (ok, text) = cluster_render("cornell-box.toml", &out, &["--hold"], &render);
+    let (ok, text) = cluster_render("cornell-box.toml", &out, &["--hold"], render);
     assert!(ok, "submission failed:\n{text}");
     let (array, merge) = job_ids(&text);
     sh(Command::new("scancel").arg(format!("{array}_2")));
@@ -159,7 +144,7 @@ fn slurm_cancelled_task_is_named_and_resubmitting_it_completes_the_image() {
         assert!(!caustica::output::with_suffix(&out, ext).exists(), "merge wrote {ext} although it refused");
     }
 
-    let (ok, text) = cluster_render("cornell-box.toml", &out, &["--only", "2", "--wait"], &render);
+    let (ok, text) = cluster_render("cornell-box.toml", &out, &["--only", "2", "--wait"], render);
     assert!(ok, "resubmitting part 2 failed:\n{text}");
     let (n, worst) = common::exr_difference(&full.with_extension("exr"), &out.with_extension("exr"));
     println!("resubmitted part 2: {n} values differ from the complete run (worst {worst:e})");

@@ -65,3 +65,17 @@ pub fn exr_difference(a: &Path, b: &Path) -> (usize, f64) {
     }
     (n, worst)
 }
+
+/// Render options of the small split-render tests (tests/parts.rs and tests/slurm.rs): the Cornell box
+/// path traced, and the glass box photon mapped.
+pub const SMALL_BOX: &[&str] = &["--set", "camera.resolution=[64,48]", "--spp", "16"];
+pub const SMALL_GLASS_PM: &[&str] = &[
+    "--set",
+    "camera.resolution=[64,48]",
+    "--mode",
+    "photon_map",
+    "--set",
+    "render.photons.caustic=20000",
+    "--set",
+    "render.photons.indirect=20000",
+];
