@@ -154,8 +154,7 @@ fn cmd_merge(parts: &[PathBuf], out: &Path) -> Result<()> {
     let merged = crate::parts::merge(parts)?;
     let name = parts[0].file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
     let out = crate::output::in_folder(out.to_path_buf(), name.split("-part-").next().unwrap_or("merged"));
-    let out = out.as_path();
-    crate::pipeline::write_layers(out, &merged.images, merged.exposure)
+    crate::pipeline::write_layers(&out, &merged.images, merged.exposure)
 }
 
 fn cmd_info(a: InfoArgs) -> Result<()> {

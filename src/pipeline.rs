@@ -4,7 +4,9 @@ use crate::accel::{Accel, Tracer};
 use crate::film::Image;
 use crate::film::Sums;
 use crate::integrator::path::PathTracer;
-use crate::integrator::photon_map::{build_maps, splat_photons, MapRequest, PhotonMapper, PhotonMaps, PHOTON_TINTS};
+use crate::integrator::photon_map::{
+    build_maps, splat_photons, MapRequest, PhotonMapper, PhotonMaps, RadianceCache, PHOTON_TINTS,
+};
 use crate::integrator::Counters;
 use crate::math::Ray;
 use crate::metrics::compare;
@@ -113,8 +115,7 @@ pub fn render_layers(
     }
     if mode != Mode::Path {
         need("image rows", scene.camera.height as u64, "camera.resolution")?;
-        let maps = build_maps(scene, accel, &MapRequest::planned(scene, plan), quiet)?;
-        let r = render_photon_map_share(scene, accel, &maps, plan, None, share(true), quiet);
+        let (maps, r) = render_pm_share(scene, accel, plan, share(true), quiet)?;
         let mut stats = base.clone();
         stats["mode"] = json!("photon_map");
         stats["plan"] = json!(plan);
@@ -154,7 +155,7 @@ pub fn write_layers(out: &Path, layers: &[(String, Image, serde_json::Value)], e
 
 /// Renders with the path tracer.
 pub fn render_path(scene: &Scene, tracer: &dyn Tracer, spp: u32, quiet: bool) -> RenderOutput {
-    finished(render_path_share(scene, tracer, spp, Share::All, quiet))
+    render_path_share(scene, tracer, spp, Share::All, quiet).finish()
 }
 
 /// A share of a path-traced render.
@@ -165,10 +166,6 @@ pub fn render_path_share(scene: &Scene, tracer: &dyn Tracer, spp: u32, share: Sh
     render_share(cam.width, cam.height, spp, r.sampler, r.seed, share, "path", quiet, |x, y, rng, c: &mut Counters| {
         pt.li(cam.ray(x, y), rng, c)
     })
-}
-
-fn finished(s: ShareOutput) -> RenderOutput {
-    RenderOutput { image: s.sums.image(), counters: s.counters, seconds: s.seconds }
 }
 
 fn add_counters(stats: &mut serde_json::Value, c: &Counters, seconds: f64) {
@@ -191,9 +188,21 @@ pub fn plan_for(scene: &Scene, tracer: &dyn Tracer) -> Plan {
 
 /// Photon mapping as `plan` says: the maps it asks for, then the eye pass (whose `seconds` it returns).
 pub fn render_pm(scene: &Scene, tracer: &dyn Tracer, plan: &Plan, quiet: bool) -> Result<(PhotonMaps, RenderOutput)> {
-    let req = MapRequest::planned(scene, plan);
-    let maps = build_maps(scene, tracer, &req, quiet)?;
-    let r = render_photon_map(scene, tracer, &maps, plan, None, quiet);
+    let (maps, r) = render_pm_share(scene, tracer, plan, Share::All, quiet)?;
+    Ok((maps, r.finish()))
+}
+
+/// `render_pm`'s share: every share builds the same (deterministic) maps, then renders its part of
+/// the eye pass.
+pub fn render_pm_share(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    plan: &Plan,
+    share: Share,
+    quiet: bool,
+) -> Result<(PhotonMaps, ShareOutput)> {
+    let maps = build_maps(scene, tracer, &MapRequest::planned(scene, plan), quiet)?;
+    let r = render_photon_map_share(scene, tracer, &maps, plan, None, share, quiet);
     Ok((maps, r))
 }
 
@@ -213,7 +222,7 @@ pub fn render_photon_map(
     only: Option<usize>,
     quiet: bool,
 ) -> RenderOutput {
-    finished(render_photon_map_share(scene, tracer, maps, plan, only, Share::All, quiet))
+    render_photon_map_share(scene, tracer, maps, plan, only, Share::All, quiet).finish()
 }
 
 /// A share of the photon-map eye pass.
@@ -228,6 +237,9 @@ pub fn render_photon_map_share(
 ) -> ShareOutput {
     let mut pm = PhotonMapper::new(scene, tracer, maps, only);
     pm.specular_spp = plan.specular_spp;
+    if scene.render.final_gather > 0 && only.is_none() {
+        pm.cache = RadianceCache::build(scene, tracer, maps, &pm.gather, scene.render.gather.cache_stride);
+    }
     let cam = &scene.camera;
     render_share(
         cam.width,

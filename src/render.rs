@@ -57,6 +57,13 @@ pub struct ShareOutput {
     pub seconds: f64,
 }
 
+impl ShareOutput {
+    /// The finished render: each pixel's sum divided by its weight.
+    pub fn finish(self) -> RenderOutput {
+        RenderOutput { image: self.sums.image(), counters: self.counters, seconds: self.seconds }
+    }
+}
+
 /// Renders `spp` samples per pixel with `sample(x, y, rng, counters)` returning one radiance sample for
 /// a film position; the sampler for (pixel, sample) is keyed by `seed`, so threads never change the result.
 #[allow(clippy::too_many_arguments)]
@@ -73,8 +80,7 @@ pub fn render<F>(
 where
     F: Fn(f32, f32, &mut Rng, &mut Counters) -> Rgb + Sync,
 {
-    let s = render_share(width, height, spp, sampler, seed, Share::All, label, quiet, sample);
-    RenderOutput { image: s.sums.image(), counters: s.counters, seconds: s.seconds }
+    render_share(width, height, spp, sampler, seed, Share::All, label, quiet, sample).finish()
 }
 
 /// `render`'s share `share`: each pixel's samples are summed in f64 in sample order, so the sums of

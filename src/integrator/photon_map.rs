@@ -159,7 +159,7 @@ pub struct CachedRadiance {
 /// estimate there uses the same filters as an eye-pass gather.
 pub struct RadianceCache {
     tree: KdTree<CachedRadiance>,
-    /// Farthest a lookup may go (squared), about the photon spacing the cache was built with.
+    /// Farthest a lookup may go (squared): the indirect map's largest gather radius.
     max_r2: f32,
 }
 
@@ -238,7 +238,8 @@ pub struct PhotonMapper<'a> {
     /// Progressive passes: every map is read with this fixed gather radius (box kernel, all photons
     /// within it) instead of its k nearest photons.
     pub radius: Option<f32>,
-    /// Final gather's precomputed radiance (built when `render.final_gather` > 0).
+    /// Final gather's precomputed radiance, read by gather rays when set (the fixed photon mapper's
+    /// eye pass sets it when `render.final_gather` > 0; progressive passes do not).
     pub cache: Option<RadianceCache>,
 }
 
@@ -252,11 +253,16 @@ impl<'a> PhotonMapper<'a> {
         let g = &scene.render.gather;
         let max_r = g.max_radius * scene.diagonal();
         let mk = |k: u32| Gather { k: k as usize, max_r2: max_r * max_r, cone_k: g.cone_k };
-        let gather = [mk(g.direct), mk(g.indirect), mk(g.caustic)];
-        let cache = (scene.render.final_gather > 0 && only.is_none())
-            .then(|| RadianceCache::build(scene, tracer, maps, &gather, g.cache_stride))
-            .flatten();
-        PhotonMapper { scene, tracer, maps, gather, only, specular_spp: scene.render.specular_spp, radius: None, cache }
+        PhotonMapper {
+            scene,
+            tracer,
+            maps,
+            gather: [mk(g.direct), mk(g.indirect), mk(g.caustic)],
+            only,
+            specular_spp: scene.render.specular_spp,
+            radius: None,
+            cache: None,
+        }
     }
 
     fn map_radiance(&self, m: usize, si: &SurfaceHit, wo: glam::Vec3, rho: Rgb) -> Rgb {
@@ -293,7 +299,7 @@ impl<'a> PhotonMapper<'a> {
         if fg > 0 {
             return direct + self.map_radiance(CAUSTIC, si, wo, rho) + self.final_gather(si, wo, rng, c, fg);
         }
-        if in_gather && self.radius.is_none() {
+        if in_gather {
             if let Some(l) =
                 self.cache.as_ref().and_then(|cache| SCRATCH.with(|r| cache.lookup(si, wo, &mut r.borrow_mut())))
             {
@@ -345,10 +351,10 @@ impl<'a> PhotonMapper<'a> {
     }
 }
 
-/// Photon positions splatted onto the film (visible ones only), coloured by normalised power.
 /// The colours of the direct, indirect and caustic photons in `--view photons:…` (and its legend).
 pub const PHOTON_TINTS: [Rgb; 3] = [Rgb::new(1.0, 0.9, 0.6), Rgb::new(0.5, 0.7, 1.0), Rgb::new(1.0, 0.4, 0.9)];
 
+/// Photon positions splatted onto the film (visible ones only), coloured by normalised power.
 pub fn splat_photons(scene: &Scene, tracer: &dyn Tracer, maps: &PhotonMaps, which: &[usize]) -> Image {
     let cam = &scene.camera;
     let mut img = Image::new(cam.width, cam.height);

@@ -264,7 +264,6 @@ pub fn run_pass(
             m.photons = Vec::with_capacity((w + round) as usize);
         }
     }
-    let mut counts = [0u64; 3];
     let mut done = [s.want[0] == 0, s.want[1] == 0, s.want[2] == 0];
     let mut stats = PassStats::default();
     let threads = rayon::current_num_threads() as u64;
@@ -300,10 +299,9 @@ pub fn run_pass(
                 if done[m] {
                     continue;
                 }
-                counts[m] += photons.len() as u64;
                 maps[m].photons.extend_from_slice(&photons);
                 maps[m].n_emitted = end;
-                if counts[m] >= s.want[m] {
+                if maps[m].photons.len() as u64 >= s.want[m] {
                     done[m] = true;
                     maps[m].complete = true;
                 }
@@ -314,7 +312,7 @@ pub fn run_pass(
             }
         }
         // Each map counts up to what it wants, so the bar reaches 100% exactly when the pass is done.
-        let stored: u64 = counts.iter().zip(s.want).map(|(&c, w)| c.min(w)).sum();
+        let stored: u64 = maps.iter().zip(s.want).map(|(m, w)| (m.photons.len() as u64).min(w)).sum();
         progress.set_position(stored.min(progress.length().unwrap_or(u64::MAX)));
     }
     stats.shot = next;
