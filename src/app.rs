@@ -11,6 +11,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(a) => cmd_render(a),
         Command::Info(a) => cmd_info(a),
+        Command::Convert { scene, out } => cmd_convert(&scene, &out),
         Command::Bench(BenchCommand::Rays { scene, set, rounds }) => crate::bench::rays(&scene, rounds, &set),
         Command::Bench(BenchCommand::Photons { scene, photons, set }) => crate::bench::photons(&scene, photons, &set),
         Command::Bench(BenchCommand::Plan { scene, set }) => crate::bench::plan(&scene, &set),
@@ -155,6 +156,42 @@ fn cmd_merge(parts: &[PathBuf], out: &Path) -> Result<()> {
     let name = parts[0].file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
     let out = crate::output::in_folder(out.to_path_buf(), name.split("-part-").next().unwrap_or("merged"));
     crate::pipeline::write_layers(&out, &merged.images, merged.exposure)
+}
+
+fn cmd_convert(scene: &Path, out: &Path) -> Result<()> {
+    use crate::scene::{load, mitsuba};
+    if !load::is_mitsuba(scene) {
+        bail!("{}: convert reads Mitsuba XML scenes (.xml); caustica's own TOML needs no converting", scene.display());
+    }
+    if load::is_mitsuba(out) || out.extension().is_none_or(|e| e != "toml") {
+        bail!("{}: the output must be a .toml file", out.display());
+    }
+    let mut conv = mitsuba::convert(scene)?;
+    for w in &conv.warnings {
+        eprintln!("warning: {w}");
+    }
+    let from = scene.parent().unwrap_or(Path::new(""));
+    let to = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(to).with_context(|| format!("cannot create {}", to.display()))?;
+    mitsuba::rebase(&mut conv.file, from, to).map_err(anyhow::Error::msg)?;
+    let shown = out.display().to_string();
+    let text = format!(
+        "# Converted from {} by `caustica convert` (Mitsuba's one-sided BSDFs are `two_sided = false`).\n{}",
+        scene.display(),
+        load::scene_file_toml(&conv.file, &shown)?
+    );
+    load::load_scene_str(&text, &shown, to, &[]).context("the converted scene does not load; nothing was written")?;
+    crate::output::atomic_write(out, |tmp| {
+        std::fs::write(tmp, &text).with_context(|| format!("cannot write {}", tmp.display()))
+    })?;
+    println!(
+        "wrote {} ({} shapes, {} materials, {} lights)",
+        out.display(),
+        conv.file.shapes.len(),
+        conv.file.materials.len(),
+        conv.file.lights.len()
+    );
+    Ok(())
 }
 
 fn cmd_info(a: InfoArgs) -> Result<()> {

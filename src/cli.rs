@@ -20,6 +20,16 @@ pub enum Command {
     Render(RenderArgs),
     /// Print what a scene contains: shapes, triangles, lights, bounds, memory, load and BVH times.
     Info(InfoArgs),
+    /// Write a Mitsuba 3 XML scene as caustica's TOML (mesh and image paths rebased to the output's
+    /// folder). The TOML is loaded once before it is written, so what is written renders.
+    #[command(after_help = "Example:\n  caustica convert tests/mitsuba/showcase.xml -o out/showcase.toml")]
+    Convert {
+        /// Mitsuba XML scene (<scene version=\"3.x\">; the subset the README lists).
+        scene: PathBuf,
+        /// TOML file to write (replaced atomically if it exists).
+        #[arg(short, long)]
+        out: PathBuf,
+    },
     /// Throughput benchmarks, each against a baseline measured in the same run.
     #[command(subcommand)]
     Bench(BenchCommand),

@@ -84,10 +84,9 @@ fn may_be_lit(scene: &Scene, s: usize) -> bool {
 pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     let r = &scene.render;
     let mut reasons = Vec::new();
-    let is_diffuse = |s: usize| scene.materials[scene.shapes[s].material as usize].is_diffuse();
-    let lit_diffuse: Vec<usize> = (0..scene.shapes.len())
-        .filter(|&s| is_diffuse(s) && scene.materials[scene.shapes[s].material as usize].albedo().max_element() > 0.0)
-        .collect();
+    let is_diffuse = |s: usize| scene.material_of(s as u32).bsdf.is_diffuse();
+    let lit_diffuse: Vec<usize> =
+        (0..scene.shapes.len()).filter(|&s| is_diffuse(s) && scene.max_albedo(s as u32) > 0.0).collect();
     let specular: Vec<usize> = (0..scene.shapes.len()).filter(|&s| !is_diffuse(s)).collect();
 
     let mut targets = Vec::new();
@@ -162,11 +161,8 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
 fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &mut Vec<String>) -> Vec<bool> {
     let lights = &scene.lights;
     let eps = 1e-4 * scene.diagonal().max(1e-6);
-    let targets: Vec<Vec3> = seen
-        .iter()
-        .filter(|(s, _)| scene.materials[scene.shapes[*s as usize].material as usize].is_diffuse())
-        .map(|&(_, p)| p)
-        .collect();
+    let targets: Vec<Vec3> =
+        seen.iter().filter(|(s, _)| scene.material_of(*s).bsdf.is_diffuse()).map(|&(_, p)| p).collect();
     let mut keep = vec![true; lights.list.len()];
     let mut i = 0;
     while i < lights.list.len() {

@@ -85,7 +85,7 @@ fn slab(theta: f32, n: usize) -> (f64, f64) {
             };
             let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
             let wo = -ray.d;
-            let s = glass.sample(wo, si.ns, rng.next_2d(), rng.next_f32(), TransportMode::Radiance).unwrap();
+            let s = glass.bsdf.sample(wo, si.ns, rng.next_2d(), rng.next_f32(), TransportMode::Radiance).unwrap();
             w *= s.weight.x;
             ray = si.spawn(s.wi);
         }

@@ -113,7 +113,7 @@ fn ball_lens_focuses_near_the_paraxial_focus() {
         let hit = accel.intersect(&ray).unwrap();
         let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
         // uc = 1: always refract (Fresnel reflection is not the path being checked).
-        let s = glass.sample(-ray.d, si.ns, [0.0, 0.0], 0.999_999, TransportMode::Importance).unwrap();
+        let s = glass.bsdf.sample(-ray.d, si.ns, [0.0, 0.0], 0.999_999, TransportMode::Importance).unwrap();
         assert!(s.transmitted);
         ray = si.spawn(s.wi);
     }

@@ -66,6 +66,7 @@ fn clone_scene(s: &Scene) -> Scene {
         camera: s.camera.clone(),
         materials: s.materials.clone(),
         material_names: s.material_names.clone(),
+        textures: s.textures.clone(),
         shapes: s.shapes.clone(),
         lights: s.lights.clone(),
         render: s.render.clone(),
@@ -98,6 +99,7 @@ fn self_hit_rate(scene: &Scene, accel: &Accel, shape: usize) -> f64 {
             shape: shape as u32,
             prim: prim as u32,
             scale: (b - a).length().max((c - a).length()),
+            uv: glam::Vec2::ZERO,
         };
         if let Some(h) = accel.intersect(&si.spawn(w)) {
             bad += (h.shape == shape as u32 && h.prim == prim as u32) as usize;
@@ -227,7 +229,7 @@ fn snell_with_relative_index_under_water() {
     let m = &scene.materials[scene.material_names.iter().position(|n| n == "inwater").unwrap()];
     let theta = 40f32.to_radians();
     let wo = Vec3::new(-theta.sin(), theta.cos(), 0.0);
-    let s = m.sample(wo, Vec3::Y, [0.0, 0.0], 0.999_999, caustica::scene::TransportMode::Importance).unwrap();
+    let s = m.bsdf.sample(wo, Vec3::Y, [0.0, 0.0], 0.999_999, caustica::scene::TransportMode::Importance).unwrap();
     assert!(s.transmitted);
     let sin_t = s.wi.x.abs();
     assert!((sin_t - 1.33 / 1.5 * theta.sin()).abs() < 1e-5, "sin θt = {sin_t}");

@@ -28,7 +28,7 @@ pub fn estimate_direct(
     c: &mut Counters,
     strategy: DirectStrategy,
 ) -> Rgb {
-    let mat = scene.material_of(si.shape);
+    let mat = scene.bsdf(si, wo);
     let u_sel = rng.next_f32();
     let u = rng.next_2d();
     let mis = strategy == DirectStrategy::Mis;

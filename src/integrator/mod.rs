@@ -44,15 +44,15 @@ pub fn specular_chain(
     let mut emitted = Rgb::ZERO;
     for _ in 0..=scene.render.max_depth {
         c.rays += 1;
-        let Some(crate::accel::Interaction { hit, si, wo }) = crate::accel::interact(scene, tracer, &ray) else {
+        let Some(crate::accel::Interaction { si, wo, .. }) = crate::accel::interact(scene, tracer, &ray) else {
             break;
         };
         emitted += beta * scene.emitted(&si, wo);
-        let mat = scene.material_of(hit.shape);
+        let mat = scene.bsdf(&si, wo);
         if mat.is_diffuse() {
             return (emitted, Some(ChainEnd { si, wo, beta }));
         }
-        let Some((bs, next)) = si.scatter(mat, wo, rng, crate::scene::TransportMode::Radiance) else {
+        let Some((bs, next)) = si.scatter(&mat, wo, rng, crate::scene::TransportMode::Radiance) else {
             break;
         };
         beta *= bs.weight;

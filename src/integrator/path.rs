@@ -44,11 +44,11 @@ impl PathTracer<'_> {
             if depth >= self.max_depth {
                 break;
             }
-            let mat = scene.material_of(hit.shape);
+            let mat = scene.bsdf(&si, wo);
             if !mat.is_delta() {
                 l += beta * estimate_direct(scene, self.tracer, &si, wo, rng, c, DirectStrategy::Mis);
             }
-            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Radiance) else {
+            let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Radiance) else {
                 break;
             };
             beta *= bs.weight;

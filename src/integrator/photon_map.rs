@@ -288,7 +288,7 @@ impl<'a> PhotonMapper<'a> {
         fg: u32,
         in_gather: bool,
     ) -> Rgb {
-        let rho = self.scene.material_of(si.shape).albedo();
+        let rho = self.scene.bsdf(si, wo).albedo();
         if let Some(m) = self.only {
             return self.map_radiance(m, si, wo, rho);
         }
@@ -312,10 +312,10 @@ impl<'a> PhotonMapper<'a> {
     /// Indirect light by `n` rays sampled from the surface's BSDF (cosine about the shading normal, as
     /// direct light and the path tracer use it) that read the maps where they land.
     fn final_gather(&self, si: &SurfaceHit, wo: glam::Vec3, rng: &mut Rng, c: &mut Counters, n: u32) -> Rgb {
-        let mat = self.scene.material_of(si.shape);
+        let mat = self.scene.bsdf(si, wo);
         let mut sum = Rgb::ZERO;
         for _ in 0..n {
-            let Some((bs, ray)) = si.scatter(mat, wo, rng, TransportMode::Radiance) else {
+            let Some((bs, ray)) = si.scatter(&mat, wo, rng, TransportMode::Radiance) else {
                 continue;
             };
             // Emission seen by gather rays is direct light or a caustic, already counted: skip it.
@@ -340,7 +340,7 @@ impl<'a> PhotonMapper<'a> {
         let fg = self.scene.render.final_gather;
         let first = self.tracer.intersect(&ray);
         let extra = match first {
-            Some(h) if !self.scene.material_of(h.shape).is_diffuse() => self.specular_spp,
+            Some(h) if !self.scene.material_of(h.shape).bsdf.is_diffuse() => self.specular_spp,
             _ => 0,
         };
         let mut sum = Rgb::ZERO;

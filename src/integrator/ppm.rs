@@ -44,7 +44,7 @@ pub fn initial_radius(scene: &Scene) -> f32 {
     let area: f64 = scene
         .shapes
         .iter()
-        .filter(|s| scene.materials[s.material as usize].is_diffuse())
+        .filter(|s| scene.materials[s.material as usize].bsdf.is_diffuse())
         .map(|s| s.area() as f64)
         .sum();
     let r = (30.0 * area / (std::f64::consts::PI * p.photons_per_pass as f64)).sqrt() as f32;

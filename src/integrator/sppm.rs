@@ -107,7 +107,7 @@ impl<'a> Sppm<'a> {
                 }
             });
             if m > 0 {
-                let rho = scene.material_of(vp.si.shape).albedo();
+                let rho = scene.bsdf(&vp.si, vp.wo).albedo();
                 let phi = vp.beta * rho / std::f32::consts::PI * flux;
                 let n_new = px.n + alpha * m as f32;
                 let r_new = px.r * (n_new / (px.n + m as f32)).sqrt();

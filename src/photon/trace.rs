@@ -73,7 +73,8 @@ impl Targets {
     pub fn new(scene: &Scene, only: Option<&[u32]>) -> Targets {
         let mut t = Targets { shapes: Vec::new(), cdf: Vec::new(), tri_pick: Vec::new(), total_area: 0.0 };
         for (i, s) in scene.shapes.iter().enumerate() {
-            if scene.materials[s.material as usize].is_diffuse() || only.is_some_and(|o| !o.contains(&(i as u32))) {
+            if scene.materials[s.material as usize].bsdf.is_diffuse() || only.is_some_and(|o| !o.contains(&(i as u32)))
+            {
                 continue;
             }
             let tri = match &s.geometry {
@@ -162,8 +163,8 @@ fn trace_one(
             }
         }
         let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-        let mat = scene.material_of(hit.shape);
         let wo = -ray.d.normalize();
+        let mat = scene.bsdf(&si, wo);
         let last = depth + 1 >= s.max_depth;
         if mat.is_diffuse() {
             let map = if diffuse_bounces > 0 {
@@ -185,7 +186,7 @@ fn trace_one(
             if p <= 0.0 || rng.next_f32() >= p {
                 return;
             }
-            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Importance) else {
+            let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
                 return;
             };
             phi *= bs.weight / p;
@@ -195,7 +196,7 @@ fn trace_one(
             if last {
                 return;
             }
-            let Some((bs, next)) = si.scatter(mat, wo, rng, TransportMode::Importance) else {
+            let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
                 return;
             };
             phi *= bs.weight;

@@ -37,6 +37,8 @@ pub struct SceneFile {
     pub camera: CameraSpec,
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialSpec>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub textures: BTreeMap<String, TextureSpec>,
     #[serde(default)]
     pub shapes: Vec<ShapeSpec>,
     #[serde(default)]
@@ -80,26 +82,57 @@ fn default_resolution() -> [u32; 2] {
     [512, 512]
 }
 
+/// A reflectance: an `[r, g, b]` colour or the name of an entry in `[textures]`.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(untagged, expecting = "an [r, g, b] colour or the name of a [textures] entry")]
+pub enum Reflectance {
+    Colour(V3),
+    Texture(String),
+}
+
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum MaterialSpec {
-    /// Lambertian reflector.
-    Diffuse { reflectance: V3 },
+    /// Lambertian reflector; `two_sided = false` makes its back black (Mitsuba's one-sided BSDFs).
+    Diffuse {
+        reflectance: Reflectance,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        two_sided: bool,
+    },
     /// Perfect (or GGX-rough) mirror with a constant specular colour.
     Mirror {
         #[serde(default = "one3")]
         specular: V3,
         #[serde(default)]
         roughness: f32,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        two_sided: bool,
     },
-    /// Metal with Schlick Fresnel from a preset ("Au", "Ag", "Cu", "Al", "Cr") or a given F0 colour.
+    /// Metal: Schlick Fresnel from a preset ("Au", "Ag", "Cu", "Al", "Cr") or a given F0 colour
+    /// (`specular`), or exact Fresnel from a complex index (`eta` and `k`, per channel; `specular` then
+    /// scales it).
     Conductor {
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "Option::is_none")]
         preset: Option<String>,
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "Option::is_none")]
         specular: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        eta: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        k: Option<V3>,
         #[serde(default)]
         roughness: f32,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        two_sided: bool,
+    },
+    /// A thin pane of glass (no refraction offset): reflects or lets light through unbent.
+    #[serde(rename = "thin_dielectric")]
+    ThinDielectric {
+        ior: f32,
+        #[serde(default = "one")]
+        outside_ior: f32,
+        #[serde(default = "one3")]
+        tint: V3,
     },
     /// Smooth glass or water: exact Fresnel, refraction and total internal reflection.
     Dielectric {
@@ -114,6 +147,59 @@ pub enum MaterialSpec {
 
 fn one() -> f32 {
     1.0
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+/// `[textures]`: named patterns and images a diffuse `reflectance` can name. Texture coordinates are
+/// mapped by `uv' = uv · scale + offset`, or by a 2×3 `matrix` (rows [a, b, c], [d, e, f]).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum TextureSpec {
+    /// Two colours in squares of ½ × ½ in uv (color0 at the origin).
+    Checkerboard {
+        #[serde(default = "checker0")]
+        color0: V3,
+        #[serde(default = "checker1")]
+        color1: V3,
+        #[serde(default = "one2")]
+        scale: [f32; 2],
+        #[serde(default)]
+        offset: [f32; 2],
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        matrix: Option<[[f32; 3]; 2]>,
+    },
+    /// PNG, JPEG (sRGB-decoded unless `raw`) or EXR (linear), relative to the scene file.
+    Bitmap {
+        file: String,
+        #[serde(default, skip_serializing_if = "is_false")]
+        raw: bool,
+        /// Bilinear (default) or nearest-texel lookup.
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        bilinear: bool,
+        #[serde(default = "one2")]
+        scale: [f32; 2],
+        #[serde(default)]
+        offset: [f32; 2],
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        matrix: Option<[[f32; 3]; 2]>,
+    },
+}
+
+fn checker0() -> V3 {
+    [0.4; 3]
+}
+fn checker1() -> V3 {
+    [0.2; 3]
+}
+fn one2() -> [f32; 2] {
+    [1.0, 1.0]
 }
 
 fn one3() -> V3 {
@@ -161,6 +247,9 @@ pub enum ShapeSpec {
         /// false (default): flat shading, and normals in the file are not even read.
         #[serde(default)]
         smooth: bool,
+        /// Turn the surface inside out (reverse every triangle and normal).
+        #[serde(default, skip_serializing_if = "is_false")]
+        flip_normals: bool,
     },
     /// Analytic sphere (exact hits; not tessellated).
     Sphere {
@@ -182,6 +271,8 @@ pub enum ShapeSpec {
         transform: TransformSpec,
         #[serde(default)]
         emission: Option<V3>,
+        #[serde(default, skip_serializing_if = "is_false")]
+        flip_normals: bool,
     },
     /// Disk of `radius` around `center` facing `normal` (tessellated into `segments` triangles).
     Disk {
@@ -196,6 +287,8 @@ pub enum ShapeSpec {
         transform: TransformSpec,
         #[serde(default)]
         emission: Option<V3>,
+        #[serde(default, skip_serializing_if = "is_false")]
+        flip_normals: bool,
     },
     /// Surface of revolution: `profile` points [r, y] revolved about the y axis, listed bottom to top
     /// for outward normals (a closed solid goes up the outside and back down the inside).
@@ -235,6 +328,8 @@ pub enum ShapeSpec {
         transform: TransformSpec,
         #[serde(default)]
         emission: Option<V3>,
+        #[serde(default, skip_serializing_if = "is_false")]
+        flip_normals: bool,
     },
 }
 

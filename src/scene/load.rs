@@ -3,8 +3,9 @@
 use crate::color::Rgb;
 use crate::scene::file::*;
 use crate::scene::light::Lights;
-use crate::scene::material::{conductor_preset, Material};
+use crate::scene::material::{conductor_preset, Fresnel, Material, SurfaceMaterial};
 use crate::scene::mesh::{self, TriMesh};
+use crate::scene::texture::{load_image, Texture, UvMap};
 use crate::scene::{Camera, Geometry, Scene, SceneError, Shape};
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
@@ -21,13 +22,45 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 pub fn load_scene_with(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
     let t0 = std::time::Instant::now();
     let shown = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io { file: shown.clone(), msg: e.to_string() })?;
+    let text = if is_mitsuba(path) {
+        let converted = crate::scene::mitsuba::convert(path)?;
+        for w in &converted.warnings {
+            eprintln!("warning: {w}");
+        }
+        scene_file_toml(&converted.file, &shown)?
+    } else {
+        std::fs::read_to_string(path).map_err(|e| SceneError::Io { file: shown.clone(), msg: e.to_string() })?
+    };
     let file = parse_scene_text(&text, &shown, overrides)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut scene = build(file, &shown, &dir)?;
     scene.path = path.to_path_buf();
     scene.load_seconds = t0.elapsed().as_secs_f64();
     Ok(scene)
+}
+
+/// True for a Mitsuba XML scene (by its extension).
+pub fn is_mitsuba(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
+/// The scene file as TOML text (what `caustica convert` writes, and how XML scenes take `--set`).
+pub fn scene_file_toml(file: &SceneFile, shown: &str) -> Result<String, SceneError> {
+    let err = |e: String| SceneError::Parse { file: shown.into(), msg: format!("cannot write as TOML: {e}") };
+    let mut value = toml::Value::try_from(file).map_err(|e| err(e.to_string()))?;
+    shortest_floats(&mut value);
+    toml::to_string(&value).map_err(|e| err(e.to_string()))
+}
+
+/// Every number was an f32: write the shortest decimal that reads back as the same f32 (0.3, not
+/// 0.30000001192092896).
+fn shortest_floats(v: &mut toml::Value) {
+    match v {
+        toml::Value::Float(x) => *x = format!("{}", *x as f32).parse().unwrap_or(*x),
+        toml::Value::Array(a) => a.iter_mut().for_each(shortest_floats),
+        toml::Value::Table(t) => t.iter_mut().for_each(|(_, v)| shortest_floats(v)),
+        _ => {}
+    }
 }
 
 /// Loads a scene from TOML text; relative mesh paths resolve against `dir`; errors name `shown`.
@@ -133,20 +166,27 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     let camera = build_camera(&cx, &file.camera)?;
     check_render(&cx, &file.render)?;
 
+    let mut textures = Textures { list: Vec::new(), index: HashMap::new(), files: HashMap::new() };
+    for (name, spec) in &file.textures {
+        let t = build_texture(&cx, &format!("textures.{name}"), spec, dir)?;
+        textures.index.insert(name.clone(), textures.list.len() as u32);
+        textures.list.push(t);
+    }
     let mut materials = Vec::new();
     let mut names = Vec::new();
     let mut index = HashMap::new();
     for (name, spec) in &file.materials {
         index.insert(name.clone(), materials.len() as u32);
-        materials.push(build_material(&cx, &format!("materials.{name}"), spec)?);
+        materials.push(build_material(&cx, &format!("materials.{name}"), spec, &textures)?);
         names.push(name.clone());
     }
     let mut shapes = Vec::new();
+    let mut out = Built { materials: &mut materials, names: &mut names, shapes: &mut shapes, textures: &mut textures };
     for (i, spec) in file.shapes.iter().enumerate() {
-        build_shape(&cx, &format!("shapes[{i}]"), spec, dir, &index, &mut materials, &mut names, &mut shapes)?;
+        build_shape(&cx, &format!("shapes[{i}]"), spec, dir, &index, &mut out)?;
     }
     let black = materials.len() as u32;
-    materials.push(Material::Diffuse { reflectance: Rgb::ZERO });
+    materials.push(SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO }));
     names.push("(light)".into());
     let mut points = Vec::new();
     for (i, spec) in file.lights.iter().enumerate() {
@@ -158,6 +198,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         camera,
         materials,
         material_names: names,
+        textures: textures.list,
         shapes,
         lights: Lights::default(),
         render: file.render,
@@ -267,7 +308,60 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
     Ok(())
 }
 
-fn build_material(cx: &Ctx, key: &str, spec: &MaterialSpec) -> Result<Material, SceneError> {
+/// Textures built so far: by name (`[textures]`) and by image file (MTL `map_Kd`, loaded once each).
+struct Textures {
+    list: Vec<Texture>,
+    index: HashMap<String, u32>,
+    files: HashMap<PathBuf, u32>,
+}
+
+/// What building the shapes adds to: materials (MTL colours and textures), their names, the shapes.
+struct Built<'a> {
+    materials: &'a mut Vec<SurfaceMaterial>,
+    names: &'a mut Vec<String>,
+    shapes: &'a mut Vec<Shape>,
+    textures: &'a mut Textures,
+}
+
+fn uv_map(
+    cx: &Ctx,
+    key: &str,
+    scale: [f32; 2],
+    offset: [f32; 2],
+    matrix: Option<[[f32; 3]; 2]>,
+) -> Result<UvMap, SceneError> {
+    match matrix {
+        Some(_) if scale != [1.0, 1.0] || offset != [0.0, 0.0] => {
+            Err(cx.err(&format!("{key}.matrix"), "give either `matrix` or scale/offset, not both"))
+        }
+        Some([[a, b, c], [d, e, f]]) => Ok(UvMap([a, b, c, d, e, f])),
+        None => Ok(UvMap::scale_offset(scale, offset)),
+    }
+}
+
+fn build_texture(cx: &Ctx, key: &str, spec: &TextureSpec, dir: &Path) -> Result<Texture, SceneError> {
+    Ok(match spec {
+        TextureSpec::Checkerboard { color0, color1, scale, offset, matrix } => Texture::Checkerboard {
+            color0: cx.colour(&format!("{key}.color0"), *color0, None)?,
+            color1: cx.colour(&format!("{key}.color1"), *color1, None)?,
+            to_uv: uv_map(cx, key, *scale, *offset, *matrix)?,
+        },
+        TextureSpec::Bitmap { file, raw, bilinear, scale, offset, matrix } => {
+            let path = dir.join(file);
+            let (width, height, texels) = load_image(&path, *raw)
+                .map_err(|e| cx.err(&format!("{key}.file"), format!("{}: {e}", path.display())))?;
+            let to_uv = uv_map(cx, key, *scale, *offset, *matrix)?;
+            Texture::Bitmap { file: file.clone(), width, height, texels, to_uv, bilinear: *bilinear }
+        }
+    })
+}
+
+fn build_material(
+    cx: &Ctx,
+    key: &str,
+    spec: &MaterialSpec,
+    textures: &Textures,
+) -> Result<SurfaceMaterial, SceneError> {
     let rough = |r: f32| -> Result<f32, SceneError> {
         if (0.0..=1.0).contains(&r) {
             Ok(r)
@@ -275,33 +369,67 @@ fn build_material(cx: &Ctx, key: &str, spec: &MaterialSpec) -> Result<Material, 
             Err(cx.err(&format!("{key}.roughness"), format!("must be in [0, 1], got {r}")))
         }
     };
+    let sided = |bsdf: Material, two_sided: bool| SurfaceMaterial { bsdf, two_sided, texture: None };
     Ok(match spec {
-        MaterialSpec::Diffuse { reflectance } => {
-            Material::Diffuse { reflectance: cx.colour(&format!("{key}.reflectance"), *reflectance, Some(1.0))? }
+        MaterialSpec::Diffuse { reflectance: Reflectance::Colour(c), two_sided } => {
+            let reflectance = cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?;
+            sided(Material::Diffuse { reflectance }, *two_sided)
         }
-        MaterialSpec::Mirror { specular, roughness } => Material::Conductor {
-            f0: cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?,
-            alpha: rough(*roughness)?,
-            schlick: false,
-        },
-        MaterialSpec::Conductor { preset, specular, roughness } => {
-            let f0 = match (preset, specular) {
-                (Some(p), None) => conductor_preset(p).ok_or_else(|| {
+        MaterialSpec::Diffuse { reflectance: Reflectance::Texture(name), two_sided } => {
+            let t = *textures.index.get(name).ok_or_else(|| {
+                let known: Vec<&String> = textures.index.keys().collect();
+                cx.err(&format!("{key}.reflectance"), format!("unknown texture `{name}` (defined: {known:?})"))
+            })?;
+            let max = textures.list[t as usize].max_value();
+            if max > 1.0 {
+                let msg = format!("texture `{name}` reaches {max}; a reflectance must be in [0, 1]");
+                return Err(cx.err(&format!("{key}.reflectance"), msg));
+            }
+            SurfaceMaterial {
+                bsdf: Material::Diffuse { reflectance: Rgb::ZERO },
+                two_sided: *two_sided,
+                texture: Some(t),
+            }
+        }
+        MaterialSpec::Mirror { specular, roughness, two_sided } => {
+            let fresnel = Fresnel::Constant(cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?);
+            sided(Material::Conductor { fresnel, alpha: rough(*roughness)? }, *two_sided)
+        }
+        MaterialSpec::Conductor { preset, specular, eta, k, roughness, two_sided } => {
+            let fresnel = match (preset, specular, eta, k) {
+                (Some(p), None, None, None) => Fresnel::Schlick(conductor_preset(p).ok_or_else(|| {
                     cx.err(&format!("{key}.preset"), format!("unknown metal `{p}` (accepted: Au, Ag, Cu, Al, Cr)"))
-                })?,
-                (None, Some(s)) => cx.colour(&format!("{key}.specular"), *s, Some(1.0))?,
-                _ => return Err(cx.err(key, "a conductor needs exactly one of `preset` or `specular`")),
+                })?),
+                (None, Some(s), None, None) => {
+                    Fresnel::Schlick(cx.colour(&format!("{key}.specular"), *s, Some(1.0))?)
+                }
+                (None, s, Some(e), Some(kk)) => Fresnel::Complex {
+                    eta: cx.colour(&format!("{key}.eta"), *e, None)?,
+                    k: cx.colour(&format!("{key}.k"), *kk, None)?,
+                    scale: cx.colour(&format!("{key}.specular"), s.unwrap_or([1.0; 3]), Some(1.0))?,
+                },
+                _ => {
+                    let msg =
+                        "a conductor needs `preset`, or `specular`, or `eta` and `k` (with an optional `specular`)";
+                    return Err(cx.err(key, msg));
+                }
             };
-            Material::Conductor { f0, alpha: rough(*roughness)?, schlick: true }
+            sided(Material::Conductor { fresnel, alpha: rough(*roughness)? }, *two_sided)
         }
-        MaterialSpec::Dielectric { ior, outside_ior, tint } => {
+        MaterialSpec::Dielectric { ior, outside_ior, tint }
+        | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
             for (k, v) in [("ior", ior), ("outside_ior", outside_ior)] {
                 if !(*v >= 1.0 / 4.0 && *v <= 4.0) {
                     return Err(cx.err(&format!("{key}.{k}"), format!("must be in [0.25, 4], got {v}")));
                 }
             }
             // Only the ratio matters at an interface: glass (1.5) in water (1.33) bends light by 1.5/1.33.
-            Material::Dielectric { ior: ior / outside_ior, tint: cx.colour(&format!("{key}.tint"), *tint, Some(1.0))? }
+            let (ior, tint) = (ior / outside_ior, cx.colour(&format!("{key}.tint"), *tint, Some(1.0))?);
+            if matches!(spec, MaterialSpec::Dielectric { .. }) {
+                SurfaceMaterial::new(Material::Dielectric { ior, tint })
+            } else {
+                SurfaceMaterial::new(Material::ThinDielectric { ior, tint })
+            }
         }
     })
 }
@@ -338,16 +466,13 @@ pub fn transform_matrix(cx_key: &str, t: &TransformSpec, shown: &str) -> Result<
     Ok(m)
 }
 
-#[allow(clippy::too_many_arguments)]
 fn build_shape(
     cx: &Ctx,
     key: &str,
     spec: &ShapeSpec,
     dir: &Path,
     index: &HashMap<String, u32>,
-    materials: &mut Vec<Material>,
-    names: &mut Vec<String>,
-    shapes: &mut Vec<Shape>,
+    out: &mut Built,
 ) -> Result<(), SceneError> {
     let lookup = |name: &str| -> Result<u32, SceneError> {
         index.get(name).copied().ok_or_else(|| {
@@ -358,28 +483,29 @@ fn build_shape(
     let emission = |e: &Option<V3>| -> Result<Rgb, SceneError> {
         e.map_or(Ok(Rgb::ZERO), |c| cx.colour(&format!("{key}.emission"), c, None))
     };
-    let mut push = |mut mesh: TriMesh, transform: &TransformSpec, material: u32, em: Rgb| -> Result<(), SceneError> {
+    let push = |shapes: &mut Vec<Shape>, mut mesh: TriMesh, transform: &TransformSpec, material: u32, em: Rgb| {
         mesh.transform(&transform_matrix(key, transform, cx.shown)?);
         shapes.push(Shape { name: key.into(), geometry: Geometry::Mesh(mesh), material, emission: em });
-        Ok(())
+        Ok::<(), SceneError>(())
     };
     match spec {
-        ShapeSpec::Mesh { file, material, transform, emission: e, smooth } => {
+        ShapeSpec::Mesh { file, material, transform, emission: e, smooth, flip_normals } => {
             let path = dir.join(file);
             let shown_mesh = path.display().to_string();
             let in_scene = |e: SceneError| cx.err(&format!("{key}.file"), e.to_string());
             let loaded = mesh::load_mesh_file(&path, &shown_mesh, *smooth).map_err(in_scene)?;
             for lm in loaded {
                 lm.mesh.validate(&shown_mesh).map_err(in_scene)?;
-                let mat = match (material, lm.mtl_diffuse) {
-                    (Some(m), _) => lookup(m)?,
-                    (None, Some(kd)) => {
-                        materials
-                            .push(Material::Diffuse { reflectance: Vec3::from_array(kd).clamp(Vec3::ZERO, Vec3::ONE) });
-                        names.push(format!("{file} (MTL)"));
-                        materials.len() as u32 - 1
+                let mat = match (material, lm.mtl_diffuse, &lm.mtl_texture) {
+                    (Some(m), _, _) => lookup(m)?,
+                    (None, _, Some(tex)) => mtl_texture_material(cx, key, &path, tex, file, out)?,
+                    (None, Some(kd), None) => {
+                        let reflectance = Vec3::from_array(kd).clamp(Vec3::ZERO, Vec3::ONE);
+                        out.materials.push(SurfaceMaterial::new(Material::Diffuse { reflectance }));
+                        out.names.push(format!("{file} (MTL)"));
+                        out.materials.len() as u32 - 1
                     }
-                    (None, None) => {
+                    (None, None, None) => {
                         return Err(cx.err(&format!("{key}.material"), "missing, and the mesh has no MTL colour"))
                     }
                 };
@@ -387,26 +513,67 @@ fn build_shape(
                 if *smooth && m.normals.is_none() {
                     m.compute_smooth_normals();
                 }
-                push(m, transform, mat, emission(e)?)?;
+                if *flip_normals {
+                    m.flip();
+                }
+                push(out.shapes, m, transform, mat, emission(e)?)?;
             }
         }
         ShapeSpec::Sphere { center, radius, material, transform, emission: e } => {
             let geometry = sphere_geometry(cx, key, *center, *radius, transform)?;
-            shapes.push(Shape { name: key.into(), geometry, material: lookup(material)?, emission: emission(e)? });
+            out.shapes.push(Shape { name: key.into(), geometry, material: lookup(material)?, emission: emission(e)? });
         }
         ShapeSpec::Heightfield { material, transform, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(mesh, transform, lookup(material)?, Rgb::ZERO)?;
+            push(out.shapes, mesh, transform, lookup(material)?, Rgb::ZERO)?;
         }
-        ShapeSpec::Quad { material, transform, emission: e, .. }
-        | ShapeSpec::Disk { material, transform, emission: e, .. }
-        | ShapeSpec::Lathe { material, transform, emission: e, .. }
-        | ShapeSpec::Box { material, transform, emission: e, .. } => {
+        ShapeSpec::Quad { material, transform, emission: e, flip_normals: flip, .. }
+        | ShapeSpec::Disk { material, transform, emission: e, flip_normals: flip, .. }
+        | ShapeSpec::Box { material, transform, emission: e, flip_normals: flip, .. } => {
+            let mut mesh = generated_mesh(cx, key, spec)?;
+            if *flip {
+                mesh.flip();
+            }
+            push(out.shapes, mesh, transform, lookup(material)?, emission(e)?)?;
+        }
+        ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(mesh, transform, lookup(material)?, emission(e)?)?;
+            push(out.shapes, mesh, transform, lookup(material)?, emission(e)?)?;
         }
     }
     Ok(())
+}
+
+/// A diffuse material reading the MTL's `map_Kd` image (path relative to the OBJ), one per image file.
+fn mtl_texture_material(
+    cx: &Ctx,
+    key: &str,
+    obj: &Path,
+    tex: &str,
+    file: &str,
+    out: &mut Built,
+) -> Result<u32, SceneError> {
+    let path = obj.parent().map(Path::to_path_buf).unwrap_or_default().join(tex.replace('\\', "/"));
+    let t = match out.textures.files.get(&path) {
+        Some(&t) => t,
+        None => {
+            let (width, height, texels) = load_image(&path, false)
+                .map_err(|e| cx.err(&format!("{key}.file"), format!("MTL map_Kd {}: {e}", path.display())))?;
+            let t = out.textures.list.len() as u32;
+            let bitmap =
+                Texture::Bitmap { file: tex.into(), width, height, texels, to_uv: UvMap::default(), bilinear: true };
+            out.textures.list.push(bitmap);
+            out.textures.files.insert(path.clone(), t);
+            t
+        }
+    };
+    out.materials.push(SurfaceMaterial {
+        bsdf: Material::Diffuse { reflectance: Rgb::ZERO },
+        two_sided: true,
+        texture: Some(t),
+    });
+    out.names.push(format!("{file} (MTL {tex})"));
+    Ok(out.materials.len() as u32 - 1)
 }
 
 /// An analytic sphere after its transform, which may only rotate, translate and scale uniformly.

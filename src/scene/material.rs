@@ -1,25 +1,130 @@
-//! BSDFs: Lambertian diffuse, smooth or GGX-rough mirror/conductor, smooth dielectric (exact Fresnel, TIR).
+//! BSDFs: Lambertian diffuse, smooth or GGX-rough mirror/conductor (constant, Schlick or exact complex-IOR
+//! Fresnel), smooth dielectric (exact Fresnel, TIR) and thin dielectric (a pane: reflect or pass straight).
 //! Directions point away from the surface; `n` is the shading normal (any side).
 use crate::color::Rgb;
 use crate::math::{face_forward, reflect, sampling, Frame};
 use glam::Vec3;
 use std::f32::consts::PI;
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Material {
     Diffuse {
         reflectance: Rgb,
     },
-    /// Schlick Fresnel from `f0` (a mirror uses f0 = its colour with `schlick = false`).
+    /// Metal or mirror: reflectance from `fresnel`, GGX roughness `alpha` (0 = smooth).
     Conductor {
-        f0: Rgb,
+        fresnel: Fresnel,
         alpha: f32,
-        schlick: bool,
     },
     Dielectric {
         ior: f32,
         tint: Rgb,
     },
+    /// A thin pane (Mitsuba's `thindielectric`): two interfaces with every internal bounce summed; light
+    /// is reflected, or passes through without changing direction.
+    ThinDielectric {
+        ior: f32,
+        tint: Rgb,
+    },
+}
+
+/// A scene's material: its BSDF, whether its back is black (Mitsuba's one-sided BSDFs), and the texture
+/// that replaces a diffuse reflectance per hit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceMaterial {
+    pub bsdf: Material,
+    /// false: seen from behind its geometric normal the surface reflects nothing (dielectrics are
+    /// always two-sided).
+    pub two_sided: bool,
+    /// Index into `Scene::textures`: the diffuse reflectance at each hit.
+    pub texture: Option<u32>,
+}
+
+impl SurfaceMaterial {
+    pub fn new(bsdf: Material) -> Self {
+        SurfaceMaterial { bsdf, two_sided: true, texture: None }
+    }
+}
+
+/// How much a conductor reflects at a given angle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Fresnel {
+    /// The same colour at every angle (a mirror).
+    Constant(Rgb),
+    /// Schlick's approximation from the colour at normal incidence.
+    Schlick(Rgb),
+    /// Exact Fresnel of a complex index η + iκ per channel, times `scale` (Mitsuba's
+    /// `specular_reflectance`).
+    Complex { eta: Rgb, k: Rgb, scale: Rgb },
+}
+
+impl Fresnel {
+    pub fn eval(&self, cos: f32) -> Rgb {
+        match self {
+            Fresnel::Constant(c) => *c,
+            Fresnel::Schlick(f0) => schlick(*f0, cos),
+            Fresnel::Complex { eta, k, scale } => {
+                let f = |i: usize| fresnel_complex(cos, eta[i], k[i]);
+                Rgb::new(f(0), f(1), f(2)) * *scale
+            }
+        }
+    }
+}
+
+/// Unpolarised Fresnel reflectance at a conductor with complex index η + iκ (outside index 1).
+pub fn fresnel_complex(cos_i: f32, eta: f32, k: f32) -> f32 {
+    #[derive(Clone, Copy)]
+    struct C(f64, f64);
+    let mul = |a: C, b: C| C(a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+    let div = |a: C, b: C| {
+        let d = b.0 * b.0 + b.1 * b.1;
+        C((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
+    };
+    let sqrt = |a: C| {
+        let r = (a.0 * a.0 + a.1 * a.1).sqrt();
+        let re = (0.5 * (r + a.0)).max(0.0).sqrt();
+        let im = (0.5 * (r - a.0)).max(0.0).sqrt();
+        C(re, if a.1 < 0.0 { -im } else { im })
+    };
+    let norm = |a: C| a.0 * a.0 + a.1 * a.1;
+    let cos_i = cos_i.clamp(0.0, 1.0) as f64;
+    let n = C(eta as f64, k as f64);
+    let sin2_t = div(C(1.0 - cos_i * cos_i, 0.0), mul(n, n));
+    let cos_t = sqrt(C(1.0 - sin2_t.0, -sin2_t.1));
+    let ci = C(cos_i, 0.0);
+    let n_ci = mul(n, ci);
+    let n_ct = mul(n, cos_t);
+    let r_parl = div(C(n_ci.0 - cos_t.0, n_ci.1 - cos_t.1), C(n_ci.0 + cos_t.0, n_ci.1 + cos_t.1));
+    let r_perp = div(C(ci.0 - n_ct.0, -n_ct.1), C(ci.0 + n_ct.0, n_ct.1));
+    (0.5 * (norm(r_parl) + norm(r_perp))) as f32
+}
+
+/// RGB complex refractive indices (η, κ) of named conductors, as Mitsuba's `conductor` names them
+/// (Tungsten's tables, spectral data integrated to linear sRGB).
+pub fn complex_ior(name: &str) -> Option<(Rgb, Rgb)> {
+    let (e, k) = match name.trim_end_matches("_palik") {
+        "Ag" => ([0.155_264_65, 0.116_723_3, 0.138_380_7], [4.828_343_3, 3.122_246, 2.146_950_4]),
+        "Al" => ([1.657_46, 0.880_369, 0.521_228_7], [9.223_869, 6.269_523, 4.837_001]),
+        "Au" => ([0.143_118_96, 0.374_957, 1.442_478_6], [3.983_160_4, 2.385_720_7, 1.603_215_3]),
+        "Be" => ([4.185_059, 3.185_060_5, 2.784_091_2], [3.835_44, 3.010_126, 2.869_009]),
+        "Cr" => ([4.369_683, 2.916_702_5, 1.654_700_5], [5.206_434, 4.231_364_4, 3.754_946_7]),
+        "Cu" => ([0.200_437_7, 0.924_033_4, 1.102_212], [3.912_948_6, 2.452_847_7, 2.142_188]),
+        "Hg" => ([2.398_931_5, 1.440_025_5, 0.909_551_2], [6.327_627, 4.371_941_4, 3.421_79]),
+        "Ir" => ([3.086_41, 2.082_193_8, 1.617_886_7], [5.592_151, 4.067_176, 3.267_261]),
+        "K" => ([0.064_049_31, 0.046_410_06, 0.038_184_2], [2.104_215_6, 1.348_936_4, 0.913_211_4]),
+        "Li" => ([0.265_787_2, 0.195_610_24, 0.220_919_85], [3.540_174_2, 2.311_130_7, 1.668_593]),
+        "Mo" => ([4.483_701, 3.525_457_8, 2.776_077], [4.111_131, 3.420_871_7, 3.150_603]),
+        "Na" => ([0.060_266_53, 0.056_141_24, 0.061_990_95], [3.179_290_7, 2.112_48, 1.579_094]),
+        "Nb" => ([3.420_135_5, 2.790_192, 2.395_585_7], [3.441_381_7, 2.737_643_7, 2.579_913_3]),
+        "Ni" => ([2.367_275_4, 1.663_358_3, 1.467_055_4], [4.498_833, 3.050_164_4, 2.345_427_5]),
+        "Rh" => ([2.585_795_4, 1.860_186_6, 1.554_428], [6.782_293, 4.702_95, 3.976_089_2]),
+        "Ta" => ([2.062_584_6, 2.393_091_6, 2.628_068_4], [2.408_046_7, 1.741_370_6, 1.947_037_7]),
+        "TiN" => ([1.648_469_2, 1.150_448_3, 1.379_779_5], [3.368_46, 1.943_489, 1.102_012]),
+        "V" => ([4.277_512_6, 3.513_153_8, 2.761_125_8], [3.491_184_5, 2.889_358, 3.111_696_5]),
+        "W" => ([4.370_703, 3.300_297_3, 2.998_266_7], [3.500_677_9, 2.604_865_3, 2.273_193]),
+        _ => return None,
+    };
+    Some((Rgb::from_array(e), Rgb::from_array(k)))
 }
 
 /// Which quantity a path carries (pbrt-v4's TransportMode): camera paths carry radiance, light paths
@@ -102,7 +207,7 @@ impl Material {
         match self {
             Material::Diffuse { .. } => false,
             Material::Conductor { alpha, .. } => *alpha == 0.0,
-            Material::Dielectric { .. } => true,
+            Material::Dielectric { .. } | Material::ThinDielectric { .. } => true,
         }
     }
 
@@ -110,13 +215,13 @@ impl Material {
         matches!(self, Material::Diffuse { .. })
     }
 
-    /// Reflectance colour (diffuse reflectance, conductor F0, dielectric tint); its largest component is
-    /// the photon's Russian-roulette survival probability at diffuse hits.
+    /// Reflectance colour (diffuse reflectance, conductor reflectance at normal incidence, dielectric
+    /// tint); its largest component is the photon's Russian-roulette survival probability at diffuse hits.
     pub fn albedo(&self) -> Rgb {
         match self {
             Material::Diffuse { reflectance } => *reflectance,
-            Material::Conductor { f0, .. } => *f0,
-            Material::Dielectric { tint, .. } => *tint,
+            Material::Conductor { fresnel, .. } => fresnel.eval(1.0),
+            Material::Dielectric { tint, .. } | Material::ThinDielectric { tint, .. } => *tint,
         }
     }
 
@@ -130,14 +235,14 @@ impl Material {
                     Rgb::ZERO
                 }
             }
-            Material::Conductor { f0, alpha, schlick: s } if *alpha > 0.0 => {
+            Material::Conductor { fresnel, alpha } if *alpha > 0.0 => {
                 let f = Frame::from_normal(face_forward(n, wo));
                 let (lo, li) = (f.to_local(wo), f.to_local(wi));
                 if lo.z <= 0.0 || li.z <= 0.0 {
                     return Rgb::ZERO;
                 }
                 let h = (lo + li).normalize();
-                let fr = if *s { schlick(*f0, li.dot(h)) } else { *f0 };
+                let fr = fresnel.eval(li.dot(h));
                 fr * ggx_d(h, *alpha) * ggx_g1(lo, *alpha) * ggx_g1(li, *alpha) / (4.0 * lo.z * li.z)
             }
             _ => Rgb::ZERO,
@@ -180,11 +285,10 @@ impl Material {
                 let pdf = wi.dot(side) / PI;
                 (pdf > 0.0).then_some(sample(wi, *reflectance, pdf, false, false, 1.0))
             }
-            Material::Conductor { f0, alpha, schlick: s } => {
+            Material::Conductor { fresnel, alpha } => {
                 if *alpha == 0.0 {
                     let wi = reflect(wo, side);
-                    let c = wi.dot(side);
-                    let fr = if *s { schlick(*f0, c) } else { *f0 };
+                    let fr = fresnel.eval(wi.dot(side));
                     return Some(sample(wi, fr, 1.0, true, false, 1.0));
                 }
                 let f = Frame::from_normal(side);
@@ -221,6 +325,17 @@ impl Material {
                     Some(sample(wi, *tint * scale, 1.0 - fr, true, true, scale))
                 }
             }
+            Material::ThinDielectric { ior, tint } => {
+                // Both faces of the pane: R' = R + T²R/(1 − R²) (Mitsuba's thindielectric). The light that
+                // passes leaves parallel to where it came from, so radiance needs no 1/η².
+                let (r, _) = fresnel_dielectric(wo.dot(side), *ior);
+                let r = if r < 1.0 { r + (1.0 - r) * (1.0 - r) * r / (1.0 - r * r) } else { 1.0 };
+                if uc < r {
+                    Some(sample(reflect(wo, side), Rgb::ONE, r, true, false, 1.0))
+                } else {
+                    Some(sample(-wo, *tint, 1.0 - r, true, true, 1.0))
+                }
+            }
         }
     }
 }
@@ -242,7 +357,7 @@ mod tests {
 
     #[test]
     fn rough_conductor_sampling_matches_eval_and_conserves_energy() {
-        let m = Material::Conductor { f0: Rgb::ONE, alpha: 0.3, schlick: false };
+        let m = Material::Conductor { fresnel: Fresnel::Constant(Rgb::ONE), alpha: 0.3 };
         let n = Vec3::Z;
         let wo = Vec3::new(0.3, 0.0, 0.954).normalize();
         let mut r = Rng::new(9, 0, 0);
@@ -267,5 +382,35 @@ mod tests {
         let b = Vec3::new(-0.5, 0.5, 0.3).normalize();
         assert_eq!(m.eval(a, b, n), m.eval(b, a, n));
         assert_eq!(m.eval(a, -b, n), Rgb::ZERO);
+    }
+
+    #[test]
+    fn complex_fresnel_matches_closed_forms() {
+        // Normal incidence: ((η−1)² + κ²) / ((η+1)² + κ²).
+        let (eta, k) = (0.2f32, 3.9f32);
+        let f0 = ((eta - 1.0).powi(2) + k * k) / ((eta + 1.0).powi(2) + k * k);
+        assert!((fresnel_complex(1.0, eta, k) - f0).abs() < 1e-6);
+        // κ = 0 is a dielectric; grazing incidence reflects everything.
+        for c in [0.1f32, 0.5, 0.9] {
+            assert!((fresnel_complex(c, 1.5, 0.0) - fresnel_dielectric(c, 1.5).0).abs() < 1e-5);
+        }
+        assert!((fresnel_complex(0.0, 0.2, 3.9) - 1.0).abs() < 1e-6);
+        // Gold reflects red more than blue.
+        let (e, k) = complex_ior("Au").unwrap();
+        let c = Fresnel::Complex { eta: e, k, scale: Rgb::ONE }.eval(1.0);
+        assert!(c.x > 0.9 && c.z < 0.5, "{c:?}");
+    }
+
+    #[test]
+    fn thin_dielectric_sums_both_faces_and_passes_straight() {
+        let m = Material::ThinDielectric { ior: 1.5, tint: Rgb::ONE };
+        let n = Vec3::Y;
+        let wo = Vec3::new(0.0, 1.0, 0.0);
+        // Normal incidence: R = 0.04 per face, R' = 2R/(1+R).
+        let s = m.sample(wo, n, [0.5, 0.5], 0.99, TransportMode::Radiance).unwrap();
+        assert!(s.transmitted && (s.wi + wo).length() < 1e-6 && s.radiance_scale == 1.0);
+        assert!((s.pdf - (1.0 - 0.08 / 1.04)).abs() < 1e-5, "{}", s.pdf);
+        let r = m.sample(wo, n, [0.5, 0.5], 0.01, TransportMode::Radiance).unwrap();
+        assert!(!r.transmitted && (r.pdf - 0.08 / 1.04).abs() < 1e-5);
     }
 }

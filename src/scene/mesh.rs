@@ -13,6 +13,10 @@ pub struct TriMesh {
     pub indices: Vec<[u32; 3]>,
     /// Per-vertex shading normals, when the file has them or `smooth = true`.
     pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates (v = 0 at the top row of an image, as Mitsuba reads them; OBJ's
+    /// bottom-up v is flipped on load), when the file has them; without them a hit's uv is its
+    /// barycentric coordinates.
+    pub uvs: Option<Vec<[f32; 2]>>,
 }
 
 impl TriMesh {
@@ -45,6 +49,16 @@ impl TriMesh {
             for t in &mut self.indices {
                 t.swap(1, 2);
             }
+        }
+    }
+
+    /// Turns the surface inside out: every triangle's winding and every vertex normal reversed.
+    pub fn flip(&mut self) {
+        for t in &mut self.indices {
+            t.swap(1, 2);
+        }
+        if let Some(ns) = &mut self.normals {
+            ns.iter_mut().for_each(|n| *n = -*n);
         }
     }
 
@@ -84,7 +98,10 @@ impl TriMesh {
     }
 
     pub fn bytes(&self) -> usize {
-        self.positions.len() * 12 + self.indices.len() * 12 + self.normals.as_ref().map_or(0, |n| n.len() * 12)
+        self.positions.len() * 12
+            + self.indices.len() * 12
+            + self.normals.as_ref().map_or(0, |n| n.len() * 12)
+            + self.uvs.as_ref().map_or(0, |t| t.len() * 8)
     }
 }
 
@@ -92,10 +109,13 @@ impl TriMesh {
 pub struct LoadedMesh {
     pub mesh: TriMesh,
     pub mtl_diffuse: Option<[f32; 3]>,
+    /// The MTL's `map_Kd` image, as written there (relative to the OBJ's folder).
+    pub mtl_texture: Option<String>,
 }
 
 /// Loads an OBJ or PLY (optionally gzip-compressed) file. Vertex normals are read only when `normals`
-/// (smooth shading asked for); texture coordinates and other per-vertex properties never are.
+/// (smooth shading asked for); texture coordinates whenever the file has them; other per-vertex
+/// properties never are.
 pub fn load_mesh_file(path: &Path, shown: &str, normals: bool) -> Result<Vec<LoadedMesh>, SceneError> {
     let name = path.to_string_lossy().to_lowercase();
     let err = |msg: String| SceneError::Mesh { file: shown.into(), msg };
@@ -114,7 +134,8 @@ pub fn load_mesh_file(path: &Path, shown: &str, normals: bool) -> Result<Vec<Loa
         } else {
             BufReader::new(f).read_to_end(&mut bytes).map_err(|e| err(e.to_string()))?;
         }
-        Ok(vec![LoadedMesh { mesh: parse_ply(&bytes, normals).map_err(err)?, mtl_diffuse: None }])
+        let mesh = parse_ply(&bytes, normals).map_err(err)?;
+        Ok(vec![LoadedMesh { mesh, mtl_diffuse: None, mtl_texture: None }])
     } else {
         Err(err("unknown mesh format (accepted: .obj, .ply, .ply.gz)".into()))
     }
@@ -132,7 +153,11 @@ fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> 
         let normals = (want_normals && mm.normals.len() == mm.positions.len() && !mm.normals.is_empty())
             .then(|| mm.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()).collect());
         let mtl_diffuse = mm.material_id.and_then(|i| mtls.get(i)).and_then(|m| m.diffuse);
-        out.push(LoadedMesh { mesh: TriMesh { positions, indices, normals }, mtl_diffuse });
+        let uvs = (mm.texcoords.len() * 3 == mm.positions.len() * 2 && !mm.texcoords.is_empty())
+            .then(|| mm.texcoords.chunks_exact(2).map(|c| [c[0], 1.0 - c[1]]).collect());
+        let mtl = mm.material_id.and_then(|i| mtls.get(i));
+        let mtl_texture = mtl.and_then(|m| m.diffuse_texture.clone()).filter(|t| !t.is_empty());
+        out.push(LoadedMesh { mesh: TriMesh { positions, indices, normals, uvs }, mtl_diffuse, mtl_texture });
     }
     if out.is_empty() {
         return Err("OBJ file has no geometry".into());
@@ -144,6 +169,33 @@ fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> 
 struct PlyVertex {
     p: [f32; 3],
     n: [f32; 3],
+    uv: [f32; 2],
+}
+
+/// PLY vertex property names and their slot: 0–2 position, 3–5 normal, 6–7 texture coordinates.
+const PLY_SLOTS: [(&str, usize); 12] = [
+    ("x", 0),
+    ("y", 1),
+    ("z", 2),
+    ("nx", 3),
+    ("ny", 4),
+    ("nz", 5),
+    ("u", 6),
+    ("v", 7),
+    ("s", 6),
+    ("t", 7),
+    ("texture_u", 6),
+    ("texture_v", 7),
+];
+
+impl PlyVertex {
+    fn set(&mut self, slot: usize, x: f32) {
+        match slot {
+            0..=2 => self.p[slot] = x,
+            3..=5 => self.n[slot - 3] = x,
+            _ => self.uv[slot - 6] = x,
+        }
+    }
 }
 
 impl ply_rs_bw::ply::PropertyAccess for PlyVertex {
@@ -157,14 +209,8 @@ impl ply_rs_bw::ply::PropertyAccess for PlyVertex {
             P::Double(v) => v as f32,
             _ => return,
         };
-        match key.as_str() {
-            "x" => self.p[0] = v,
-            "y" => self.p[1] = v,
-            "z" => self.p[2] = v,
-            "nx" => self.n[0] = v,
-            "ny" => self.n[1] = v,
-            "nz" => self.n[2] = v,
-            _ => {}
+        if let Some(&(_, slot)) = PLY_SLOTS.iter().find(|(k, _)| k == key) {
+            self.set(slot, v);
         }
     }
 }
@@ -201,6 +247,7 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
     let header = vparser.read_header(&mut reader).map_err(|e| format!("PLY header: {e}"))?;
     let vdef = header.elements.get("vertex").ok_or("PLY has no `vertex` element")?;
     let has_normals = want_normals && vdef.properties.contains_key("nx");
+    let has_uvs = ["u", "s", "texture_u"].iter().any(|k| vdef.properties.contains_key(*k));
     for k in ["x", "y", "z"] {
         if !vdef.properties.contains_key(k) {
             return Err(format!("PLY vertex element has no `{k}` property"));
@@ -233,6 +280,7 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
     };
     let positions: Vec<Vec3> = verts.iter().map(|v| Vec3::from_array(v.p)).collect();
     let normals = has_normals.then(|| verts.iter().map(|v| Vec3::from_array(v.n).normalize_or_zero()).collect());
+    let uvs = has_uvs.then(|| verts.iter().map(|v| v.uv).collect());
     let mut indices = Vec::with_capacity(faces.len());
     for f in &faces {
         if f.0.len() < 3 {
@@ -242,7 +290,7 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
             indices.push([f.0[0], f.0[k], f.0[k + 1]]);
         }
     }
-    Ok(TriMesh { positions, indices, normals })
+    Ok(TriMesh { positions, indices, normals, uvs })
 }
 
 /// Fast ASCII payload reader: the file is split into lines and parsed in parallel, one allocation per
@@ -264,8 +312,10 @@ fn parse_ascii_payload(
         }
         if name == "vertex" {
             // Unused properties (normals when shading is flat, confidence, colour …) are skipped unparsed.
-            let wanted: &[&str] = if normals { &["x", "y", "z", "nx", "ny", "nz"] } else { &["x", "y", "z"] };
-            let slots: Vec<Option<usize>> = def.properties.keys().map(|k| wanted.iter().position(|s| s == k)).collect();
+            let slot_of = |k: &String| {
+                PLY_SLOTS.iter().find(|(name, _)| name == k).map(|&(_, s)| s).filter(|s| normals || !(3..6).contains(s))
+            };
+            let slots: Vec<Option<usize>> = def.properties.keys().map(slot_of).collect();
             if def.properties.values().any(|p| matches!(p.data_type, PropertyType::List(..))) {
                 return Err("PLY vertex element with list properties is not supported".into());
             }
@@ -279,11 +329,7 @@ fn parse_ascii_payload(
                         let tok = toks.next().ok_or_else(|| format!("vertex {i}: too few values"))?;
                         if let Some(s) = slot {
                             let x: f32 = tok.parse().map_err(|_| format!("vertex {i}: bad number `{tok}`"))?;
-                            if *s < 3 {
-                                v.p[*s] = x
-                            } else {
-                                v.n[*s - 3] = x
-                            }
+                            v.set(*s, x);
                         }
                     }
                     Ok(v)
@@ -314,6 +360,7 @@ pub fn quad(corner: Vec3, eu: Vec3, ev: Vec3) -> TriMesh {
         positions: vec![corner, corner + eu, corner + eu + ev, corner + ev],
         indices: vec![[0, 1, 2], [0, 2, 3]],
         normals: None,
+        uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
     }
 }
 
@@ -326,7 +373,7 @@ pub fn disk(center: Vec3, normal: Vec3, radius: f32, segments: u32) -> TriMesh {
         positions.push(center + radius * (f.s * phi.cos() + f.t * phi.sin()));
     }
     let indices = (0..segments).map(|i| [0, 1 + i, 1 + (i + 1) % segments]).collect();
-    TriMesh { positions, indices, normals: None }
+    TriMesh { positions, indices, normals: None, uvs: None }
 }
 
 /// Surface of revolution about the y axis; profile points [r, y] bottom to top give outward normals.

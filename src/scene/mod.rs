@@ -5,6 +5,8 @@ pub mod light;
 pub mod load;
 pub mod material;
 pub mod mesh;
+pub mod mitsuba;
+pub mod texture;
 
 use crate::color::Rgb;
 use glam::Vec3;
@@ -14,8 +16,9 @@ pub use camera::Camera;
 pub use file::{RenderSettings, SceneFile};
 pub use light::Lights;
 pub use load::{load_scene, load_scene_str, load_scene_with};
-pub use material::{Material, TransportMode};
+pub use material::{Material, SurfaceMaterial, TransportMode};
 pub use mesh::TriMesh;
+pub use texture::Texture;
 
 /// Everything that can be wrong with a scene; each names the file and, where it applies, the key.
 #[derive(Debug, thiserror::Error)]
@@ -107,8 +110,10 @@ impl Shape {
 pub struct Scene {
     pub path: PathBuf,
     pub camera: Camera,
-    pub materials: Vec<Material>,
+    pub materials: Vec<SurfaceMaterial>,
     pub material_names: Vec<String>,
+    /// Images and procedural patterns that materials read their reflectance from.
+    pub textures: Vec<Texture>,
     pub shapes: Vec<Shape>,
     pub lights: Lights,
     pub render: RenderSettings,
@@ -130,6 +135,8 @@ pub struct SurfaceHit {
     pub prim: u32,
     /// Size of the primitive hit (longest triangle edge, sphere radius), for ray offsets.
     pub scale: f32,
+    /// Texture coordinates (the mesh's, else the barycentric ones; spherical on spheres).
+    pub uv: glam::Vec2,
 }
 
 impl SurfaceHit {
@@ -193,6 +200,9 @@ impl Scene {
             "{:?}|{:?}|{:?}|{:?}|{:?}",
             self.camera, self.materials, self.material_names, self.lights.list, self.lights.power
         ));
+        for t in &self.textures {
+            t.hash_into(&mut h);
+        }
         for s in &self.shapes {
             h.update(format!("|{}|{}|{:?}|", s.name, s.material, s.emission));
             match &s.geometry {
@@ -206,6 +216,9 @@ impl Scene {
                     for n in m.normals.iter().flatten() {
                         n.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
                     }
+                    for t in m.uvs.iter().flatten() {
+                        t.iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
+                    }
                 }
                 Geometry::Sphere { center, radius } => h.update(format!("sphere {center:?} {radius:?}")),
             }
@@ -213,8 +226,32 @@ impl Scene {
         h.finalize().iter().map(|b| format!("{b:02x}")).collect()
     }
 
-    pub fn material_of(&self, shape: u32) -> &Material {
+    pub fn material_of(&self, shape: u32) -> &SurfaceMaterial {
         &self.materials[self.shapes[shape as usize].material as usize]
+    }
+
+    /// The largest reflectance component a shape's material reaches anywhere (its texture's largest value).
+    pub fn max_albedo(&self, shape: u32) -> f32 {
+        let m = self.material_of(shape);
+        match m.texture {
+            Some(t) => self.textures[t as usize].max_value(),
+            None => m.bsdf.albedo().max_element(),
+        }
+    }
+
+    /// The BSDF at a hit seen along `wo` (pointing away): the material's, with a texture read at the hit's
+    /// uv, and black behind a one-sided surface.
+    pub fn bsdf(&self, si: &SurfaceHit, wo: Vec3) -> Material {
+        let m = self.material_of(si.shape);
+        if !m.two_sided && wo.dot(si.ng) <= 0.0 {
+            return Material::Diffuse { reflectance: Rgb::ZERO };
+        }
+        match (m.texture, m.bsdf) {
+            (Some(t), Material::Diffuse { .. }) => {
+                Material::Diffuse { reflectance: self.textures[t as usize].eval(si.uv) }
+            }
+            (_, bsdf) => bsdf,
+        }
     }
 
     /// Radiance the surface at `si` emits towards `wo` (front side of triangles, outside of spheres).
@@ -265,13 +302,24 @@ impl Scene {
                     None => ng,
                 };
                 let scale = (b - a).length().max((c - a).length()).max((c - b).length());
-                SurfaceHit { p, ng, ns, shape, prim, scale }
+                let uv = match &m.uvs {
+                    Some(t) => {
+                        let [ta, tb, tc] = [t[i0 as usize], t[i1 as usize], t[i2 as usize]];
+                        glam::Vec2::from(ta) * (1.0 - u - v) + glam::Vec2::from(tb) * u + glam::Vec2::from(tc) * v
+                    }
+                    None => glam::Vec2::new(u, v),
+                };
+                SurfaceHit { p, ng, ns, shape, prim, scale, uv }
             }
             Geometry::Sphere { center, radius } => {
                 let p = ray.at(t);
                 let n = (p - *center).normalize();
                 let p = *center + n * *radius;
-                SurfaceHit { p, ng: n, ns: n, shape, prim, scale: *radius }
+                // Mitsuba's sphere parameterisation (z is the pole), in world axes.
+                let phi = n.y.atan2(n.x);
+                let u = if phi < 0.0 { phi + std::f32::consts::TAU } else { phi } / std::f32::consts::TAU;
+                let uv = glam::Vec2::new(u, n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI);
+                SurfaceHit { p, ng: n, ns: n, shape, prim, scale: *radius, uv }
             }
         }
     }

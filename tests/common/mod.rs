@@ -10,8 +10,11 @@ pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
     Scene {
         path: "test".into(),
         camera: Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0, FovAxis::X, [8, 8]),
-        materials: vec![caustica::scene::Material::Diffuse { reflectance: Vec3::splat(0.5) }],
+        materials: vec![caustica::scene::SurfaceMaterial::new(caustica::scene::Material::Diffuse {
+            reflectance: Vec3::splat(0.5),
+        })],
         material_names: vec!["m".into()],
+        textures: Vec::new(),
         shapes,
         lights: Lights::default(),
         render: Default::default(),
@@ -45,7 +48,7 @@ pub fn inward_box(lo: f32, hi: f32, material: &str, emission: Option<f32>) -> St
 
 /// A flat-shaded surface point with normal `n` (for querying photon maps directly).
 pub fn surface_at(p: Vec3, n: Vec3) -> SurfaceHit {
-    SurfaceHit { p, ng: n, ns: n, shape: 0, prim: 0, scale: 1.0 }
+    SurfaceHit { p, ng: n, ns: n, shape: 0, prim: 0, scale: 1.0, uv: glam::Vec2::ZERO }
 }
 
 /// How two EXR files differ: (channel values whose bits differ, largest relative difference among them).

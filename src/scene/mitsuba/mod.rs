@@ -1,0 +1,637 @@
+//! Mitsuba 3 XML scenes (a documented subset; 0.6 where the syntax is the same) turned into caustica's
+//! scene file, keeping Mitsuba's meaning: BSDFs are one-sided unless wrapped in `twosided`, an area
+//! emitter emits from the front of its shape and the shape keeps its BSDF, a point light's `intensity`
+//! is W/sr. Anything outside the subset is refused, naming the element, its line and what is read.
+//!
+//! `caustica render scene.xml` reads it directly; `caustica convert scene.xml -o scene.toml` writes the
+//! TOML equivalent.
+mod props;
+pub mod xml;
+
+use crate::scene::file::*;
+use crate::scene::SceneError;
+use glam::{Mat4, Vec3};
+use props::{ColourProp, Props};
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use xml::Node;
+
+/// A converted scene, with what it could only approximate.
+pub struct Converted {
+    pub file: SceneFile,
+    /// Differences from Mitsuba that change the image a little (e.g. the reconstruction filter).
+    pub warnings: Vec<String>,
+}
+
+const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
+const BSDFS: &str = "diffuse, dielectric, thindielectric, conductor, roughconductor (ggx), twosided";
+const EMITTERS: &str = "area (inside a shape), point";
+/// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
+const UNLIMITED_DEPTH: u32 = 1000;
+
+/// Reads a Mitsuba XML scene. File names in the result (meshes, images) are as Mitsuba resolves them,
+/// relative to the scene file's folder when they lie inside it, absolute otherwise.
+pub fn convert(path: &Path) -> Result<Converted, SceneError> {
+    let root = xml::read_scene(path)?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut cx = Cx { base, warnings: Vec::new(), ids: HashMap::new(), file: empty_file(), done: HashMap::new() };
+    for c in &root.children {
+        if let Some(id) = c.attr("id") {
+            cx.ids.insert(id.to_string(), c);
+        }
+    }
+    let mut sensor = None;
+    for c in &root.children {
+        match c.tag.as_str() {
+            "default" => {}
+            "sensor" if sensor.is_some() => return Err(c.error("a second sensor (caustica renders one view)")),
+            "sensor" => sensor = Some(c),
+            "integrator" => cx.integrator(c)?,
+            "bsdf" | "texture" => {
+                if c.attr("id").is_none() {
+                    return Err(c.error("a top-level BSDF or texture needs an `id` to be used"));
+                }
+            }
+            "shape" => cx.shape(c)?,
+            "emitter" => cx.emitter(c)?,
+            _ => {
+                return Err(c.error(format!(
+                    "not supported at scene level (read: sensor, integrator, bsdf, texture, shape ({SHAPES}), \
+                     emitter ({EMITTERS}), default, include)"
+                )))
+            }
+        }
+    }
+    let sensor = sensor.ok_or_else(|| root.error("has no <sensor type=\"perspective\">"))?;
+    cx.sensor(sensor)?;
+    Ok(Converted { file: cx.file, warnings: cx.warnings })
+}
+
+fn empty_file() -> SceneFile {
+    let camera = CameraSpec {
+        origin: [0.0; 3],
+        target: [0.0, 0.0, 1.0],
+        up: [0.0, 1.0, 0.0],
+        fov: 40.0,
+        fov_axis: FovAxis::X,
+        resolution: [768, 576],
+    };
+    let mut render = RenderSettings { max_depth: UNLIMITED_DEPTH, ..Default::default() };
+    render.spp = 4;
+    SceneFile {
+        camera,
+        materials: BTreeMap::new(),
+        textures: BTreeMap::new(),
+        shapes: Vec::new(),
+        lights: Vec::new(),
+        render,
+    }
+}
+
+struct Cx<'a> {
+    base: PathBuf,
+    warnings: Vec<String>,
+    /// Top-level objects by id, for `<ref id>`.
+    ids: HashMap<String, &'a Node>,
+    file: SceneFile,
+    /// Materials and textures already converted, by the address of their element.
+    done: HashMap<*const Node, String>,
+}
+
+impl<'a> Cx<'a> {
+    fn lookup(&self, n: &Node, id: &str) -> Result<&'a Node, SceneError> {
+        self.ids.get(id).copied().ok_or_else(|| n.error(format!("refers to id `{id}`, which no top-level element has")))
+    }
+
+    /// A file name as Mitsuba resolves it: next to the file that names it, else next to the scene.
+    fn resolve(&self, n: &Node, name: &str) -> String {
+        let own = n.dir().join(name);
+        let path = if own.exists() { own } else { self.base.join(name) };
+        match path.strip_prefix(&self.base) {
+            Ok(rel) => rel.display().to_string(),
+            Err(_) => path.display().to_string(),
+        }
+    }
+
+    fn sensor(&mut self, s: &Node) -> Result<(), SceneError> {
+        if s.attr("type") != Some("perspective") {
+            return Err(s.error("only the `perspective` sensor is read"));
+        }
+        let p = Props::new(s);
+        let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+        if [x, y, z].iter().any(|a| (a.length() - 1.0).abs() > 1e-3) {
+            return Err(
+                s.error("the camera's to_world scales (Mitsuba refuses this too); use lookat, rotate, translate")
+            );
+        }
+        if x.cross(y).dot(z) < 0.0 {
+            return Err(s.error("the camera's to_world mirrors the image (a negative scale); caustica cannot"));
+        }
+        let origin = m.w_axis.truncate();
+        let cam = &mut self.file.camera;
+        (cam.origin, cam.target, cam.up) = (origin.to_array(), (origin + z).to_array(), y.to_array());
+        let (fov, fov_axis) = (p.float("fov")?, p.string("fov_axis")?);
+        let focal = p.string("focal_length")?;
+        for (key, default) in [("near_clip", 1e-2), ("far_clip", 1e4)] {
+            if p.float(key)?.is_some_and(|v| v != default) {
+                self.warnings.push(format!("{}: sensor `{key}` is ignored (nothing is clipped)", s.file.display()));
+            }
+        }
+        for film in p.objects("film") {
+            self.film(film)?;
+        }
+        for sampler in p.objects("sampler") {
+            let sp = Props::new(sampler);
+            if let Some(n) = sp.int("sample_count")? {
+                self.file.render.spp = u32::try_from(n)
+                    .ok()
+                    .filter(|&n| n > 0)
+                    .ok_or_else(|| sampler.error("sample_count must be ≥ 1"))?;
+            }
+            if let Some(seed) = sp.int("seed")? {
+                self.file.render.seed = seed as u64;
+            }
+            sp.boolean("jitter")?;
+            sp.int("scramble_seed")?;
+            sp.finish("sample_count, seed (the sampler type only changes the noise)")?;
+        }
+        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, film, sampler")?;
+        let [w, h] = self.file.camera.resolution.map(|v| v as f32);
+        let (deg, axis) = match (fov, focal) {
+            (Some(_), Some(_)) => return Err(s.error("give `fov` or `focal_length`, not both")),
+            (Some(f), None) => (f, fov_axis.unwrap_or_else(|| "x".into())),
+            (None, f) => {
+                // 35 mm film equivalent, along the diagonal (Mitsuba's default 50 mm).
+                let f = f.unwrap_or_else(|| "50mm".into());
+                let mm: f32 =
+                    f.trim_end_matches("mm").trim().parse().map_err(|_| s.error(format!("focal_length `{f}`")))?;
+                ((36f32.hypot(24.0) / (2.0 * mm)).atan().to_degrees() * 2.0, "diagonal".into())
+            }
+        };
+        let half = (deg.to_radians() * 0.5).tan();
+        let cam = &mut self.file.camera;
+        (cam.fov, cam.fov_axis) = match axis.as_str() {
+            "x" => (deg, FovAxis::X),
+            "y" => (deg, FovAxis::Y),
+            "smaller" => (deg, if w <= h { FovAxis::X } else { FovAxis::Y }),
+            "larger" => (deg, if w >= h { FovAxis::X } else { FovAxis::Y }),
+            "diagonal" => ((half * w / w.hypot(h)).atan().to_degrees() * 2.0, FovAxis::X),
+            a => return Err(s.error(format!("fov_axis `{a}` (read: x, y, diagonal, smaller, larger)"))),
+        };
+        Ok(())
+    }
+
+    fn film(&mut self, f: &Node) -> Result<(), SceneError> {
+        if f.attr("type") != Some("hdrfilm") {
+            return Err(f.error("only `hdrfilm` is read"));
+        }
+        let p = Props::new(f);
+        let dim = |v: Option<i64>, d: u32| {
+            v.map_or(Ok(d), |v| {
+                u32::try_from(v).ok().filter(|&v| v > 0).ok_or_else(|| f.error("width and height must be ≥ 1"))
+            })
+        };
+        self.file.camera.resolution = [dim(p.int("width")?, 768)?, dim(p.int("height")?, 576)?];
+        for key in ["pixel_format", "component_format", "file_format"] {
+            p.string(key)?;
+        }
+        p.boolean("banner")?;
+        p.boolean("high_quality_edges")?;
+        p.boolean("sample_border")?;
+        let filters = p.objects("rfilter");
+        let filter = filters.first().and_then(|r| r.attr("type")).unwrap_or("gaussian");
+        if filter != "box" {
+            self.warnings.push(format!(
+                "{}: line {}: reconstruction filter `{filter}` is rendered with caustica's box filter (edges a little sharper)",
+                f.file.display(),
+                f.line
+            ));
+        }
+        p.finish("width, height, rfilter, pixel_format, component_format, file_format (crops are not read)")
+    }
+
+    fn integrator(&mut self, n: &Node) -> Result<(), SceneError> {
+        let p = Props::new(n);
+        let r = &mut self.file.render;
+        let depth = |d: i64| {
+            if d < 0 {
+                Ok(UNLIMITED_DEPTH)
+            } else {
+                u32::try_from(d - 1).map_err(|_| n.error("max_depth must be ≥ 1 or -1"))
+            }
+        };
+        match n.attr("type") {
+            Some("path") | Some("volpath") | Some("volpathmis") => {
+                r.mode = Mode::Path;
+                if let Some(d) = p.int("max_depth")? {
+                    r.max_depth = depth(d)?;
+                }
+                if let Some(d) = p.int("rr_depth")? {
+                    r.rr_depth = (d.max(1) - 1) as u32;
+                }
+                if p.boolean("hide_emitters")? == Some(true) {
+                    return Err(n.error("hide_emitters = true is not supported"));
+                }
+            }
+            Some("direct") => {
+                r.mode = Mode::Path;
+                r.max_depth = 1;
+                p.int("emitter_samples")?;
+                p.int("bsdf_samples")?;
+                p.int("shading_samples")?;
+            }
+            Some(kind @ ("photonmapper" | "sppm")) => {
+                r.mode = if kind == "sppm" { Mode::Sppm } else { Mode::PhotonMap };
+                if let Some(d) = p.int("max_depth")? {
+                    r.max_depth = depth(d)?;
+                }
+                if let Some(c) = p.int("photon_count")? {
+                    r.progressive.photons_per_pass = c.max(1) as u64;
+                }
+                if let Some(c) = p.int("max_passes")? {
+                    r.progressive.passes = c.max(1) as u32;
+                }
+                if let Some(a) = p.float("alpha")? {
+                    r.progressive.alpha = a;
+                }
+                if let Some(c) = p.int("global_photons")? {
+                    r.photons.indirect = c.max(0) as u64;
+                }
+                if let Some(c) = p.int("caustic_photons")? {
+                    r.photons.caustic = c.max(0) as u64;
+                }
+            }
+            _ => return Err(n.error("not read (read: path, volpath without media, direct; 0.6's photonmapper, sppm)")),
+        }
+        p.finish("max_depth, rr_depth, hide_emitters = false (photonmapper/sppm: photon counts, max_passes, alpha)")
+    }
+
+    fn shape(&mut self, n: &'a Node) -> Result<(), SceneError> {
+        let index = self.file.shapes.len();
+        let p = Props::new(n);
+        let m = p.transform("to_world")?;
+        let matrix = |m: Mat4| TransformSpec { matrix: Some(m.transpose().to_cols_array_2d()), ..Default::default() };
+        let transform = m.map(matrix).unwrap_or_default();
+        let flip_normals = p.boolean("flip_normals")?.unwrap_or(false);
+        let mut emission = None;
+        for e in p.objects("emitter") {
+            if e.attr("type") != Some("area") {
+                return Err(e.error("only an `area` emitter can sit inside a shape"));
+            }
+            let ep = Props::new(e);
+            emission = Some(match ep.colour("radiance")? {
+                Some(ColourProp::Rgb(c)) => c,
+                None => [1.0; 3],
+                Some(_) => return Err(e.error("a textured radiance is not supported")),
+            });
+            ep.finish("radiance")?;
+        }
+        let material = self.shape_material(n, &p, index, emission.is_some())?;
+        let spec = match n.attr("type").unwrap_or("") {
+            kind @ ("obj" | "ply") => {
+                let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
+                let face_normals = p.boolean("face_normals")?.unwrap_or(false);
+                if kind == "obj" && p.boolean("flip_tex_coords")? == Some(false) {
+                    return Err(n.error("flip_tex_coords = false is not supported (OBJ texture rows are flipped)"));
+                }
+                ShapeSpec::Mesh {
+                    file: self.resolve(n, &file),
+                    material: Some(material),
+                    transform,
+                    emission,
+                    smooth: !face_normals,
+                    flip_normals,
+                }
+            }
+            "rectangle" => ShapeSpec::Quad {
+                corner: [-1.0, -1.0, 0.0],
+                edge_u: [2.0, 0.0, 0.0],
+                edge_v: [0.0, 2.0, 0.0],
+                material,
+                transform,
+                emission,
+                flip_normals,
+            },
+            "cube" => ShapeSpec::Box { min: [-1.0; 3], max: [1.0; 3], material, transform, emission, flip_normals },
+            "disk" => ShapeSpec::Disk {
+                center: [0.0; 3],
+                normal: [0.0, 0.0, 1.0],
+                radius: 1.0,
+                material,
+                segments: 256,
+                transform,
+                emission,
+                flip_normals,
+            },
+            "sphere" => {
+                if flip_normals {
+                    return Err(n.error("flip_normals on a sphere is not supported"));
+                }
+                let center = p.point("center")?.unwrap_or([0.0; 3]);
+                let radius = p.float("radius")?.unwrap_or(1.0);
+                ShapeSpec::Sphere { center, radius, material, transform, emission }
+            }
+            _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
+        };
+        p.finish("to_world, filename, face_normals, flip_normals, center, radius, a bsdf or <ref>, an area emitter")?;
+        self.file.shapes.push(spec);
+        Ok(())
+    }
+
+    /// The material a shape names (nested `<bsdf>` or `<ref>`), or Mitsuba's default: one-sided diffuse
+    /// 0.5, black on an emitter.
+    fn shape_material(&mut self, n: &'a Node, p: &Props<'a>, index: usize, emits: bool) -> Result<String, SceneError> {
+        let mut bsdfs: Vec<&Node> = p.objects("bsdf");
+        for r in p.objects("ref") {
+            let id = r.attr("id").ok_or_else(|| r.error("needs an `id`"))?;
+            let target = self.lookup(r, id)?;
+            if target.tag != "bsdf" {
+                return Err(r.error(format!("`{id}` is a <{}>, not a <bsdf>", target.tag)));
+            }
+            bsdfs.push(target);
+        }
+        match bsdfs[..] {
+            [] => {
+                let (name, albedo) = if emits { ("default-emitter", 0.0) } else { ("default", 0.5) };
+                self.file.materials.entry(name.to_string()).or_insert(MaterialSpec::Diffuse {
+                    reflectance: Reflectance::Colour([albedo; 3]),
+                    two_sided: false,
+                });
+                Ok(name.to_string())
+            }
+            [b] => self.material(b, &format!("shapes[{index}]")),
+            _ => Err(n.error("has more than one BSDF")),
+        }
+    }
+
+    /// Converts a `<bsdf>` once (by id, else named after its shape) and returns its material name.
+    fn material(&mut self, b: &'a Node, fallback: &str) -> Result<String, SceneError> {
+        if let Some(name) = self.done.get(&(b as *const Node)) {
+            return Ok(name.clone());
+        }
+        let name = b.attr("id").map_or_else(|| fallback.to_string(), str::to_string);
+        let spec = self.bsdf(b, false, &name)?;
+        self.file.materials.insert(name.clone(), spec);
+        self.done.insert(b as *const Node, name.clone());
+        Ok(name)
+    }
+
+    /// One BSDF as a material spec; `name` is the material's (inline textures are named after it).
+    fn bsdf(&mut self, b: &'a Node, two_sided: bool, name: &str) -> Result<MaterialSpec, SceneError> {
+        let p = Props::new(b);
+        let kind = b.attr("type").unwrap_or("");
+        let spec = match kind {
+            "twosided" => {
+                let mut inner: Vec<&Node> = p.objects("bsdf");
+                for r in p.objects("ref") {
+                    inner.push(self.lookup(r, r.attr("id").unwrap_or(""))?);
+                }
+                let [one] = inner[..] else { return Err(b.error("needs exactly one nested BSDF")) };
+                if matches!(one.attr("type"), Some("dielectric" | "thindielectric" | "twosided")) {
+                    return Err(one.error("cannot be wrapped in twosided (it is two-sided already)"));
+                }
+                self.bsdf(one, true, name)?
+            }
+            "diffuse" => {
+                let reflectance = match p.colour("reflectance")? {
+                    None => Reflectance::Colour([0.5; 3]),
+                    Some(ColourProp::Rgb(c)) => Reflectance::Colour(c),
+                    Some(ColourProp::Texture(t)) => {
+                        Reflectance::Texture(self.texture(t, &format!("{name}-reflectance"))?)
+                    }
+                    Some(ColourProp::Ref(r, id)) => {
+                        let t = self.lookup(r, &id)?;
+                        Reflectance::Texture(self.texture(t, &id)?)
+                    }
+                };
+                MaterialSpec::Diffuse { reflectance, two_sided }
+            }
+            "dielectric" | "thindielectric" => {
+                let int = p.float_or_name("int_ior", named_ior)?.unwrap_or(1.5046);
+                let ext = p.float_or_name("ext_ior", named_ior)?.unwrap_or(1.000277);
+                match p.colour("specular_reflectance")? {
+                    None => {}
+                    Some(ColourProp::Rgb(c)) if c == [1.0; 3] => {}
+                    Some(_) => return Err(b.error("specular_reflectance other than 1 is not supported")),
+                }
+                let tint = match p.colour("specular_transmittance")? {
+                    None => [1.0; 3],
+                    Some(ColourProp::Rgb(c)) => c,
+                    Some(_) => return Err(b.error("a textured specular_transmittance is not supported")),
+                };
+                if kind == "dielectric" {
+                    MaterialSpec::Dielectric { ior: int, outside_ior: ext, tint }
+                } else {
+                    MaterialSpec::ThinDielectric { ior: int, outside_ior: ext, tint }
+                }
+            }
+            "conductor" | "roughconductor" => self.conductor(b, &p, two_sided)?,
+            _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
+        };
+        p.finish("the parameters of diffuse, dielectric, thindielectric, conductor, roughconductor and twosided")?;
+        Ok(spec)
+    }
+
+    fn conductor(&mut self, b: &Node, p: &Props, two_sided: bool) -> Result<MaterialSpec, SceneError> {
+        let roughness = if b.attr("type") == Some("roughconductor") {
+            match p.string("distribution")?.as_deref() {
+                Some("ggx") => {}
+                d => {
+                    let d = d.unwrap_or("beckmann (the default)");
+                    return Err(b.error(format!(
+                        "microfacet distribution {d} is not supported; caustica's rough conductor is GGX \
+                         (<string name=\"distribution\" value=\"ggx\"/>)"
+                    )));
+                }
+            }
+            p.boolean("sample_visible")?;
+            let (a, au, av) = (p.float("alpha")?, p.float("alpha_u")?, p.float("alpha_v")?);
+            match (a, au, av) {
+                (Some(a), None, None) => a,
+                (None, Some(u), Some(v)) if u == v => u,
+                (None, None, None) => 0.1,
+                _ => return Err(b.error("anisotropic roughness (alpha_u ≠ alpha_v) is not supported")),
+            }
+        } else {
+            0.0
+        };
+        let specular = match p.colour("specular_reflectance")? {
+            None => None,
+            Some(ColourProp::Rgb(c)) => Some(c),
+            Some(_) => return Err(b.error("a textured specular_reflectance is not supported")),
+        };
+        let rgb = |name: &str| -> Result<Option<[f32; 3]>, SceneError> {
+            match p.colour(name)? {
+                None => Ok(None),
+                Some(ColourProp::Rgb(c)) => Ok(Some(c)),
+                Some(_) => Err(b.error(format!("a textured `{name}` is not supported"))),
+            }
+        };
+        let (eta, k) = (rgb("eta")?, rgb("k")?);
+        let material = p.string("material")?;
+        let (eta, k) = match (material.as_deref(), eta, k) {
+            (None | Some("none"), None, None) => {
+                return Ok(MaterialSpec::Mirror { specular: specular.unwrap_or([1.0; 3]), roughness, two_sided });
+            }
+            (Some(m), None, None) => {
+                let (e, k) = crate::scene::material::complex_ior(m).ok_or_else(|| {
+                    b.error(format!("conductor material `{m}` is not in caustica's table (Ag, Al, Au, Be, Cr, Cu, Hg, Ir, K, Li, Mo, Na, Nb, Ni, Rh, Ta, TiN, V, W, none)"))
+                })?;
+                (e.to_array(), k.to_array())
+            }
+            (None, Some(e), Some(k)) => (e, k),
+            (None, Some(e), None) => (e, [0.0; 3]),
+            _ => return Err(b.error("give `material`, or `eta` and `k`, not both")),
+        };
+        Ok(MaterialSpec::Conductor { preset: None, specular, eta: Some(eta), k: Some(k), roughness, two_sided })
+    }
+
+    /// Converts a `<texture>` once and returns its name in `[textures]`.
+    fn texture(&mut self, t: &'a Node, fallback: &str) -> Result<String, SceneError> {
+        if let Some(name) = self.done.get(&(t as *const Node)) {
+            return Ok(name.clone());
+        }
+        let mut name = t.attr("id").map_or_else(|| fallback.to_string(), str::to_string);
+        while self.file.textures.contains_key(&name) {
+            name += "'";
+        }
+        let p = Props::new(t);
+        // Mitsuba keeps the 2-D part of the 4×4: [m00 m01 m03; m10 m11 m13].
+        let matrix = p.transform("to_uv")?.map(|m| {
+            let c = |r: usize, col: usize| m.col(col)[r];
+            [[c(0, 0), c(0, 1), c(0, 3)], [c(1, 0), c(1, 1), c(1, 3)]]
+        });
+        let spec = match t.attr("type") {
+            Some("checkerboard") => {
+                let colour = |key: &str, d: f32| match p.colour(key)? {
+                    None => Ok([d; 3]),
+                    Some(ColourProp::Rgb(c)) => Ok(c),
+                    Some(_) => Err(t.error(format!("`{key}` must be a colour"))),
+                };
+                let (color0, color1) = (colour("color0", 0.4)?, colour("color1", 0.2)?);
+                TextureSpec::Checkerboard { color0, color1, scale: [1.0; 2], offset: [0.0; 2], matrix }
+            }
+            Some("bitmap") => {
+                let file = p.string("filename")?.ok_or_else(|| t.error("needs a `filename`"))?;
+                let bilinear = match p.string("filter_type")?.as_deref() {
+                    None | Some("bilinear") => true,
+                    Some("nearest") => false,
+                    Some(f) => return Err(t.error(format!("filter_type `{f}` (read: bilinear, nearest)"))),
+                };
+                if let Some(w) = p.string("wrap_mode")?.filter(|w| w != "repeat") {
+                    return Err(t.error(format!("wrap_mode `{w}` is not supported (repeat is)")));
+                }
+                let raw = p.boolean("raw")?.unwrap_or(false);
+                TextureSpec::Bitmap {
+                    file: self.resolve(t, &file),
+                    raw,
+                    bilinear,
+                    scale: [1.0; 2],
+                    offset: [0.0; 2],
+                    matrix,
+                }
+            }
+            _ => return Err(t.error("texture type not read (read: bitmap, checkerboard)")),
+        };
+        p.finish(
+            "filename, filter_type, wrap_mode = repeat, raw, to_uv (bitmap); color0, color1, to_uv (checkerboard)",
+        )?;
+        self.file.textures.insert(name.clone(), spec);
+        self.done.insert(t as *const Node, name.clone());
+        Ok(name)
+    }
+
+    fn emitter(&mut self, e: &Node) -> Result<(), SceneError> {
+        let p = Props::new(e);
+        match e.attr("type") {
+            Some("point") => {
+                let intensity = match p.colour("intensity")? {
+                    None => [1.0; 3],
+                    Some(ColourProp::Rgb(c)) => c,
+                    Some(_) => return Err(e.error("a textured intensity is not supported")),
+                };
+                let at = p.point("position")?;
+                let m = p.transform("to_world")?;
+                let position = match (at, m) {
+                    (Some(_), Some(_)) => return Err(e.error("give `position` or `to_world`, not both")),
+                    (Some(x), None) => x,
+                    (None, m) => m.unwrap_or(Mat4::IDENTITY).transform_point3(Vec3::ZERO).to_array(),
+                };
+                // Mitsuba's intensity is W/sr; caustica's point light takes its total power, 4π I.
+                let power = intensity.map(|i| i * 4.0 * std::f32::consts::PI);
+                self.file.lights.push(LightSpec::Point { position, power });
+            }
+            Some("area") => return Err(e.error("an area emitter must sit inside the <shape> that emits")),
+            _ => return Err(e.error(format!("emitter type not read (read: {EMITTERS})"))),
+        }
+        p.finish("intensity, position, to_world")
+    }
+}
+
+/// Rewrites the file names of a converted scene (meshes, bitmaps), given relative to `from`, to be
+/// relative to `to` (both folders must exist), so the TOML can be written somewhere else.
+pub fn rebase(file: &mut SceneFile, from: &Path, to: &Path) -> Result<(), String> {
+    let canon = |p: &Path| p.canonicalize().map_err(|e| format!("{}: {e}", p.display()));
+    let (from, to) = (canon(if from.as_os_str().is_empty() { Path::new(".") } else { from })?, canon(to)?);
+    let fix = |name: &mut String| -> Result<(), String> {
+        let target = canon(&from.join(&*name))?;
+        *name = relative_path(&to, &target).display().to_string();
+        Ok(())
+    };
+    for s in &mut file.shapes {
+        if let ShapeSpec::Mesh { file, .. } = s {
+            fix(file)?;
+        }
+    }
+    for t in file.textures.values_mut() {
+        if let TextureSpec::Bitmap { file, .. } = t {
+            fix(file)?;
+        }
+    }
+    Ok(())
+}
+
+/// `target` as seen from folder `base` (both absolute): `../x/y` where needed.
+fn relative_path(base: &Path, target: &Path) -> PathBuf {
+    let (b, t): (Vec<_>, Vec<_>) = (base.components().collect(), target.components().collect());
+    let common = b.iter().zip(&t).take_while(|(x, y)| x == y).count();
+    let mut out = PathBuf::new();
+    for _ in common..b.len() {
+        out.push("..");
+    }
+    for c in &t[common..] {
+        out.push(c);
+    }
+    out
+}
+
+/// Mitsuba's named indices of refraction.
+pub fn named_ior(name: &str) -> Option<f32> {
+    Some(match name {
+        "vacuum" => 1.0,
+        "helium" => 1.000036,
+        "hydrogen" => 1.000132,
+        "air" => 1.000277,
+        "carbon dioxide" => 1.00045,
+        "water" => 1.333,
+        "acetone" => 1.36,
+        "ethanol" => 1.361,
+        "carbon tetrachloride" => 1.461,
+        "glycerol" => 1.4729,
+        "benzene" => 1.501,
+        "silicone oil" => 1.52045,
+        "bromine" => 1.661,
+        "water ice" => 1.31,
+        "fused quartz" => 1.458,
+        "pyrex" => 1.47,
+        "acrylic glass" => 1.49,
+        "polypropylene" => 1.49,
+        "bk7" => 1.5046,
+        "sodium chloride" => 1.544,
+        "amber" => 1.55,
+        "pet" => 1.575,
+        "diamond" => 2.419,
+        _ => return None,
+    })
+}

@@ -1,0 +1,244 @@
+//! Typed reading of a Mitsuba element's properties (`<float name=…>`, `<rgb>`, `<transform>` …), with
+//! every child that no reader asked for reported as unsupported, so nothing is silently ignored.
+use super::xml::Node;
+use crate::scene::SceneError;
+use glam::{Mat4, Vec3};
+use std::cell::RefCell;
+
+/// A colour-valued property: a constant, an inline `<texture>`, or `<ref id>` to one.
+pub enum ColourProp<'a> {
+    Rgb([f32; 3]),
+    Texture(&'a Node),
+    Ref(&'a Node, String),
+}
+
+pub struct Props<'a> {
+    pub node: &'a Node,
+    used: RefCell<Vec<bool>>,
+}
+
+impl<'a> Props<'a> {
+    pub fn new(node: &'a Node) -> Self {
+        Props { node, used: RefCell::new(vec![false; node.children.len()]) }
+    }
+
+    fn take(&self, name: &str) -> Option<&'a Node> {
+        let i = self.node.children.iter().position(|c| c.attr("name") == Some(name) && c.tag != "default")?;
+        self.used.borrow_mut()[i] = true;
+        Some(&self.node.children[i])
+    }
+
+    /// Nested objects of a kind (`bsdf`, `emitter`, `film`, `ref` …) that are not named properties.
+    pub fn objects(&self, tag: &str) -> Vec<&'a Node> {
+        let mut used = self.used.borrow_mut();
+        let mut out = Vec::new();
+        for (i, c) in self.node.children.iter().enumerate() {
+            let unnamed = c.attr("name").is_none() || (tag == "ref" && c.attr("name") == Some("bsdf"));
+            if c.tag == tag && !used[i] && unnamed {
+                used[i] = true;
+                out.push(c);
+            }
+        }
+        out
+    }
+
+    fn value(n: &Node) -> Result<&str, SceneError> {
+        n.attr("value").ok_or_else(|| n.error("needs a `value` attribute"))
+    }
+
+    pub fn numbers(n: &Node, s: &str) -> Result<Vec<f32>, SceneError> {
+        s.split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+            .map(|t| match t.parse::<f32>() {
+                Ok(x) if x.is_finite() => Ok(x),
+                _ => Err(n.error(format!("`{t}` is not a finite number"))),
+            })
+            .collect()
+    }
+
+    pub fn float(&self, name: &str) -> Result<Option<f32>, SceneError> {
+        let Some(n) = self.take(name) else { return Ok(None) };
+        if n.tag != "float" && n.tag != "integer" {
+            return Err(n.error(format!("`{name}` must be a <float>")));
+        }
+        match Self::numbers(n, Self::value(n)?)?[..] {
+            [x] => Ok(Some(x)),
+            _ => Err(n.error("expected one number")),
+        }
+    }
+
+    pub fn int(&self, name: &str) -> Result<Option<i64>, SceneError> {
+        let Some(n) = self.take(name) else { return Ok(None) };
+        let v = Self::value(n)?;
+        if n.tag != "integer" {
+            return Err(n.error(format!("`{name}` must be an <integer>")));
+        }
+        v.trim().parse().map(Some).map_err(|_| n.error(format!("`{v}` is not an integer")))
+    }
+
+    pub fn boolean(&self, name: &str) -> Result<Option<bool>, SceneError> {
+        let Some(n) = self.take(name) else { return Ok(None) };
+        match (n.tag.as_str(), Self::value(n)?.trim()) {
+            ("boolean", "true") => Ok(Some(true)),
+            ("boolean", "false") => Ok(Some(false)),
+            _ => Err(n.error(format!("`{name}` must be <boolean value=\"true\"> or \"false\""))),
+        }
+    }
+
+    pub fn string(&self, name: &str) -> Result<Option<String>, SceneError> {
+        let Some(n) = self.take(name) else { return Ok(None) };
+        if n.tag != "string" {
+            return Err(n.error(format!("`{name}` must be a <string>")));
+        }
+        Ok(Some(Self::value(n)?.to_string()))
+    }
+
+    /// A float or a named constant (e.g. `int_ior` as 1.5 or "bk7").
+    pub fn float_or_name(&self, name: &str, named: impl Fn(&str) -> Option<f32>) -> Result<Option<f32>, SceneError> {
+        let Some(n) = self.node.children.iter().find(|c| c.attr("name") == Some(name)) else { return Ok(None) };
+        if n.tag == "string" {
+            let s = self.string(name)?.unwrap_or_default();
+            return named(&s).map(Some).ok_or_else(|| n.error(format!("unknown name `{s}`")));
+        }
+        self.float(name)
+    }
+
+    pub fn point(&self, name: &str) -> Result<Option<[f32; 3]>, SceneError> {
+        let Some(n) = self.take(name) else { return Ok(None) };
+        if n.tag != "point" && n.tag != "vector" {
+            return Err(n.error(format!("`{name}` must be a <point>")));
+        }
+        Ok(Some(xyz(n, 0.0)?))
+    }
+
+    /// A colour: `<rgb>`, `<spectrum>` with one value, `<float>`, 0.6's `<srgb>`, or a texture.
+    pub fn colour(&self, name: &str) -> Result<Option<ColourProp<'a>>, SceneError> {
+        let Some(n) = self.take(name) else { return Ok(None) };
+        let rgb = |v: Vec<f32>| match v[..] {
+            [x] => Ok([x, x, x]),
+            [r, g, b] => Ok([r, g, b]),
+            _ => Err(n.error("expected one or three numbers")),
+        };
+        Ok(Some(match n.tag.as_str() {
+            "rgb" | "float" => ColourProp::Rgb(rgb(Self::numbers(n, Self::value(n)?)?)?),
+            "spectrum" => {
+                let v = Self::value(n)?;
+                if v.contains(':') || n.attr("filename").is_some() {
+                    return Err(n.error("sampled spectra are not read (give <rgb> or a single value)"));
+                }
+                ColourProp::Rgb(rgb(Self::numbers(n, v)?)?)
+            }
+            "srgb" => ColourProp::Rgb(srgb(n, Self::value(n)?)?),
+            "texture" => ColourProp::Texture(n),
+            "ref" => ColourProp::Ref(n, n.attr("id").ok_or_else(|| n.error("needs an `id`"))?.to_string()),
+            _ => return Err(n.error(format!("`{name}` must be <rgb>, <spectrum>, <float> or a <texture>"))),
+        }))
+    }
+
+    /// A `<transform name=…>` as one matrix (each operation applied after the ones before it).
+    pub fn transform(&self, name: &str) -> Result<Option<Mat4>, SceneError> {
+        let Some(n) = self.take(name) else { return Ok(None) };
+        if n.tag != "transform" {
+            return Err(n.error(format!("`{name}` must be a <transform>")));
+        }
+        let mut m = Mat4::IDENTITY;
+        for op in &n.children {
+            m = op_matrix(op)? * m;
+        }
+        if !m.is_finite() || m.determinant().abs() < 1e-20 {
+            return Err(n.error("is degenerate (zero scale or not finite)"));
+        }
+        Ok(Some(m))
+    }
+
+    /// Refuses every child no reader took, naming it and what `supported` lists.
+    pub fn finish(&self, supported: &str) -> Result<(), SceneError> {
+        let used = self.used.borrow();
+        match self.node.children.iter().enumerate().find(|(i, _)| !used[*i]) {
+            None => Ok(()),
+            Some((_, c)) => Err(c.error(format!(
+                "not supported inside {} (line {}); supported here: {supported}",
+                self.node.describe(),
+                self.node.line
+            ))),
+        }
+    }
+}
+
+fn srgb(n: &Node, v: &str) -> Result<[f32; 3], SceneError> {
+    let enc = if let Some(hex) = v.trim().strip_prefix('#') {
+        let c = u32::from_str_radix(hex, 16).ok().filter(|_| hex.len() == 6).ok_or_else(|| n.error("bad #rrggbb"))?;
+        [(c >> 16) as f32 / 255.0, ((c >> 8) & 255) as f32 / 255.0, (c & 255) as f32 / 255.0]
+    } else {
+        match Props::numbers(n, v)?[..] {
+            [r, g, b] => [r, g, b],
+            [x] => [x; 3],
+            _ => return Err(n.error("expected #rrggbb or three numbers")),
+        }
+    };
+    Ok(enc.map(|x| if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }))
+}
+
+/// `x`, `y`, `z` attributes (missing ones `default`) or one `value="x, y, z"` (one number: all three).
+fn xyz(n: &Node, default: f32) -> Result<[f32; 3], SceneError> {
+    if let Some(v) = n.attr("value") {
+        return match Props::numbers(n, v)?[..] {
+            [x] => Ok([x; 3]),
+            [x, y, z] => Ok([x, y, z]),
+            _ => Err(n.error("expected one or three numbers")),
+        };
+    }
+    let get = |k: &str| {
+        n.attr(k).map_or(Ok(default), |s| Props::numbers(n, s).map(|v| v.first().copied().unwrap_or(default)))
+    };
+    Ok([get("x")?, get("y")?, get("z")?])
+}
+
+fn vec_attr(n: &Node, key: &str) -> Result<Vec3, SceneError> {
+    let s = n.attr(key).ok_or_else(|| n.error(format!("needs `{key}`")))?;
+    match Props::numbers(n, s)?[..] {
+        [x, y, z] => Ok(Vec3::new(x, y, z)),
+        _ => Err(n.error(format!("`{key}` needs three numbers"))),
+    }
+}
+
+fn op_matrix(op: &Node) -> Result<Mat4, SceneError> {
+    Ok(match op.tag.as_str() {
+        "translate" => Mat4::from_translation(Vec3::from_array(xyz(op, 0.0)?)),
+        "scale" => Mat4::from_scale(Vec3::from_array(xyz(op, 1.0)?)),
+        "rotate" => {
+            let axis = match op.attr("axis").or(op.attr("value")) {
+                Some(_) => vec_attr(op, if op.attr("axis").is_some() { "axis" } else { "value" })?,
+                None => Vec3::from_array(xyz(op, 0.0)?),
+            };
+            let angle: f32 = op
+                .attr("angle")
+                .and_then(|a| a.trim().parse().ok())
+                .ok_or_else(|| op.error("needs a numeric `angle` (degrees)"))?;
+            if axis.length() == 0.0 {
+                return Err(op.error("the rotation axis is zero"));
+            }
+            Mat4::from_axis_angle(axis.normalize(), angle.to_radians())
+        }
+        "matrix" => {
+            let v = Props::numbers(op, op.attr("value").ok_or_else(|| op.error("needs `value`"))?)?;
+            match v.len() {
+                16 => Mat4::from_cols_slice(&v).transpose(),
+                9 => Mat4::from_mat3(glam::Mat3::from_cols_slice(&v).transpose()),
+                n => return Err(op.error(format!("needs 16 (or 9) numbers, got {n}"))),
+            }
+        }
+        "lookat" => {
+            let (o, t) = (vec_attr(op, "origin")?, vec_attr(op, "target")?);
+            let up = if op.attr("up").is_some() { vec_attr(op, "up")? } else { Vec3::Y };
+            let dir = (t - o).normalize_or_zero();
+            let left = up.cross(dir).normalize_or_zero();
+            if dir == Vec3::ZERO || left == Vec3::ZERO {
+                return Err(op.error("origin equals target, or up is parallel to the view"));
+            }
+            let new_up = dir.cross(left);
+            Mat4::from_cols(left.extend(0.0), new_up.extend(0.0), dir.extend(0.0), o.extend(1.0))
+        }
+        _ => return Err(op.error("not a transform operation (translate, rotate, scale, matrix, lookat)")),
+    })
+}

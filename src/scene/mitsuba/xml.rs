@@ -1,0 +1,177 @@
+//! Reads a Mitsuba XML file into a plain element tree: `<include>` spliced in, `<default>` values
+//! collected and every `$name` substituted, each element keeping its file and line for error messages.
+use crate::scene::SceneError;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Deepest `<include>` nesting accepted (an include cycle is refused long before).
+const MAX_INCLUDE_DEPTH: usize = 16;
+
+#[derive(Clone, Debug)]
+pub struct Node {
+    pub tag: String,
+    pub attrs: Vec<(String, String)>,
+    pub children: Vec<Node>,
+    /// The file the element was read from, and its line there.
+    pub file: PathBuf,
+    pub line: u32,
+}
+
+impl Node {
+    pub fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs.iter().find(|(k, _)| k == name).map(|(_, v)| v.as_str())
+    }
+
+    /// `<tag type="…" name="…">` as the user wrote it, for messages.
+    pub fn describe(&self) -> String {
+        let mut s = format!("<{}", self.tag);
+        for key in ["type", "name", "id"] {
+            if let Some(v) = self.attr(key) {
+                s += &format!(" {key}=\"{v}\"");
+            }
+        }
+        s + ">"
+    }
+
+    /// An error about this element: file, line, element, message.
+    pub fn error(&self, msg: impl std::fmt::Display) -> SceneError {
+        SceneError::Parse {
+            file: self.file.display().to_string(),
+            msg: format!("line {}: {}: {msg}", self.line, self.describe()),
+        }
+    }
+
+    /// The folder the element's file is in (relative file names resolve against it).
+    pub fn dir(&self) -> PathBuf {
+        self.file.parent().map(Path::to_path_buf).unwrap_or_default()
+    }
+}
+
+/// Reads `path`, which must hold a `<scene>`; returns it with includes spliced in and `$name`
+/// references replaced by `<default>` values (the first definition wins, as in Mitsuba).
+pub fn read_scene(path: &Path) -> Result<Node, SceneError> {
+    let mut root = read_file(path, 0)?;
+    if root.attr("version").is_some_and(|v| v.starts_with("0.")) {
+        snake_case_names(&mut root);
+    }
+    let mut defaults = HashMap::new();
+    collect_defaults(&root, &mut defaults)?;
+    substitute(&mut root, &defaults)?;
+    Ok(root)
+}
+
+fn read_file(path: &Path, depth: usize) -> Result<Node, SceneError> {
+    let shown = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io { file: shown.clone(), msg: e.to_string() })?;
+    let doc = roxmltree::Document::parse(&text)
+        .map_err(|e| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") })?;
+    let root = doc.root_element();
+    let mut node = convert(&doc, root, path);
+    if node.tag != "scene" {
+        return Err(node.error("the top element must be <scene version=\"3.x\">"));
+    }
+    match node.attr("version") {
+        Some(v) if ["3.", "2.", "0.6", "0.5"].iter().any(|p| v.starts_with(p)) || v == "3" => {}
+        Some(v) => return Err(node.error(format!("version {v} is not read (3.x, 2.x, 0.6 and 0.5 are)"))),
+        None => return Err(node.error("missing the `version` attribute (e.g. version=\"3.0.0\")")),
+    }
+    let mut children = Vec::new();
+    for child in std::mem::take(&mut node.children) {
+        if child.tag != "include" {
+            children.push(child);
+            continue;
+        }
+        if depth >= MAX_INCLUDE_DEPTH {
+            return Err(child.error(format!("includes nested deeper than {MAX_INCLUDE_DEPTH} (a cycle?)")));
+        }
+        let name = child.attr("filename").ok_or_else(|| child.error("needs a `filename` attribute"))?;
+        let inner = read_file(&child.dir().join(name), depth + 1)
+            .map_err(|e| child.error(format!("while including {name}: {e}")))?;
+        children.extend(inner.children);
+    }
+    node.children = children;
+    Ok(node)
+}
+
+fn convert(doc: &roxmltree::Document, n: roxmltree::Node, file: &Path) -> Node {
+    Node {
+        tag: n.tag_name().name().to_string(),
+        attrs: n.attributes().map(|a| (a.name().to_string(), a.value().to_string())).collect(),
+        children: n.children().filter(|c| c.is_element()).map(|c| convert(doc, c, file)).collect(),
+        file: file.to_path_buf(),
+        line: doc.text_pos_at(n.range().start).row,
+    }
+}
+
+/// Mitsuba 0.5/0.6 wrote parameter names in camelCase (`toWorld`, `intIOR`); 3.x in snake_case.
+fn snake_case_names(node: &mut Node) {
+    for (k, v) in &mut node.attrs {
+        if k == "name" {
+            let mut out = String::new();
+            let mut prev_lower = false;
+            for c in v.chars() {
+                if c.is_ascii_uppercase() && prev_lower {
+                    out.push('_');
+                }
+                prev_lower = c.is_ascii_lowercase() || c.is_ascii_digit();
+                out.push(c.to_ascii_lowercase());
+            }
+            *v = out;
+        }
+    }
+    node.children.iter_mut().for_each(snake_case_names);
+}
+
+fn collect_defaults(scene: &Node, out: &mut HashMap<String, String>) -> Result<(), SceneError> {
+    for d in scene.children.iter().filter(|c| c.tag == "default") {
+        let (Some(name), Some(value)) = (d.attr("name"), d.attr("value")) else {
+            return Err(d.error("needs `name` and `value` attributes"));
+        };
+        out.entry(name.to_string()).or_insert_with(|| value.to_string());
+    }
+    Ok(())
+}
+
+fn substitute(node: &mut Node, defaults: &HashMap<String, String>) -> Result<(), SceneError> {
+    if node.tag != "default" {
+        for i in 0..node.attrs.len() {
+            let v = &node.attrs[i].1;
+            if !v.contains('$') {
+                continue;
+            }
+            let replaced = replace_refs(v, defaults).map_err(|name| {
+                node.error(format!("`${name}` has no <default name=\"{name}\" value=\"…\"/> in the scene"))
+            })?;
+            node.attrs[i].1 = replaced;
+        }
+    }
+    node.children.iter_mut().try_for_each(|c| substitute(c, defaults))
+}
+
+/// Replaces every `$name` (letters, digits, `_`) in `v`; Err(name) for one with no default.
+fn replace_refs(v: &str, defaults: &HashMap<String, String>) -> Result<String, String> {
+    let mut out = String::new();
+    let mut rest = v;
+    while let Some(i) = rest.find('$') {
+        out += &rest[..i];
+        let after = &rest[i + 1..];
+        let len = after.find(|c: char| !(c.is_ascii_alphanumeric() || c == '_')).unwrap_or(after.len());
+        let name = &after[..len];
+        out += defaults.get(name).ok_or_else(|| name.to_string())?;
+        rest = &after[len..];
+    }
+    Ok(out + rest)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dollar_references_are_replaced_and_unknown_ones_named() {
+        let d: HashMap<String, String> = [("spp".to_string(), "64".to_string())].into();
+        assert_eq!(replace_refs("$spp", &d).unwrap(), "64");
+        assert_eq!(replace_refs("a $spp, b", &d).unwrap(), "a 64, b");
+        assert_eq!(replace_refs("$res_x", &d).unwrap_err(), "res_x");
+    }
+}

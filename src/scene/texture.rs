@@ -1,0 +1,191 @@
+//! Textures a diffuse reflectance can read per hit: a procedural checkerboard and bitmaps (PNG and JPEG
+//! decoded from sRGB, EXR read as linear), both through a 2-D affine `to_uv` map, wrapping (repeat).
+//!
+//! ```toml
+//! [textures]
+//! checks = { type = "checkerboard", color0 = [0.8, 0.8, 0.8], color1 = [0.1, 0.1, 0.1], scale = [8.0, 8.0] }
+//! wood   = { type = "bitmap", file = "assets/wood.jpg" }
+//!
+//! [materials]
+//! floor = { type = "diffuse", reflectance = "checks" }
+//! ```
+use crate::color::Rgb;
+use glam::Vec2;
+use std::path::Path;
+
+/// Largest bitmap accepted (texels), so a hostile header cannot ask for unbounded memory.
+pub const MAX_TEXELS: u64 = 1 << 28;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texture {
+    /// color0 where both of frac(u), frac(v) are on the same side of ½ (Mitsuba's convention), else color1.
+    Checkerboard { color0: Rgb, color1: Rgb, to_uv: UvMap },
+    /// Linear RGB texels, row 0 at v = 0; bilinear (or nearest) lookup with texel centres at (i + ½)/size.
+    Bitmap { file: String, width: u32, height: u32, texels: Vec<Rgb>, to_uv: UvMap, bilinear: bool },
+}
+
+/// uv' = (a·u + b·v + c, d·u + e·v + f).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvMap(pub [f32; 6]);
+
+impl Default for UvMap {
+    fn default() -> Self {
+        UvMap([1.0, 0.0, 0.0, 0.0, 1.0, 0.0])
+    }
+}
+
+impl UvMap {
+    /// Scale, then offset: uv' = uv · scale + offset.
+    pub fn scale_offset(scale: [f32; 2], offset: [f32; 2]) -> Self {
+        UvMap([scale[0], 0.0, offset[0], 0.0, scale[1], offset[1]])
+    }
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        let m = &self.0;
+        Vec2::new(m[0] * uv.x + m[1] * uv.y + m[2], m[3] * uv.x + m[4] * uv.y + m[5])
+    }
+}
+
+impl Texture {
+    pub fn eval(&self, uv: Vec2) -> Rgb {
+        match self {
+            Texture::Checkerboard { color0, color1, to_uv } => {
+                let t = to_uv.apply(uv);
+                let (fu, fv) = (t.x - t.x.floor(), t.y - t.y.floor());
+                if (fu > 0.5) == (fv > 0.5) {
+                    *color0
+                } else {
+                    *color1
+                }
+            }
+            Texture::Bitmap { width, height, texels, to_uv, bilinear, .. } => {
+                let t = to_uv.apply(uv);
+                let (w, h) = (*width as i64, *height as i64);
+                let at = |x: i64, y: i64| texels[(y.rem_euclid(h) * w + x.rem_euclid(w)) as usize];
+                let (x, y) = (t.x * w as f32, t.y * h as f32);
+                if !(x.is_finite() && y.is_finite()) {
+                    return Rgb::ZERO;
+                }
+                if !*bilinear {
+                    return at(x.floor() as i64, y.floor() as i64);
+                }
+                let (x, y) = (x - 0.5, y - 0.5);
+                let (x0, y0) = (x.floor(), y.floor());
+                let (fx, fy) = (x - x0, y - y0);
+                let (x0, y0) = (x0 as i64, y0 as i64);
+                (at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx) * (1.0 - fy)
+                    + (at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx) * fy
+            }
+        }
+    }
+
+    /// Feeds what the texture is into a scene's content hash.
+    pub fn hash_into(&self, h: &mut sha2::Sha256) {
+        use sha2::Digest;
+        match self {
+            Texture::Checkerboard { .. } => h.update(format!("{self:?}")),
+            Texture::Bitmap { width, height, texels, to_uv, bilinear, .. } => {
+                h.update(format!("bitmap {width} {height} {to_uv:?} {bilinear}"));
+                for t in texels {
+                    t.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
+                }
+            }
+        }
+    }
+
+    /// Largest value the texture takes (a reflectance must stay ≤ 1).
+    pub fn max_value(&self) -> f32 {
+        match self {
+            Texture::Checkerboard { color0, color1, .. } => color0.max_element().max(color1.max_element()),
+            Texture::Bitmap { texels, .. } => texels.iter().map(|t| t.max_element()).fold(0.0, f32::max),
+        }
+    }
+}
+
+/// Reads an image as linear RGB, row 0 first: EXR as stored, PNG and JPEG decoded from sRGB unless
+/// `raw` (then 8/16-bit values are divided by their maximum and kept). Returns (width, height, texels).
+pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String> {
+    let name = path.to_string_lossy().to_lowercase();
+    if !path.exists() {
+        return Err("file not found".into());
+    }
+    if name.ends_with(".exr") {
+        let img = exr::prelude::read_first_rgba_layer_from_file(
+            path,
+            |res, _| {
+                let (w, h) = (res.width(), res.height());
+                let n = if (w as u64 * h as u64) <= MAX_TEXELS { w * h } else { 0 };
+                (w, h, vec![Rgb::ZERO; n])
+            },
+            |img: &mut (usize, usize, Vec<Rgb>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                if let Some(t) = img.2.get_mut(pos.y() * img.0 + pos.x()) {
+                    *t = Rgb::new(r, g, b);
+                }
+            },
+        )
+        .map_err(|e| format!("cannot read EXR: {e}"))?;
+        let (w, h, texels) = img.layer_data.channel_data.pixels;
+        if texels.is_empty() || w == 0 || h == 0 {
+            return Err(format!("{w}×{h} EXR is empty or larger than {MAX_TEXELS} texels"));
+        }
+        if let Some(i) = texels.iter().position(|t| !t.is_finite()) {
+            return Err(format!("texel ({}, {}) is not finite", i % w, i / w));
+        }
+        return Ok((w as u32, h as u32, texels));
+    }
+    let reader =
+        image::ImageReader::open(path).map_err(|e| e.to_string())?.with_guessed_format().map_err(|e| e.to_string())?;
+    let (w, h) = reader.into_dimensions().map_err(|e| format!("cannot read image: {e}"))?;
+    if w as u64 * h as u64 > MAX_TEXELS || w == 0 || h == 0 {
+        return Err(format!("{w}×{h} image is empty or larger than {MAX_TEXELS} texels"));
+    }
+    let img = image::ImageReader::open(path)
+        .map_err(|e| e.to_string())?
+        .with_guessed_format()
+        .map_err(|e| e.to_string())?
+        .decode()
+        .map_err(|e| format!("cannot decode image (PNG, JPEG or EXR accepted): {e}"))?
+        .into_rgb32f();
+    let decode = |x: f32| {
+        if raw {
+            x
+        } else if x <= 0.04045 {
+            x / 12.92
+        } else {
+            ((x + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let texels = img.pixels().map(|p| Rgb::new(decode(p[0]), decode(p[1]), decode(p[2]))).collect();
+    Ok((w, h, texels))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checkerboard_follows_mitsuba_halves_and_scale() {
+        let t = Texture::Checkerboard {
+            color0: Rgb::ONE,
+            color1: Rgb::ZERO,
+            to_uv: UvMap::scale_offset([2.0, 2.0], [0.0, 0.0]),
+        };
+        assert_eq!(t.eval(Vec2::new(0.1, 0.1)), Rgb::ONE);
+        assert_eq!(t.eval(Vec2::new(0.3, 0.1)), Rgb::ZERO);
+        assert_eq!(t.eval(Vec2::new(0.3, 0.3)), Rgb::ONE);
+        // Wraps: negative coordinates keep the pattern.
+        assert_eq!(t.eval(Vec2::new(-0.1, 0.1)), Rgb::ZERO);
+    }
+
+    #[test]
+    fn bitmap_bilinear_hits_texel_centres_and_wraps() {
+        let texels = vec![Rgb::splat(0.0), Rgb::splat(1.0), Rgb::splat(0.5), Rgb::splat(0.25)];
+        let t =
+            Texture::Bitmap { file: "t".into(), width: 2, height: 2, texels, to_uv: UvMap::default(), bilinear: true };
+        assert_eq!(t.eval(Vec2::new(0.25, 0.25)), Rgb::splat(0.0));
+        assert_eq!(t.eval(Vec2::new(0.75, 0.25)), Rgb::splat(1.0));
+        assert_eq!(t.eval(Vec2::new(0.25, 0.75)), Rgb::splat(0.5));
+        // Halfway between the two texels of the top row, and across the wrap at u = 0.
+        assert!((t.eval(Vec2::new(0.5, 0.25)).x - 0.5).abs() < 1e-6);
+        assert!((t.eval(Vec2::new(0.0, 0.25)).x - 0.5).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,72 @@
+//! Textures reach the BSDF at the right place: a checkerboard through a quad's texture coordinates and
+//! a uv scale, and an MTL `map_Kd` image on an OBJ with texture coordinates (OBJ's v runs bottom-up, the
+//! image's rows top-down), read back through real ray hits.
+mod common;
+
+use caustica::accel::{interact, Accel};
+use caustica::math::Ray;
+use glam::Vec3;
+
+/// The reflectance seen by a ray straight down the −z axis through (x, y).
+fn reflectance_at(scene: &caustica::scene::Scene, accel: &Accel, x: f32, y: f32) -> Vec3 {
+    let ray = Ray::new(Vec3::new(x, y, 5.0), -Vec3::Z);
+    let i = interact(scene, accel, &ray).expect("hit");
+    scene.bsdf(&i.si, i.wo).albedo()
+}
+
+#[test]
+fn checkerboard_and_mtl_image_land_where_their_coordinates_say() {
+    let scene = common::scene(
+        "[camera]\norigin = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\n\
+         [textures]\nchecks = { type = \"checkerboard\", color0 = [0.9, 0.9, 0.9], color1 = [0.1, 0.2, 0.3], scale = [2.0, 2.0] }\n\
+         [materials]\nfloor = { type = \"diffuse\", reflectance = \"checks\" }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [1.0, -1.0, 0.0]\nedge_u = [2.0, 0.0, 0.0]\nedge_v = [0.0, 2.0, 0.0]\nmaterial = \"floor\"\n\
+         [[shapes]]\ntype = \"mesh\"\nfile = \"tests/mitsuba/tile-mtl.obj\"\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 3.0]\npower = [1.0, 1.0, 1.0]\n",
+    );
+    let accel = Accel::new(&scene).unwrap();
+    // Quad over x ∈ [1, 3]: uv = ((x − 1)/2, (y + 1)/2), scaled by 2 → squares of ½ in uv' are ½ wide.
+    let (c0, c1) = (Vec3::splat(0.9), Vec3::new(0.1, 0.2, 0.3));
+    assert_eq!(reflectance_at(&scene, &accel, 1.2, -0.8), c0);
+    assert_eq!(reflectance_at(&scene, &accel, 1.7, -0.8), c1);
+    assert_eq!(reflectance_at(&scene, &accel, 1.7, -0.3), c0);
+    assert_eq!(reflectance_at(&scene, &accel, 2.2, -0.8), c0);
+    // The tile: the centre of the image's top-left texel (white) is near its top-left corner; its top
+    // half shows the red band, its bottom half green (left) and blue (right), sRGB-decoded, bilinear.
+    let srgb = |v: f32| ((v / 255.0 + 0.055) / 1.055).powf(2.4);
+    let near = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 1e-3;
+    assert!(near(reflectance_at(&scene, &accel, -0.4375, 0.375), Vec3::ONE));
+    let red = Vec3::new(srgb(200.0), srgb(40.0), srgb(40.0));
+    assert!(near(reflectance_at(&scene, &accel, 0.1, 0.3), red), "{}", reflectance_at(&scene, &accel, 0.1, 0.3));
+    assert!(near(reflectance_at(&scene, &accel, -0.3, -0.3), Vec3::new(srgb(40.0), srgb(180.0), srgb(40.0))));
+    assert!(near(reflectance_at(&scene, &accel, 0.3, -0.3), Vec3::new(srgb(40.0), srgb(40.0), srgb(200.0))));
+}
+
+#[test]
+fn bad_textures_are_refused_naming_the_key() {
+    let base = "[camera]\norigin = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\n\
+                [[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 3.0]\npower = [1.0, 1.0, 1.0]\n";
+    let cases = [
+        ("[materials]\nm = { type = \"diffuse\", reflectance = \"nope\" }\n", "unknown texture `nope`"),
+        ("[textures]\nt = { type = \"bitmap\", file = \"missing.png\" }\n", "textures.t.file"),
+        ("[textures]\nt = { type = \"bitmap\", file = \"Cargo.toml\" }\n", "textures.t.file"),
+        (
+            "[textures]\nt = { type = \"checkerboard\", color0 = [2.0, 2.0, 2.0] }\n[materials]\nm = { type = \"diffuse\", reflectance = \"t\" }\n",
+            "reflectance must be in [0, 1]",
+        ),
+        ("[materials]\nm = { type = \"diffuse\", reflectance = 0.5 }\n", "an [r, g, b] colour or the name of a [textures] entry"),
+    ];
+    for (extra, want) in cases {
+        let text = format!("{base}{extra}");
+        let msg = match caustica::scene::load_scene_str(
+            &text,
+            "t.toml",
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")),
+            &[],
+        ) {
+            Ok(_) => panic!("accepted: {extra}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(msg.contains(want), "`{want}` not in: {msg}");
+    }
+}
