@@ -2,7 +2,8 @@
 //! with Mitsuba 3.9's renders of the very same files (tests/mitsuba/ref/*.exr, 16384 spp, box filter,
 //! made by `scripts/mitsuba-refs`). The showcase scene has what the import reads: one-sided and twosided
 //! diffuse, checkerboard and bitmap textures (on a rectangle and on an OBJ with texture coordinates),
-//! named IORs, a rough gold (GGX, named conductor), a mirror, a thin pane, an area and a point light.
+//! named IORs, a rough gold (GGX, named conductor), a mirror, a thin pane, an area and a point light;
+//! the envmap scene a rotated, scaled lat-long EXR sky over glass, copper and a checkerboard.
 //! Then: `convert` round trip, `<include>` and `$name`, 0.6 names, and refusals that name the line.
 mod common;
 
@@ -71,6 +72,11 @@ fn cornell_box_xml_matches_mitsuba() {
 #[test]
 fn showcase_xml_matches_mitsuba() {
     matches_mitsuba("showcase", 1024, 0.003);
+}
+
+#[test]
+fn envmap_xml_matches_mitsuba() {
+    matches_mitsuba("envmap", 1024, 0.003);
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {

@@ -45,6 +45,7 @@ pub fn specular_chain(
     for _ in 0..=scene.render.max_depth {
         c.rays += 1;
         let Some(crate::accel::Interaction { si, wo, .. }) = crate::accel::interact(scene, tracer, &ray) else {
+            emitted += beta * scene.lights.env_radiance(ray.d);
             break;
         };
         emitted += beta * scene.emitted(&si, wo);

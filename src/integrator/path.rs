@@ -30,6 +30,11 @@ impl PathTracer<'_> {
         for depth in 0.. {
             c.rays += 1;
             let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
+                let le = scene.lights.env_radiance(ray.d);
+                if le != Rgb::ZERO {
+                    let w = if specular { 1.0 } else { power_heuristic(prev_pdf, scene.lights.env_pdf(ray.d)) };
+                    l += beta * le * w;
+                }
                 break;
             };
             let le = scene.emitted(&si, wo);

@@ -225,6 +225,16 @@ fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
 fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<Launch> {
     let lights = &scene.lights;
     let (li, p_sel) = sampling::sample_cdf(&lights.cdf, rng.next_f32());
+    if let (crate::scene::light::LightKind::Env, Some((env, _))) = (&lights.list[li], &lights.env) {
+        // From the environment: a direction ω by its distribution, the target point y by area; the flux
+        // reaching y's surface element from ω is L(ω)|n·ω| dω dA.
+        let (w, l, pdf) = env.sample(rng.next_2d())?;
+        let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());
+        let (shape, y, ny) = targets.sample(scene, u_sel, u_tri, u);
+        let far = 2.0 * (env.radius + (y - env.center).length());
+        let phi = l * (ny.dot(w).abs() * targets.total_area / (pdf * p_sel));
+        return Some(Launch { ray: Ray::new(y + w * far, -w), phi, aim: Some((shape, far)) });
+    }
     let lp = lights.sample_point(scene, li, rng.next_2d())?;
     let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());
     let (shape, y, ny) = targets.sample(scene, u_sel, u_tri, u);

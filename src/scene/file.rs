@@ -376,6 +376,17 @@ pub enum LightSpec {
         #[serde(default)]
         radiance: Option<V3>,
     },
+    /// The same radiance from every direction, infinitely far away (a white sky, a furnace).
+    Constant { radiance: V3 },
+    /// A lat-long environment image (EXR linear, PNG/JPEG sRGB) around the scene, Mitsuba's layout
+    /// (+y up, u = atan2(x, −z)/2π); `transform` may only rotate it.
+    Envmap {
+        file: String,
+        #[serde(default = "one")]
+        scale: f32,
+        #[serde(default)]
+        transform: TransformSpec,
+    },
     /// One-sided quad area light facing edge_u × edge_v; give `power` or `radiance`.
     Quad {
         corner: V3,

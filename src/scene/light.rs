@@ -1,23 +1,35 @@
-//! Lights: point lights and emissive shapes (triangles of any mesh, analytic spheres), chosen by power.
-//! Sampling for next-event estimation (solid-angle pdfs, cone sampling for spheres) and for photon emission.
+//! Lights: point lights, emissive shapes (triangles of any mesh, analytic spheres) and an environment,
+//! chosen by power. Sampling for next-event estimation (solid-angle pdfs, cone sampling for spheres) and
+//! for photon emission.
 use crate::color::{luminance, Rgb};
 use crate::math::{offset_ray_origin, sampling, sphere_root, Frame, Ray};
+use crate::scene::env::EnvLight;
 use crate::scene::{Geometry, Scene};
 use glam::Vec3;
 use std::f32::consts::PI;
 
 #[derive(Clone, Debug)]
 pub enum LightKind {
-    Point { position: Vec3, intensity: Rgb },
-    Triangle { shape: u32, prim: u32 },
-    Sphere { shape: u32 },
+    Point {
+        position: Vec3,
+        intensity: Rgb,
+    },
+    Triangle {
+        shape: u32,
+        prim: u32,
+    },
+    Sphere {
+        shape: u32,
+    },
+    /// The environment (`Lights::env`): light from infinitely far away.
+    Env,
 }
 
 impl LightKind {
     /// The emissive shape this light belongs to (None for point lights).
     pub fn shape(&self) -> Option<u32> {
         match self {
-            LightKind::Point { .. } => None,
+            LightKind::Point { .. } | LightKind::Env => None,
             LightKind::Triangle { shape, .. } | LightKind::Sphere { shape } => Some(*shape),
         }
     }
@@ -35,6 +47,8 @@ pub struct Lights {
     pub nee_cdf: Vec<f32>,
     /// For each shape, the index in `list` of its first emitter (triangle `prim` is at offset + prim).
     pub shape_offset: Vec<Option<u32>>,
+    /// The environment light and its index in `list`.
+    pub env: Option<(EnvLight, usize)>,
 }
 
 /// A point on a light seen from a reference point.
@@ -60,8 +74,17 @@ pub struct EmittedRay {
 }
 
 impl Lights {
-    pub fn build(scene: &Scene, points: &[(Vec3, Rgb)]) -> Lights {
+    /// Every light of the scene; an environment is fitted around the scene's bounds.
+    pub fn build(scene: &Scene, points: &[(Vec3, Rgb)], env: Option<EnvLight>) -> Lights {
         let mut l = Lights { shape_offset: vec![None; scene.shapes.len()], ..Default::default() };
+        if let Some(mut e) = env {
+            let (lo, hi) = scene.bounds;
+            e.center = (lo + hi) * 0.5;
+            e.radius = ((hi - lo).length() * 0.5).max(1e-3);
+            l.list.push(LightKind::Env);
+            l.power.push(e.power());
+            l.env = Some((e, 0));
+        }
         for &(position, power) in points {
             l.list.push(LightKind::Point { position, intensity: power / (4.0 * PI) });
             l.power.push(power);
@@ -117,6 +140,16 @@ impl Lights {
 
     pub fn is_empty(&self) -> bool {
         self.cdf.last().is_none_or(|&t| t <= 0.0)
+    }
+
+    /// Radiance of the environment towards `dir` (zero without one).
+    pub fn env_radiance(&self, dir: Vec3) -> Rgb {
+        self.env.as_ref().map_or(Rgb::ZERO, |(e, _)| e.radiance(dir))
+    }
+
+    /// Solid-angle pdf that next-event estimation picks direction `dir` on the environment.
+    pub fn env_pdf(&self, dir: Vec3) -> f32 {
+        self.env.as_ref().map_or(0.0, |(e, i)| self.choice_pdf(*i) * e.pdf(dir))
     }
 
     pub fn total_power(&self) -> Rgb {
@@ -193,6 +226,13 @@ impl Lights {
                 let pdf = p_sel / (2.0 * PI * one_minus);
                 Some(LightSample { wi, dist, p, li: s.emission, pdf, delta: false })
             }
+            LightKind::Env => {
+                let (e, _) = self.env.as_ref()?;
+                let (wi, li, pdf) = e.sample(u)?;
+                // A shadow ray to a point beyond the scene's bounding sphere.
+                let dist = 2.0 * (e.radius + (x - e.center).length());
+                Some(LightSample { wi, dist, p: x + wi * dist, li, pdf: p_sel * pdf, delta: false })
+            }
         }
     }
 
@@ -228,9 +268,10 @@ impl Lights {
     }
 
     /// A point on light `i`: position, normal (zero for point lights), area pdf (1 for point lights),
-    /// and emitted radiance (area lights) or intensity (point lights).
+    /// and emitted radiance (area lights) or intensity (point lights). None for the environment.
     pub fn sample_point(&self, scene: &Scene, i: usize, u: [f32; 2]) -> Option<LightPoint> {
         Some(match &self.list[i] {
+            LightKind::Env => return None,
             LightKind::Point { position, intensity } => {
                 LightPoint { p: *position, n: Vec3::ZERO, size: 0.0, pdf_area: 1.0, le: *intensity }
             }
@@ -254,6 +295,10 @@ impl Lights {
             return None;
         }
         let (i, p_sel) = sampling::sample_cdf(&self.cdf, u_sel);
+        if let (LightKind::Env, Some((e, _))) = (&self.list[i], &self.env) {
+            let (ray, phi) = e.emit(u_dir, u_pos)?;
+            return Some(EmittedRay { ray, phi: phi / p_sel });
+        }
         let phi = self.power[i] / p_sel;
         let lp = self.sample_point(scene, i, u_pos)?;
         // A point light is no surface: its photons start exactly at it.

@@ -1,13 +1,14 @@
 //! Scene file → `Scene`: TOML parsing, `--set` overrides, and every check a user's mistake needs,
 //! each error naming the file and the key (TOML syntax and type errors also give the line).
 use crate::color::Rgb;
+use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
 use crate::scene::light::Lights;
 use crate::scene::material::{conductor_preset, Fresnel, Material, SurfaceMaterial};
 use crate::scene::mesh::{self, TriMesh};
 use crate::scene::texture::{load_image, Texture, UvMap};
 use crate::scene::{Camera, Geometry, Scene, SceneError, Shape};
-use glam::{Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -189,8 +190,18 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     materials.push(SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO }));
     names.push("(light)".into());
     let mut points = Vec::new();
+    let mut env = None;
     for (i, spec) in file.lights.iter().enumerate() {
-        build_light(&cx, &format!("lights[{i}]"), spec, black, &mut shapes, &mut points)?;
+        let key = format!("lights[{i}]");
+        match spec {
+            LightSpec::Constant { .. } | LightSpec::Envmap { .. } => {
+                if env.is_some() {
+                    return Err(cx.err(&key, "a second environment light (a scene has at most one)"));
+                }
+                env = Some(build_env(&cx, &key, spec, dir)?);
+            }
+            _ => build_light(&cx, &key, spec, black, &mut shapes, &mut points)?,
+        }
     }
     let bounds = scene_bounds(&shapes, &points);
     let mut scene = Scene {
@@ -205,7 +216,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         bounds,
         load_seconds: 0.0,
     };
-    scene.lights = Lights::build(&scene, &points);
+    scene.lights = Lights::build(&scene, &points, env);
     if scene.lights.is_empty() {
         return Err(
             cx.err("lights", "the scene has no light with positive power (add [[lights]] or an emissive shape)")
@@ -715,8 +726,38 @@ fn build_light(
             let geometry = Geometry::Mesh(mesh::quad(Vec3::from_array(*corner), eu, ev));
             shapes.push(Shape { name: key.into(), geometry, material: black, emission });
         }
+        LightSpec::Constant { .. } | LightSpec::Envmap { .. } => unreachable!("built by build_env"),
     }
     Ok(())
+}
+
+/// An environment light (its centre and radius are fitted to the scene by `Lights::build`).
+fn build_env(cx: &Ctx, key: &str, spec: &LightSpec, dir: &Path) -> Result<EnvLight, SceneError> {
+    let (scale, image, to_local) = match spec {
+        LightSpec::Constant { radiance } => {
+            (cx.colour(&format!("{key}.radiance"), *radiance, None)?, None, Mat3::IDENTITY)
+        }
+        LightSpec::Envmap { file, scale, transform } => {
+            if !(scale.is_finite() && *scale >= 0.0) {
+                return Err(cx.err(&format!("{key}.scale"), format!("must be ≥ 0, got {scale}")));
+            }
+            let m = Mat3::from_mat4(transform_matrix(key, transform, cx.shown)?);
+            if (m * m.transpose() - Mat3::IDENTITY).to_cols_array().iter().any(|v| v.abs() > 1e-3)
+                || m.determinant() < 0.0
+            {
+                return Err(cx.err(&format!("{key}.transform"), "an environment may only be rotated"));
+            }
+            let path = dir.join(file);
+            let (w, h, texels) = load_image(&path, false)
+                .map_err(|e| cx.err(&format!("{key}.file"), format!("{}: {e}", path.display())))?;
+            if texels.iter().any(|t| t.min_element() < 0.0) {
+                return Err(cx.err(&format!("{key}.file"), format!("{}: has negative texels", path.display())));
+            }
+            (Rgb::splat(*scale), Some(EnvImage::new(w, h, texels)), m.transpose())
+        }
+        _ => unreachable!("not an environment light"),
+    };
+    Ok(EnvLight { scale, image, to_local, center: Vec3::ZERO, radius: 1.0 })
 }
 
 fn scene_bounds(shapes: &[Shape], points: &[(Vec3, Rgb)]) -> (Vec3, Vec3) {

@@ -1,5 +1,6 @@
 //! The in-memory scene: camera, materials, shapes (triangle meshes and analytic spheres), lights, settings.
 pub mod camera;
+pub mod env;
 pub mod file;
 pub mod light;
 pub mod load;
@@ -202,6 +203,12 @@ impl Scene {
         ));
         for t in &self.textures {
             t.hash_into(&mut h);
+        }
+        if let Some((e, _)) = &self.lights.env {
+            h.update(format!("env {:?} {:?}", e.scale, e.to_local));
+            for t in e.image.iter().flat_map(|i| &i.texels) {
+                t.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
+            }
         }
         for s in &self.shapes {
             h.update(format!("|{}|{}|{:?}|", s.name, s.material, s.emission));

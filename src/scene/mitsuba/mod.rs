@@ -25,7 +25,7 @@ pub struct Converted {
 
 const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
 const BSDFS: &str = "diffuse, dielectric, thindielectric, conductor, roughconductor (ggx), twosided";
-const EMITTERS: &str = "area (inside a shape), point";
+const EMITTERS: &str = "area (inside a shape), point, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
 
@@ -562,10 +562,27 @@ impl<'a> Cx<'a> {
                 let power = intensity.map(|i| i * 4.0 * std::f32::consts::PI);
                 self.file.lights.push(LightSpec::Point { position, power });
             }
+            Some("constant") => {
+                let radiance = match p.colour("radiance")? {
+                    None => [1.0; 3],
+                    Some(ColourProp::Rgb(c)) => c,
+                    Some(_) => return Err(e.error("a textured radiance is not supported")),
+                };
+                self.file.lights.push(LightSpec::Constant { radiance });
+            }
+            Some("envmap") => {
+                let file = p.string("filename")?.ok_or_else(|| e.error("needs a `filename`"))?;
+                let scale = p.float("scale")?.unwrap_or(1.0);
+                let m = p.transform("to_world")?;
+                let transform = m
+                    .map(|m| TransformSpec { matrix: Some(m.transpose().to_cols_array_2d()), ..Default::default() })
+                    .unwrap_or_default();
+                self.file.lights.push(LightSpec::Envmap { file: self.resolve(e, &file), scale, transform });
+            }
             Some("area") => return Err(e.error("an area emitter must sit inside the <shape> that emits")),
             _ => return Err(e.error(format!("emitter type not read (read: {EMITTERS})"))),
         }
-        p.finish("intensity, position, to_world")
+        p.finish("intensity, position, to_world (point); radiance (constant); filename, scale, to_world (envmap)")
     }
 }
 
@@ -581,6 +598,11 @@ pub fn rebase(file: &mut SceneFile, from: &Path, to: &Path) -> Result<(), String
     };
     for s in &mut file.shapes {
         if let ShapeSpec::Mesh { file, .. } = s {
+            fix(file)?;
+        }
+    }
+    for l in &mut file.lights {
+        if let LightSpec::Envmap { file, .. } = l {
             fix(file)?;
         }
     }
