@@ -1,87 +1,60 @@
-//! A 5×7 bitmap font for labels on images and charts (no system fonts needed).
+//! Text on images and charts, drawn with a TrueType font (Hack, MIT/Bitstream Vera licence, bundled by
+//! the `epaint_default_fonts` crate) through `ab_glyph`: no system fonts needed.
 use crate::color::Rgb;
 use crate::film::Image;
+use ab_glyph::{Font, FontRef, ScaleFont};
 
-/// Glyph rows, top to bottom, 5 bits each (bit 4 = leftmost column).
-fn glyph(c: char) -> [u8; 7] {
-    match c.to_ascii_uppercase() {
-        '0' => [14, 17, 19, 21, 25, 17, 14],
-        '1' => [4, 12, 4, 4, 4, 4, 14],
-        '2' => [14, 17, 1, 2, 4, 8, 31],
-        '3' => [31, 2, 4, 2, 1, 17, 14],
-        '4' => [2, 6, 10, 18, 31, 2, 2],
-        '5' => [31, 16, 30, 1, 1, 17, 14],
-        '6' => [6, 8, 16, 30, 17, 17, 14],
-        '7' => [31, 1, 2, 4, 8, 8, 8],
-        '8' => [14, 17, 17, 14, 17, 17, 14],
-        '9' => [14, 17, 17, 15, 1, 2, 12],
-        'A' => [14, 17, 17, 31, 17, 17, 17],
-        'B' => [30, 17, 17, 30, 17, 17, 30],
-        'C' => [14, 17, 16, 16, 16, 17, 14],
-        'D' => [28, 18, 17, 17, 17, 18, 28],
-        'E' => [31, 16, 16, 30, 16, 16, 31],
-        'F' => [31, 16, 16, 30, 16, 16, 16],
-        'G' => [14, 17, 16, 23, 17, 17, 15],
-        'H' => [17, 17, 17, 31, 17, 17, 17],
-        'I' => [14, 4, 4, 4, 4, 4, 14],
-        'J' => [7, 2, 2, 2, 2, 18, 12],
-        'K' => [17, 18, 20, 24, 20, 18, 17],
-        'L' => [16, 16, 16, 16, 16, 16, 31],
-        'M' => [17, 27, 21, 21, 17, 17, 17],
-        'N' => [17, 17, 25, 21, 19, 17, 17],
-        'O' => [14, 17, 17, 17, 17, 17, 14],
-        'P' => [30, 17, 17, 30, 16, 16, 16],
-        'Q' => [14, 17, 17, 17, 21, 18, 13],
-        'R' => [30, 17, 17, 30, 20, 18, 17],
-        'S' => [15, 16, 16, 14, 1, 1, 30],
-        'T' => [31, 4, 4, 4, 4, 4, 4],
-        'U' => [17, 17, 17, 17, 17, 17, 14],
-        'V' => [17, 17, 17, 17, 17, 10, 4],
-        'W' => [17, 17, 17, 21, 21, 21, 10],
-        'X' => [17, 17, 10, 4, 10, 17, 17],
-        'Y' => [17, 17, 17, 10, 4, 4, 4],
-        'Z' => [31, 1, 2, 4, 8, 16, 31],
-        '.' => [0, 0, 0, 0, 0, 12, 12],
-        ',' => [0, 0, 0, 0, 12, 4, 8],
-        ':' => [0, 12, 12, 0, 12, 12, 0],
-        '-' => [0, 0, 0, 31, 0, 0, 0],
-        '+' => [0, 4, 4, 31, 4, 4, 0],
-        '=' => [0, 0, 31, 0, 31, 0, 0],
-        '/' => [0, 1, 2, 4, 8, 16, 0],
-        '(' => [2, 4, 8, 8, 8, 4, 2],
-        ')' => [8, 4, 2, 2, 2, 4, 8],
-        '%' => [24, 25, 2, 4, 8, 19, 3],
-        '_' => [0, 0, 0, 0, 0, 0, 31],
-        '×' => [0, 17, 10, 4, 10, 17, 0],
-        _ => [0; 7],
-    }
+/// The font's bytes (also registered with plotters for the charts).
+pub const FONT: &[u8] = epaint_default_fonts::HACK_REGULAR;
+
+/// Pixel height of text at scale 1.
+const PX: f32 = 13.0;
+
+fn font() -> FontRef<'static> {
+    FontRef::try_from_slice(FONT).expect("the bundled font parses")
 }
 
 /// Width in pixels of `text` at integer `scale`.
 pub fn text_width(text: &str, scale: u32) -> u32 {
-    text.chars().count() as u32 * 6 * scale
+    let f = font();
+    let sf = f.as_scaled(PX * scale as f32);
+    let mut w = 0.0;
+    let mut prev = None;
+    for c in text.chars() {
+        let id = f.glyph_id(c);
+        if let Some(p) = prev {
+            w += sf.kern(p, id);
+        }
+        w += sf.h_advance(id);
+        prev = Some(id);
+    }
+    w.ceil() as u32
 }
 
-/// Draws `text` with its top-left corner at (x, y), clipped to the image.
+/// Draws `text` with its top-left corner at (x, y) (the line's ascent below y), antialiased, clipped.
 pub fn draw_text(img: &mut Image, x: i32, y: i32, text: &str, scale: u32, colour: Rgb) {
-    for (i, c) in text.chars().enumerate() {
-        let g = glyph(c);
-        for (row, bits) in g.iter().enumerate() {
-            for col in 0..5 {
-                if bits & (16 >> col) == 0 {
-                    continue;
-                }
-                for dy in 0..scale {
-                    for dx in 0..scale {
-                        let px = x + ((i as u32 * 6 + col) * scale + dx) as i32;
-                        let py = y + (row as u32 * scale + dy) as i32;
-                        if px >= 0 && py >= 0 && (px as u32) < img.width && (py as u32) < img.height {
-                            img.set(px as u32, py as u32, colour);
-                        }
-                    }
-                }
-            }
+    let f = font();
+    let sf = f.as_scaled(PX * scale as f32);
+    let baseline = y as f32 + sf.ascent();
+    let mut pen = x as f32;
+    let mut prev = None;
+    for c in text.chars() {
+        let id = f.glyph_id(c);
+        if let Some(p) = prev {
+            pen += sf.kern(p, id);
         }
+        let glyph = id.with_scale_and_position(sf.scale(), ab_glyph::point(pen, baseline));
+        pen += sf.h_advance(id);
+        prev = Some(id);
+        let Some(outline) = f.outline_glyph(glyph) else { continue };
+        let b = outline.px_bounds();
+        outline.draw(|gx, gy, a| {
+            let (px, py) = (b.min.x as i32 + gx as i32, b.min.y as i32 + gy as i32);
+            if px >= 0 && py >= 0 && (px as u32) < img.width && (py as u32) < img.height {
+                let bg = img.get(px as u32, py as u32);
+                img.set(px as u32, py as u32, bg + (colour - bg) * a.clamp(0.0, 1.0));
+            }
+        });
     }
 }
 
@@ -109,12 +82,16 @@ mod tests {
     use super::*;
     #[test]
     fn text_lands_where_asked_and_is_clipped() {
-        let mut img = Image::new(40, 10);
-        draw_text(&mut img, 1, 1, "1", 1, Rgb::ONE);
-        // '1' has its stem in column 2: pixel (3, 2) is set, (0, 0) is not.
-        assert_eq!(img.get(3, 2), Rgb::ONE);
-        assert_eq!(img.get(0, 0), Rgb::ZERO);
+        let mut img = Image::new(40, 20);
+        draw_text(&mut img, 1, 1, "I", 1, Rgb::ONE);
+        // Ink inside the glyph's box to the right of and below (1, 1), none elsewhere.
+        let ink: Vec<(u32, u32)> =
+            (0..20).flat_map(|y| (0..40).map(move |x| (x, y))).filter(|&(x, y)| img.get(x, y).x > 0.5).collect();
+        assert!(!ink.is_empty());
+        assert!(ink.iter().all(|&(x, y)| (1..1 + text_width("I", 1)).contains(&x) && (1..17).contains(&y)), "{ink:?}");
         draw_text(&mut img, 35, 5, "WWW", 2, Rgb::ONE); // runs off the edge without panicking
-        assert_eq!(text_width("AB", 2), 24);
+                                                        // A monospaced font: twice the scale, twice the width; two letters, twice one.
+        assert!(text_width("AB", 2).abs_diff(2 * text_width("AB", 1)) <= 1);
+        assert!(text_width("AB", 1).abs_diff(2 * text_width("A", 1)) <= 1);
     }
 }

@@ -5,7 +5,6 @@
 use crate::accel::Accel;
 use crate::color::Rgb;
 use crate::film::Image;
-use crate::font::{draw_text, text_width};
 use crate::metrics::{compare_masked, light_free_pixels};
 use crate::output::with_suffix;
 use crate::pipeline::reference;
@@ -273,8 +272,7 @@ fn report(o: &Options, runs: &[Run], ref_noise: f64) -> Result<()> {
         );
     }
     chart_svg(&with_suffix(o.out, ".svg"), runs, &o.scene.display().to_string())?;
-    let png = chart_png(runs, &o.scene.display().to_string());
-    crate::output::write_png(&with_suffix(o.out, ".png"), &png, 0.0)?;
+    chart_png(&with_suffix(o.out, ".png"), runs, &o.scene.display().to_string())?;
     println!("wrote {}, {}.svg and {}.png", csv.display(), o.out.display(), o.out.display());
     Ok(())
 }
@@ -310,125 +308,98 @@ fn bounds(runs: &[Run]) -> ((f64, f64), (f64, f64)) {
     ((x0 / 1.5, x1 * 1.5), (y0 / 1.5, y1 * 1.5))
 }
 
-fn chart_svg(path: &Path, runs: &[Run], title: &str) -> Result<()> {
+/// The chart on any plotters backend: log-log axes with labelled ticks at every decade and between,
+/// a line and markers per series, a legend.
+fn draw_chart<DB: plotters::prelude::DrawingBackend>(
+    root: plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
+    runs: &[Run],
+    title: &str,
+) -> Result<()> {
     use plotters::prelude::*;
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("chart: {e}");
     let ((x0, x1), (y0, y1)) = bounds(runs);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (800, 560)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(format!("RMSE against time: {title}"), ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        chart
-            .configure_mesh()
-            .x_desc("seconds (2 threads)")
-            .y_desc("RMSE vs reference")
-            .draw()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        for (name, c) in SERIES {
-            let col = RGBColor((c[0] * 255.0) as u8, (c[1] * 255.0) as u8, (c[2] * 255.0) as u8);
-            let pts: Vec<(f64, f64)> =
-                runs.iter().filter(|r| r.series == name).map(|r| (r.seconds.max(1e-4), r.rmse.max(1e-6))).collect();
-            if pts.is_empty() {
-                continue;
-            }
-            chart
-                .draw_series(LineSeries::new(pts.clone(), col.stroke_width(2)))
-                .map_err(|e| anyhow::anyhow!("{e}"))?
-                .label(name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
-            chart
-                .draw_series(pts.iter().map(|p| Circle::new(*p, 3, col.filled())))
-                .map_err(|e| anyhow::anyhow!("{e}"))?;
+    root.fill(&WHITE).map_err(e)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("RMSE against time: {title}"), ("sans-serif", 20))
+        .margin(14)
+        .x_label_area_size(48)
+        .y_label_area_size(78)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("seconds (2 threads, log scale)")
+        .y_desc("RMSE against the reference (log scale)")
+        .x_labels(30)
+        .y_labels(12)
+        .x_label_formatter(&|v| one_two_five(*v, |v| format!("{v}")))
+        .y_label_formatter(&|v| one_two_five(*v, |v| format!("{v:.0e}")))
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 14))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(e)?;
+    for (name, c) in SERIES {
+        let col = RGBColor((c[0] * 255.0) as u8, (c[1] * 255.0) as u8, (c[2] * 255.0) as u8);
+        let pts: Vec<(f64, f64)> =
+            runs.iter().filter(|r| r.series == name).map(|r| (r.seconds.max(1e-4), r.rmse.max(1e-6))).collect();
+        if pts.is_empty() {
+            continue;
         }
         chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+            .draw_series(LineSeries::new(pts.clone(), col.stroke_width(2)))
+            .map_err(e)?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|p| Circle::new(*p, 3, col.filled()))).map_err(e)?;
     }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font(("sans-serif", 14))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(e)?;
+    root.present().map_err(e)?;
+    Ok(())
+}
+
+/// A tick label for 1, 2 and 5 × 10^k (the others keep their tick, unlabelled, so text never overlaps).
+fn one_two_five(v: f64, fmt: impl Fn(f64) -> String) -> String {
+    if v.is_nan() || v <= 0.0 {
+        return String::new();
+    }
+    let k = v.log10().floor();
+    let m = v / 10f64.powf(k);
+    match [1.0, 2.0, 5.0, 10.0].iter().find(|&&x| (m - x).abs() < 1e-3 * x) {
+        Some(&x) => fmt(x * 10f64.powf(k)),
+        None => String::new(),
+    }
+}
+
+/// Registers the bundled font as plotters' "sans-serif" (once).
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, crate::font::FONT);
+    });
+}
+
+fn chart_svg(path: &Path, runs: &[Run], title: &str) -> Result<()> {
+    register_font();
+    let mut svg = String::new();
+    draw_chart(plotters::prelude::SVGBackend::with_string(&mut svg, (900, 600)).into(), runs, title)?;
     crate::output::atomic_write(path, |tmp| Ok(std::fs::write(tmp, &svg)?))
 }
 
-/// The same chart drawn into an image with the built-in font (no system fonts needed).
-fn chart_png(runs: &[Run], title: &str) -> Image {
-    let (w, h) = (800u32, 560u32);
-    let (l, r, t, b) = (80i32, 20i32, 40i32, 60i32);
-    let mut img = Image::new(w, h);
-    img.pixels.iter_mut().for_each(|p| *p = Rgb::ONE);
-    let black = Rgb::ZERO;
-    let ((x0, x1), (y0, y1)) = bounds(runs);
-    let px = |x: f64| l as f64 + (x.ln() - x0.ln()) / (x1.ln() - x0.ln()) * (w as i32 - l - r) as f64;
-    let py = |y: f64| (h as i32 - b) as f64 - (y.ln() - y0.ln()) / (y1.ln() - y0.ln()) * (h as i32 - t - b) as f64;
-    let line = |img: &mut Image, a: (f64, f64), c: (f64, f64), col: Rgb| {
-        let n = ((c.0 - a.0).abs().max((c.1 - a.1).abs()) as usize).max(1);
-        for i in 0..=n {
-            let f = i as f64 / n as f64;
-            let (x, y) = (a.0 + f * (c.0 - a.0), a.1 + f * (c.1 - a.1));
-            if x >= 0.0 && y >= 0.0 && (x as u32) < w && (y as u32) < h {
-                img.set(x as u32, y as u32, col);
-            }
-        }
-    };
-    let (xl, xr, yt, yb) = (l as f64, (w as i32 - r) as f64, t as f64, (h as i32 - b) as f64);
-    for (a, c) in [((xl, yt), (xr, yt)), ((xl, yb), (xr, yb)), ((xl, yt), (xl, yb)), ((xr, yt), (xr, yb))] {
-        line(&mut img, a, c, black);
-    }
-    for e in (x0.log10().floor() as i32)..=(x1.log10().ceil() as i32) {
-        let v = 10f64.powi(e);
-        if v < x0 || v > x1 {
-            continue;
-        }
-        line(&mut img, (px(v), yb), (px(v), yb + 5.0), black);
-        let s = format!("{v}");
-        draw_text(&mut img, px(v) as i32 - text_width(&s, 1) as i32 / 2, yb as i32 + 9, &s, 1, black);
-    }
-    for e in (y0.log10().floor() as i32)..=(y1.log10().ceil() as i32) {
-        let v = 10f64.powi(e);
-        if v < y0 || v > y1 {
-            continue;
-        }
-        line(&mut img, (xl - 5.0, py(v)), (xl, py(v)), black);
-        let s = format!("1E{e}");
-        draw_text(&mut img, l - 10 - text_width(&s, 1) as i32, py(v) as i32 - 3, &s, 1, black);
-    }
-    draw_text(&mut img, l, 12, &format!("RMSE AGAINST TIME: {title}"), 2, black);
-    draw_text(&mut img, (w / 2) as i32 - 60, h as i32 - 22, "SECONDS (LOG)", 1, black);
-    draw_text(&mut img, 4, t - 14, "RMSE (LOG)", 1, black);
-    for (si, (name, c)) in SERIES.iter().enumerate() {
-        let col = Rgb::from_array(*c);
-        let pts: Vec<(f64, f64)> = runs
-            .iter()
-            .filter(|r| r.series == *name)
-            .map(|r| (px(r.seconds.max(1e-4)), py(r.rmse.max(1e-6))))
-            .collect();
-        for w2 in pts.windows(2) {
-            for d in [-0.5, 0.0, 0.5] {
-                line(&mut img, (w2[0].0, w2[0].1 + d), (w2[1].0, w2[1].1 + d), col);
-            }
-        }
-        for p in &pts {
-            for dy in -2..=2 {
-                line(&mut img, (p.0 - 2.0, p.1 + dy as f64), (p.0 + 2.0, p.1 + dy as f64), col);
-            }
-        }
-        let ly = t + 10 + si as i32 * 14;
-        line(
-            &mut img,
-            ((w as i32 - r - 140) as f64, ly as f64 + 3.0),
-            ((w as i32 - r - 120) as f64, ly as f64 + 3.0),
-            col,
-        );
-        draw_text(&mut img, w as i32 - r - 114, ly, name, 1, black);
-    }
-    img
+/// The same chart as an 8-bit sRGB PNG, text rasterised from the bundled font.
+fn chart_png(path: &Path, runs: &[Run], title: &str) -> Result<()> {
+    register_font();
+    let (w, h) = (900u32, 600u32);
+    let mut rgb = vec![255u8; (w * h * 3) as usize];
+    draw_chart(plotters::prelude::BitMapBackend::with_buffer(&mut rgb, (w, h)).into(), runs, title)?;
+    crate::output::write_png_rgb8(path, w, h, &rgb)
 }
 
 #[cfg(test)]
