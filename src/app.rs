@@ -15,6 +15,12 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(BenchCommand::Rays { scene, set, rounds }) => crate::bench::rays(&scene, rounds, &set),
         Command::Bench(BenchCommand::Photons { scene, photons, set }) => crate::bench::photons(&scene, photons, &set),
         Command::Bench(BenchCommand::Plan { scene, set }) => crate::bench::plan(&scene, &set),
+        Command::Bench(BenchCommand::Chart { csv, out, title }) => {
+            let out = out.unwrap_or_else(|| csv.with_extension(""));
+            let title =
+                title.unwrap_or_else(|| csv.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default());
+            crate::timeerror::redraw(&csv, &out, &title)
+        }
         Command::KnnCheck(a) => crate::bench::knn_check(&a),
         Command::Merge { parts, out } => cmd_merge(&parts, &out),
         Command::Compare { a, b, reference, out, exposure } => {
@@ -224,10 +230,21 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     }
     let n_points =
         scene.lights.list.iter().filter(|l| matches!(l, crate::scene::light::LightKind::Point { .. })).count();
+    let env = match &scene.lights.env {
+        Some((e, _)) => {
+            let kind = match &e.image {
+                Some(i) => format!("an environment map {}×{}", i.width, i.height),
+                None => format!("a constant environment {:?}", e.scale.to_array()),
+            };
+            format!(", {kind} (power through the scene's sphere {:?} W)", e.power().to_array())
+        }
+        None => String::new(),
+    };
+    let n_env = usize::from(scene.lights.env.is_some());
     println!(
-        "lights      {} point, {} emissive primitives, total power {:?} W",
+        "lights      {} point, {} emissive primitives{env}, total power {:?} W",
         n_points,
-        scene.lights.list.len() - n_points,
+        scene.lights.list.len() - n_points - n_env,
         scene.lights.total_power().to_array()
     );
     println!("bounds      {:?} .. {:?}", scene.bounds.0.to_array(), scene.bounds.1.to_array());

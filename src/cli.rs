@@ -70,7 +70,7 @@ pub enum Command {
     /// A long reference render in two independent halves (cached in out/ref), with their RMSE as its
     /// noise estimate. --spp for the path tracer, --photons for scenes only photon mapping can render.
     Reference {
-        /// Scene file (TOML).
+        /// Scene file (TOML, or Mitsuba 3 XML).
         scene: PathBuf,
         /// Path-traced reference with this many samples per pixel (split over the two halves).
         #[arg(long, value_parser = clap::value_parser!(u32).range(2..))]
@@ -89,7 +89,7 @@ pub enum Command {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (TOML).
+    /// Scene file (TOML, or Mitsuba 3 XML).
     pub scene: PathBuf,
     /// Output path (a typed .exr/.png/.json is dropped): writes OUT.exr, OUT.png, OUT.json
     /// (default out/<scene name>).
@@ -144,7 +144,7 @@ pub enum BenchCommand {
     /// Camera rays through the renderer's accel layer (16-ray packets and single rays) vs a bare
     /// rtcIntersect16 loop on the same rays, one thread.
     Rays {
-        /// Scene file (TOML).
+        /// Scene file (TOML, or Mitsuba 3 XML).
         scene: PathBuf,
         /// Scene overrides, e.g. --set camera.resolution=[256,256].
         #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -156,7 +156,7 @@ pub enum BenchCommand {
     /// PT at a sweep of spp and PM at sweeps of photon and gather counts, timed and scored against a
     /// cached reference: CSV, log-log chart (SVG, PNG), and the equal-time RMSE ratio PM/PT.
     TimeVsError {
-        /// Scene file (TOML).
+        /// Scene file (TOML, or Mitsuba 3 XML).
         scene: PathBuf,
         /// Seconds to spend in all (split evenly between PT, PM photons, PM gather, PPM and SPPM).
         #[arg(long, default_value_t = 60.0)]
@@ -177,10 +177,24 @@ pub enum BenchCommand {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Redraw the chart (SVG and PNG) of a time-vs-error CSV, without rendering anything.
+    #[command(
+        after_help = "Example:\n  caustica bench chart out/tve/cornell-glass.csv   (writes out/tve/cornell-glass.svg and .png)"
+    )]
+    Chart {
+        /// A CSV written by `bench time-vs-error`.
+        csv: PathBuf,
+        /// Output path (OUT.svg, OUT.png; default: beside the CSV, same name).
+        #[arg(short, long, value_parser = out_base)]
+        out: Option<PathBuf>,
+        /// Chart title (default: the CSV's name).
+        #[arg(long)]
+        title: Option<String>,
+    },
     /// Photon mapping with the planner's choices vs with every pass forced on: time ratio and the
     /// difference between the two images.
     Plan {
-        /// Scene file (TOML).
+        /// Scene file (TOML, or Mitsuba 3 XML).
         scene: PathBuf,
         /// Scene overrides, e.g. --set camera.resolution=[64,64] to run it small.
         #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -188,7 +202,7 @@ pub enum BenchCommand {
     },
     /// Photon tracing (segments/s, 1 thread) vs a bare rtcIntersect1 loop over the same rays.
     Photons {
-        /// Scene file (TOML).
+        /// Scene file (TOML, or Mitsuba 3 XML).
         scene: PathBuf,
         /// Photons to store per map for the measurement.
         #[arg(long, default_value_t = 100_000)]

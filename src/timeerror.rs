@@ -324,16 +324,17 @@ fn draw_chart<DB: plotters::prelude::DrawingBackend>(
         .margin(14)
         .x_label_area_size(48)
         .y_label_area_size(78)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .build_cartesian_2d(
+            (x0..x1).log_scale().with_key_points(ticks(x0, x1, false)).with_light_points(ticks(x0, x1, true)),
+            (y0..y1).log_scale().with_key_points(ticks(y0, y1, y1 / y0 < 30.0)).with_light_points(ticks(y0, y1, true)),
+        )
         .map_err(e)?;
     chart
         .configure_mesh()
         .x_desc("seconds (2 threads, log scale)")
         .y_desc("RMSE against the reference (log scale)")
-        .x_labels(30)
-        .y_labels(12)
-        .x_label_formatter(&|v| one_two_five(*v, |v| format!("{v}")))
-        .y_label_formatter(&|v| one_two_five(*v, |v| format!("{v:.0e}")))
+        .x_label_formatter(&|v| format!("{}", *v as f32))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
         .label_style(("sans-serif", 13))
         .axis_desc_style(("sans-serif", 14))
         .light_line_style(RGBColor(235, 235, 235))
@@ -365,17 +366,54 @@ fn draw_chart<DB: plotters::prelude::DrawingBackend>(
     Ok(())
 }
 
-/// A tick label for 1, 2 and 5 × 10^k (the others keep their tick, unlabelled, so text never overlaps).
-fn one_two_five(v: f64, fmt: impl Fn(f64) -> String) -> String {
-    if v.is_nan() || v <= 0.0 {
-        return String::new();
+/// Reads a CSV that `run` wrote (header `series,spp,photons,gather,seconds,rmse,rmse_raw,rel_mse`) and
+/// draws its chart again as OUT.svg and OUT.png.
+pub fn redraw(csv: &Path, out: &Path, title: &str) -> Result<()> {
+    let text = std::fs::read_to_string(csv).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", csv.display()))?;
+    let mut lines = text.lines();
+    let header = "series,spp,photons,gather,seconds,rmse,rmse_raw,rel_mse";
+    if lines.next().map(str::trim) != Some(header) {
+        anyhow::bail!("{}: line 1: not a time-vs-error CSV (expected the header `{header}`)", csv.display());
     }
-    let k = v.log10().floor();
-    let m = v / 10f64.powf(k);
-    match [1.0, 2.0, 5.0, 10.0].iter().find(|&&x| (m - x).abs() < 1e-3 * x) {
-        Some(&x) => fmt(x * 10f64.powf(k)),
-        None => String::new(),
+    let mut runs = Vec::new();
+    for (i, line) in lines.enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        let bad = |what: &str| anyhow::anyhow!("{}: line {}: {what}", csv.display(), i + 2);
+        let f: Vec<&str> = line.split(',').collect();
+        let [series, spp, photons, gather, seconds, rmse, rmse_raw, rel_mse] = f[..] else {
+            return Err(bad("expected 8 comma-separated fields"));
+        };
+        let num = |s: &str, name: &str| {
+            s.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v >= 0.0)
+                .ok_or_else(|| bad(&format!("`{name}` is not a number ≥ 0")))
+        };
+        runs.push(Run {
+            series: series.to_string(),
+            spp: num(spp, "spp")? as u32,
+            photons: num(photons, "photons")? as u64,
+            gather: num(gather, "gather")? as u32,
+            seconds: num(seconds, "seconds")?,
+            rmse: num(rmse, "rmse")?,
+            rmse_raw: num(rmse_raw, "rmse_raw")?,
+            rel_mse: num(rel_mse, "rel_mse")?,
+        });
     }
+    if runs.is_empty() {
+        anyhow::bail!("{}: no runs to draw", csv.display());
+    }
+    chart_svg(&with_suffix(out, ".svg"), &runs, title)?;
+    chart_png(&with_suffix(out, ".png"), &runs, title)?;
+    println!("wrote {}.svg and {}.png", out.display(), out.display());
+    Ok(())
+}
+
+/// Tick positions on a log axis from `lo` to `hi`: 1, 2 and 5 × 10^k, or every digit × 10^k (`dense`).
+fn ticks(lo: f64, hi: f64, dense: bool) -> Vec<f64> {
+    let digits: &[f64] = if dense { &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0] } else { &[1.0, 2.0, 5.0] };
+    let (k0, k1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    (k0..=k1).flat_map(|k| digits.iter().map(move |d| d * 10f64.powi(k))).filter(|v| *v >= lo && *v <= hi).collect()
 }
 
 /// Registers the bundled font as plotters' "sans-serif" (once).

@@ -183,3 +183,20 @@ fn bench_commands_take_scene_overrides() {
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("time ratio planned/forced"), "{out}");
 }
+
+#[test]
+fn bench_chart_redraws_a_csv_and_refuses_a_bad_one_naming_the_line() {
+    let d = dir("chart");
+    let csv = "series,spp,photons,gather,seconds,rmse,rmse_raw,rel_mse\n\
+               PT,1,0,0,0.1,0.1,0.1,0.2\nPT,4,0,0,0.4,0.05,0.05,0.1\nSPPM,4,400000,0,0.5,0.03,0.03,0.05\n";
+    std::fs::write(d.join("run.csv"), csv).unwrap();
+    let (code, out, err) = caustica(&["bench", "chart", "run.csv"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert_eq!(png_size(&d.join("run.png")), (900, 600));
+    assert!(std::fs::read_to_string(d.join("run.svg")).unwrap().contains("SPPM"));
+    std::fs::write(d.join("bad.csv"), csv.replace("0.4,0.05", "oops,0.05")).unwrap();
+    let (code, _, err) = caustica(&["bench", "chart", "bad.csv"], &d);
+    assert_ne!(code, 0);
+    assert!(err.contains("bad.csv: line 3") && err.contains("seconds"), "{err}");
+    assert!(!d.join("bad.png").exists());
+}

@@ -1,41 +1,101 @@
 //! Environment lights: a constant sky is a furnace for a convex diffuse object (every point sees the
-//! whole sky over its hemisphere, so L = ρ·L_env); the photons it sends carry the flux that crosses
-//! the object (E = π L_env on every surface element); photons aimed at glass from the sky keep the
-//! caustic map's power equal to uniform emission's.
+//! whole sky over its hemisphere, so L = ρ·L_env, in PT and PM); one bright texel lights a plane like a
+//! distant light; the photons a sky sends carry the flux that crosses the object (E = π L_env on every
+//! surface element); photons aimed at glass from the sky keep the caustic power of uniform emission.
 mod common;
 
 use caustica::accel::Accel;
 use caustica::integrator::photon_map::{build_maps, MapRequest};
 use caustica::photon::trace::{CAUSTIC, DIRECT};
-use caustica::pipeline::render_path;
+use caustica::pipeline::{plan_for, render_path, render_photon_map};
 
 const SKY: &str = "[camera]\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 30.0\nresolution = [32, 32]\n\
                    [[lights]]\ntype = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n";
 
-#[test]
-fn a_diffuse_sphere_under_a_constant_sky_has_radiance_albedo_times_sky() {
-    let scene = common::scene(&format!(
-        "{SKY}[materials]\nm = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
-         [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.6\nmaterial = \"m\"\n"
-    ));
-    let accel = Accel::new(&scene).unwrap();
-    let img = render_path(&scene, &accel, 256, true).image;
+/// Every pixel whose centre sees the sphere (a disc well inside its silhouette) and every pixel of
+/// pure sky, as (on sphere, value).
+fn sphere_and_sky(img: &caustica::film::Image) -> Vec<(bool, f32)> {
     let (w, h) = (img.width as i32, img.height as i32);
-    let (mut on, mut n_on) = (0.0f64, 0);
+    let mut out = Vec::new();
     for y in 0..h {
         for x in 0..w {
             let (dx, dy) = (x - w / 2, y - h / 2);
-            let p = img.pixels[(y * w + x) as usize].x as f64;
+            let p = img.pixels[(y * w + x) as usize].x;
             if dx * dx + dy * dy <= 25 {
-                on += p;
-                n_on += 1;
+                out.push((true, p));
             } else if dx * dx + dy * dy >= 15 * 15 {
-                assert!((p - 1.0).abs() < 1e-6, "background pixel ({x}, {y}) = {p}, want the sky's 1");
+                out.push((false, p));
             }
         }
     }
-    let on = on / n_on as f64;
-    assert!((on - 0.5).abs() < 0.005, "sphere radiance {on}, want 0.5");
+    out
+}
+
+#[test]
+fn a_diffuse_sphere_under_a_constant_sky_has_radiance_albedo_times_sky_in_pt_and_pm() {
+    // Convex: every point of the sphere sees the sky over its whole hemisphere and nothing else.
+    let scene = common::scene(&format!(
+        "{SKY}[materials]\nm = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.6\nmaterial = \"m\"\n\
+         [render]\npm_spp = 512\nspecular_spp = 0\n[render.photons]\ndirect = 0\ncaustic = 0\nindirect = 1000\n"
+    ));
+    let accel = Accel::new(&scene).unwrap();
+    let pt = render_path(&scene, &accel, 1024, true).image;
+    let plan = plan_for(&scene, &accel);
+    let req = MapRequest {
+        want: plan.photons,
+        targeted: true,
+        targets: Some(plan.caustic_targets.clone()),
+        ..Default::default()
+    };
+    let maps = build_maps(&scene, &accel, &req, true).unwrap();
+    let pm = render_photon_map(&scene, &accel, &maps, &plan, None, true).image;
+    for (name, img) in [("PT", &pt), ("PM", &pm)] {
+        let px = sphere_and_sky(img);
+        let worst = px.iter().filter(|p| p.0).map(|p| (p.1 - 0.5).abs()).fold(0.0, f32::max);
+        eprintln!("{name}: worst sphere pixel off 0.5 by {worst}");
+        assert!(worst < 0.005, "{name}: a sphere pixel is {worst} off 0.5 (1% allowed)");
+        assert!(px.iter().filter(|p| !p.0).all(|p| (p.1 - 1.0).abs() < 1e-6), "{name}: sky pixels are not 1");
+    }
+}
+
+#[test]
+fn one_bright_texel_lights_a_plane_like_a_distant_light() {
+    // A black 64×32 sky with one texel of radiance V: it covers ΔΩ = (2π/W)(π/(H − 1)) sin θ (Mitsuba's
+    // rows run pole to pole) and lights an upward plane like a distant light of irradiance V ΔΩ cos θ.
+    let (w, h, tx, ty, v) = (64usize, 32usize, 20usize, 9usize, 500.0f32);
+    let dir = std::env::temp_dir().join(format!("caustica-env-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let sky = dir.join("one-texel.exr");
+    let mut img = caustica::film::Image::new(w as u32, h as u32);
+    img.set(tx as u32, ty as u32, glam::Vec3::splat(v));
+    caustica::output::write_exr(&sky, &img).unwrap();
+    let theta = ty as f32 / (h - 1) as f32 * std::f32::consts::PI;
+    let e = v
+        * (2.0 * std::f32::consts::PI / w as f32)
+        * (std::f32::consts::PI / (h - 1) as f32)
+        * theta.sin()
+        * theta.cos();
+    let want = 0.5 / std::f32::consts::PI * e;
+    let scene = caustica::scene::load_scene_str(
+        &format!(
+            "[camera]\norigin = [0.0, 3.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, -1.0]\nfov = 20.0\nresolution = [16, 16]\n\
+             [materials]\nm = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
+             [[shapes]]\ntype = \"quad\"\ncorner = [-50.0, 0.0, 50.0]\nedge_u = [100.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -100.0]\nmaterial = \"m\"\n\
+             [[lights]]\ntype = \"envmap\"\nfile = \"{}\"\n",
+            sky.display()
+        ),
+        "one-texel.toml",
+        &dir,
+        &[],
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let accel = Accel::new(&scene).unwrap();
+    let out = render_path(&scene, &accel, 256, true).image;
+    let mean = out.pixels.iter().map(|p| p.x as f64).sum::<f64>() / out.pixels.len() as f64;
+    eprintln!("plane under one texel: {mean} (distant light: {want})");
+    assert!((mean as f32 / want - 1.0).abs() < 0.02, "{mean} vs {want}");
+    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]

@@ -121,7 +121,7 @@ fn one_sided_bsdfs_are_black_from_behind_unless_twosided() {
 }
 
 #[test]
-fn convert_writes_toml_that_loads_to_the_same_scene() {
+fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let out = tmp("convert").join("elsewhere/showcase.toml");
     let bin = env!("CARGO_BIN_EXE_caustica");
     let xml = dir().join("showcase.xml");
@@ -131,6 +131,13 @@ fn convert_writes_toml_that_loads_to_the_same_scene() {
     let from_toml = load_scene_with(&out, &[]).unwrap();
     assert_eq!(from_xml.content_hash(), from_toml.content_hash());
     assert_eq!(from_xml.render.spp, from_toml.render.spp);
+    // … and the same image, bit for bit.
+    let (a, b) = (render(&xml, 4), render(&out, 4));
+    assert!(a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits)));
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.contains("two_sided = false") && text.contains("type = \"thin_dielectric\""), "{text}");
     let _ = std::fs::remove_dir_all(out.parent().unwrap().parent().unwrap());
@@ -222,6 +229,11 @@ fn what_is_not_read_is_refused_naming_the_line() {
         ("not-xml", "<scene version=\"3.0.0\"><shape", "XML"),
         ("cycle", r#"<scene version="3.0.0"><include filename="cycle.xml"/></scene>"#, "nested deeper"),
         ("version", r#"<scene version="1.0"></scene>"#, "version 1.0"),
+        (
+            "deep",
+            &format!("<scene version=\"3.0.0\">{}{}</scene>", "<a>".repeat(100_000), "</a>".repeat(100_000)),
+            "nested deeper",
+        ),
         ("spot", &panel_scene("").replace("type=\"point\"", "type=\"spot\""), "emitter type not read"),
         ("shape", &panel_scene("").replace("type=\"rectangle\"", "type=\"cylinder\""), "shape type not read"),
     ];

@@ -6,6 +6,10 @@ use std::path::{Path, PathBuf};
 
 /// Deepest `<include>` nesting accepted (an include cycle is refused long before).
 const MAX_INCLUDE_DEPTH: usize = 16;
+/// Most `<include>` elements read in all (files that include each other twice over grow exponentially).
+const MAX_INCLUDES: usize = 1000;
+/// Deepest element nesting accepted (real scenes nest a handful of levels; this bounds the recursion).
+const MAX_ELEMENT_DEPTH: usize = 64;
 
 #[derive(Clone, Debug)]
 pub struct Node {
@@ -50,7 +54,7 @@ impl Node {
 /// Reads `path`, which must hold a `<scene>`; returns it with includes spliced in and `$name`
 /// references replaced by `<default>` values (the first definition wins, as in Mitsuba).
 pub fn read_scene(path: &Path) -> Result<Node, SceneError> {
-    let mut root = read_file(path, 0)?;
+    let mut root = read_file(path, 0, &mut 0)?;
     if root.attr("version").is_some_and(|v| v.starts_with("0.")) {
         snake_case_names(&mut root);
     }
@@ -60,13 +64,13 @@ pub fn read_scene(path: &Path) -> Result<Node, SceneError> {
     Ok(root)
 }
 
-fn read_file(path: &Path, depth: usize) -> Result<Node, SceneError> {
+fn read_file(path: &Path, depth: usize, includes: &mut usize) -> Result<Node, SceneError> {
     let shown = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io { file: shown.clone(), msg: e.to_string() })?;
     let doc = roxmltree::Document::parse(&text)
         .map_err(|e| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") })?;
     let root = doc.root_element();
-    let mut node = convert(&doc, root, path);
+    let mut node = convert(&doc, root, path, 0)?;
     if node.tag != "scene" {
         return Err(node.error("the top element must be <scene version=\"3.x\">"));
     }
@@ -84,8 +88,12 @@ fn read_file(path: &Path, depth: usize) -> Result<Node, SceneError> {
         if depth >= MAX_INCLUDE_DEPTH {
             return Err(child.error(format!("includes nested deeper than {MAX_INCLUDE_DEPTH} (a cycle?)")));
         }
+        *includes += 1;
+        if *includes > MAX_INCLUDES {
+            return Err(child.error(format!("more than {MAX_INCLUDES} includes in all")));
+        }
         let name = child.attr("filename").ok_or_else(|| child.error("needs a `filename` attribute"))?;
-        let inner = read_file(&child.dir().join(name), depth + 1)
+        let inner = read_file(&child.dir().join(name), depth + 1, includes)
             .map_err(|e| child.error(format!("while including {name}: {e}")))?;
         children.extend(inner.children);
     }
@@ -93,14 +101,23 @@ fn read_file(path: &Path, depth: usize) -> Result<Node, SceneError> {
     Ok(node)
 }
 
-fn convert(doc: &roxmltree::Document, n: roxmltree::Node, file: &Path) -> Node {
-    Node {
+fn convert(doc: &roxmltree::Document, n: roxmltree::Node, file: &Path, depth: usize) -> Result<Node, SceneError> {
+    let line = doc.text_pos_at(n.range().start).row;
+    if depth > MAX_ELEMENT_DEPTH {
+        let msg = format!("line {line}: elements nested deeper than {MAX_ELEMENT_DEPTH} levels");
+        return Err(SceneError::Parse { file: file.display().to_string(), msg });
+    }
+    Ok(Node {
         tag: n.tag_name().name().to_string(),
         attrs: n.attributes().map(|a| (a.name().to_string(), a.value().to_string())).collect(),
-        children: n.children().filter(|c| c.is_element()).map(|c| convert(doc, c, file)).collect(),
+        children: n
+            .children()
+            .filter(|c| c.is_element())
+            .map(|c| convert(doc, c, file, depth + 1))
+            .collect::<Result<_, _>>()?,
         file: file.to_path_buf(),
-        line: doc.text_pos_at(n.range().start).row,
-    }
+        line,
+    })
 }
 
 /// Mitsuba 0.5/0.6 wrote parameter names in camelCase (`toWorld`, `intIOR`); 3.x in snake_case.
