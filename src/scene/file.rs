@@ -99,12 +99,15 @@ pub enum MaterialSpec {
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         two_sided: bool,
     },
-    /// Perfect (or GGX-rough) mirror with a constant specular colour.
+    /// Perfect (or rough) mirror with a constant specular colour.
     Mirror {
         #[serde(default = "one3")]
         specular: V3,
         #[serde(default)]
         roughness: f32,
+        /// Microfacet distribution of a rough mirror: "ggx" (default) or "beckmann".
+        #[serde(default, skip_serializing_if = "is_ggx")]
+        distribution: crate::scene::material::Microfacet,
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         two_sided: bool,
     },
@@ -122,6 +125,8 @@ pub enum MaterialSpec {
         k: Option<V3>,
         #[serde(default)]
         roughness: f32,
+        #[serde(default, skip_serializing_if = "is_ggx")]
+        distribution: crate::scene::material::Microfacet,
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         two_sided: bool,
     },
@@ -151,6 +156,10 @@ fn one() -> f32 {
 
 fn is_true(b: &bool) -> bool {
     *b
+}
+
+fn is_ggx(m: &crate::scene::material::Microfacet) -> bool {
+    *m == crate::scene::material::Microfacet::Ggx
 }
 
 fn is_false(b: &bool) -> bool {

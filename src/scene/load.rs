@@ -402,11 +402,11 @@ fn build_material(
                 texture: Some(t),
             }
         }
-        MaterialSpec::Mirror { specular, roughness, two_sided } => {
+        MaterialSpec::Mirror { specular, roughness, distribution, two_sided } => {
             let fresnel = Fresnel::Constant(cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?);
-            sided(Material::Conductor { fresnel, alpha: rough(*roughness)? }, *two_sided)
+            sided(Material::Conductor { fresnel, alpha: rough(*roughness)?, distribution: *distribution }, *two_sided)
         }
-        MaterialSpec::Conductor { preset, specular, eta, k, roughness, two_sided } => {
+        MaterialSpec::Conductor { preset, specular, eta, k, roughness, distribution, two_sided } => {
             let fresnel = match (preset, specular, eta, k) {
                 (Some(p), None, None, None) => Fresnel::Schlick(conductor_preset(p).ok_or_else(|| {
                     cx.err(&format!("{key}.preset"), format!("unknown metal `{p}` (accepted: Au, Ag, Cu, Al, Cr)"))
@@ -425,7 +425,7 @@ fn build_material(
                     return Err(cx.err(key, msg));
                 }
             };
-            sided(Material::Conductor { fresnel, alpha: rough(*roughness)? }, *two_sided)
+            sided(Material::Conductor { fresnel, alpha: rough(*roughness)?, distribution: *distribution }, *two_sided)
         }
         MaterialSpec::Dielectric { ior, outside_ior, tint }
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {

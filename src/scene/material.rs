@@ -11,10 +11,12 @@ pub enum Material {
     Diffuse {
         reflectance: Rgb,
     },
-    /// Metal or mirror: reflectance from `fresnel`, GGX roughness `alpha` (0 = smooth).
+    /// Metal or mirror: reflectance from `fresnel`, microfacet roughness `alpha` (0 = smooth) with the
+    /// GGX or Beckmann distribution.
     Conductor {
         fresnel: Fresnel,
         alpha: f32,
+        distribution: Microfacet,
     },
     Dielectric {
         ior: f32,
@@ -182,23 +184,69 @@ fn schlick(f0: Rgb, cos: f32) -> Rgb {
     f0 + (Rgb::ONE - f0) * m5
 }
 
-fn ggx_d(h: Vec3, alpha: f32) -> f32 {
-    let a2 = alpha * alpha;
-    let c = h.z;
-    if c <= 0.0 {
-        return 0.0;
-    }
-    let d = c * c * (a2 - 1.0) + 1.0;
-    a2 / (PI * d * d)
+/// Microfacet normal distribution of a rough conductor (isotropic; `alpha` is the roughness).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Microfacet {
+    /// Trowbridge–Reitz (GGX), caustica's default.
+    #[default]
+    Ggx,
+    /// Beckmann, Mitsuba's default.
+    Beckmann,
 }
 
-fn ggx_g1(w: Vec3, alpha: f32) -> f32 {
-    let c2 = w.z * w.z;
-    if c2 <= 0.0 {
-        return 0.0;
+impl Microfacet {
+    /// D(h) in the local frame (z = macro normal).
+    fn d(self, h: Vec3, alpha: f32) -> f32 {
+        let c = h.z;
+        if c <= 0.0 {
+            return 0.0;
+        }
+        let a2 = alpha * alpha;
+        let c2 = c * c;
+        match self {
+            Microfacet::Ggx => {
+                let d = c2 * (a2 - 1.0) + 1.0;
+                a2 / (PI * d * d)
+            }
+            Microfacet::Beckmann => {
+                let tan2 = (1.0 - c2) / c2;
+                (-tan2 / a2).exp() / (PI * a2 * c2 * c2)
+            }
+        }
     }
-    let t2 = (1.0 - c2) / c2;
-    2.0 / (1.0 + (1.0 + alpha * alpha * t2).sqrt())
+
+    /// Smith's masking G1(w) (Beckmann: Walter et al.'s rational fit, as Mitsuba uses).
+    fn g1(self, w: Vec3, alpha: f32) -> f32 {
+        let c2 = w.z * w.z;
+        if c2 <= 0.0 {
+            return 0.0;
+        }
+        let t2 = (1.0 - c2) / c2;
+        match self {
+            Microfacet::Ggx => 2.0 / (1.0 + (1.0 + alpha * alpha * t2).sqrt()),
+            Microfacet::Beckmann => {
+                if t2 <= 0.0 {
+                    return 1.0;
+                }
+                let a = 1.0 / (alpha * t2.sqrt());
+                if a >= 1.6 {
+                    1.0
+                } else {
+                    (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a)
+                }
+            }
+        }
+    }
+
+    /// cos² θ of a microfacet normal drawn with density ∝ D(h) cos θh.
+    fn sample_cos2(self, u: f32, alpha: f32) -> f32 {
+        let a2 = alpha * alpha;
+        match self {
+            Microfacet::Ggx => (1.0 - u) / (1.0 + (a2 - 1.0) * u),
+            Microfacet::Beckmann => 1.0 / (1.0 - a2 * (1.0 - u).max(1e-30).ln()),
+        }
+    }
 }
 
 impl Material {
@@ -235,7 +283,7 @@ impl Material {
                     Rgb::ZERO
                 }
             }
-            Material::Conductor { fresnel, alpha } if *alpha > 0.0 => {
+            Material::Conductor { fresnel, alpha, distribution: m } if *alpha > 0.0 => {
                 let f = Frame::from_normal(face_forward(n, wo));
                 let (lo, li) = (f.to_local(wo), f.to_local(wi));
                 if lo.z <= 0.0 || li.z <= 0.0 {
@@ -243,7 +291,7 @@ impl Material {
                 }
                 let h = (lo + li).normalize();
                 let fr = fresnel.eval(li.dot(h));
-                fr * ggx_d(h, *alpha) * ggx_g1(lo, *alpha) * ggx_g1(li, *alpha) / (4.0 * lo.z * li.z)
+                fr * m.d(h, *alpha) * m.g1(lo, *alpha) * m.g1(li, *alpha) / (4.0 * lo.z * li.z)
             }
             _ => Rgb::ZERO,
         }
@@ -253,14 +301,14 @@ impl Material {
     pub fn pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
         match self {
             Material::Diffuse { .. } => wi.dot(face_forward(n, wo)).max(0.0) / PI,
-            Material::Conductor { alpha, .. } if *alpha > 0.0 => {
+            Material::Conductor { alpha, distribution: m, .. } if *alpha > 0.0 => {
                 let f = Frame::from_normal(face_forward(n, wo));
                 let (lo, li) = (f.to_local(wo), f.to_local(wi));
                 if lo.z <= 0.0 || li.z <= 0.0 {
                     return 0.0;
                 }
                 let h = (lo + li).normalize();
-                ggx_d(h, *alpha) * h.z / (4.0 * lo.dot(h))
+                m.d(h, *alpha) * h.z / (4.0 * lo.dot(h))
             }
             _ => 0.0,
         }
@@ -285,7 +333,7 @@ impl Material {
                 let pdf = wi.dot(side) / PI;
                 (pdf > 0.0).then_some(sample(wi, *reflectance, pdf, false, false, 1.0))
             }
-            Material::Conductor { fresnel, alpha } => {
+            Material::Conductor { fresnel, alpha, distribution } => {
                 if *alpha == 0.0 {
                     let wi = reflect(wo, side);
                     let fr = fresnel.eval(wi.dot(side));
@@ -294,8 +342,7 @@ impl Material {
                 let f = Frame::from_normal(side);
                 let lo = f.to_local(wo);
                 // Sample h ∝ D(h) cos θh.
-                let a2 = alpha * alpha;
-                let cos2 = (1.0 - u[0]) / (1.0 + (a2 - 1.0) * u[0]);
+                let cos2 = distribution.sample_cos2(u[0], *alpha);
                 let cos_t = cos2.max(0.0).sqrt();
                 let sin_t = (1.0 - cos2).max(0.0).sqrt();
                 let phi = 2.0 * PI * u[1];
@@ -357,21 +404,38 @@ mod tests {
 
     #[test]
     fn rough_conductor_sampling_matches_eval_and_conserves_energy() {
-        let m = Material::Conductor { fresnel: Fresnel::Constant(Rgb::ONE), alpha: 0.3 };
-        let n = Vec3::Z;
-        let wo = Vec3::new(0.3, 0.0, 0.954).normalize();
-        let mut r = Rng::new(9, 0, 0);
-        let mut albedo = 0.0f64;
-        let count = 100_000;
-        for _ in 0..count {
-            if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), TransportMode::Radiance) {
-                let w = m.eval(wo, s.wi, n) * s.wi.dot(n) / m.pdf(wo, s.wi, n);
-                assert!((w - s.weight).length() < 1e-3 * w.length().max(1.0));
-                albedo += s.weight.x as f64;
+        for distribution in [Microfacet::Ggx, Microfacet::Beckmann] {
+            let m = Material::Conductor { fresnel: Fresnel::Constant(Rgb::ONE), alpha: 0.3, distribution };
+            let n = Vec3::Z;
+            let wo = Vec3::new(0.3, 0.0, 0.954).normalize();
+            let mut r = Rng::new(9, 0, 0);
+            let (mut albedo, mut by_eval) = (0.0f64, 0.0f64);
+            let count = 200_000;
+            for _ in 0..count {
+                if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), TransportMode::Radiance) {
+                    let w = m.eval(wo, s.wi, n) * s.wi.dot(n) / m.pdf(wo, s.wi, n);
+                    assert!((w - s.weight).length() < 1e-3 * w.length().max(1.0));
+                    albedo += s.weight.x as f64;
+                }
+                // The same albedo by uniform hemisphere sampling of eval (checks the pdf's normalisation).
+                let wi = sampling::uniform_sphere(r.next_2d());
+                let wi = if wi.z < 0.0 { -wi } else { wi };
+                by_eval += (m.eval(wo, wi, n).x * wi.z * 2.0 * PI) as f64;
             }
+            let (albedo, by_eval) = (albedo / count as f64, by_eval / count as f64);
+            assert!(albedo > 0.85 && albedo <= 1.001, "{distribution:?}: albedo {albedo}");
+            assert!(
+                (albedo / by_eval - 1.0).abs() < 0.02,
+                "{distribution:?}: sampled {albedo} vs integrated {by_eval}"
+            );
+            // D is normalised: ∫ D(h) cos θh dω = 1.
+            let mut integral = 0.0f64;
+            for _ in 0..count {
+                let h = sampling::uniform_sphere(r.next_2d());
+                integral += (distribution.d(h, 0.3) * h.z.max(0.0) * 4.0 * PI) as f64 / count as f64;
+            }
+            assert!((integral - 1.0).abs() < 0.03, "{distribution:?}: ∫D cos = {integral}");
         }
-        let albedo = albedo / count as f64;
-        assert!(albedo > 0.85 && albedo <= 1.001, "albedo {albedo}");
     }
 
     #[test]

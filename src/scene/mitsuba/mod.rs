@@ -24,7 +24,7 @@ pub struct Converted {
 }
 
 const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
-const BSDFS: &str = "diffuse, dielectric, thindielectric, conductor, roughconductor (ggx), twosided";
+const BSDFS: &str = "diffuse, dielectric, thindielectric, conductor, roughconductor (ggx, beckmann), twosided";
 const EMITTERS: &str = "area (inside a shape), point, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
@@ -434,17 +434,14 @@ impl<'a> Cx<'a> {
     }
 
     fn conductor(&mut self, b: &Node, p: &Props, two_sided: bool) -> Result<MaterialSpec, SceneError> {
+        use crate::scene::material::Microfacet;
+        let mut distribution = Microfacet::Ggx;
         let roughness = if b.attr("type") == Some("roughconductor") {
-            match p.string("distribution")?.as_deref() {
-                Some("ggx") => {}
-                d => {
-                    let d = d.unwrap_or("beckmann (the default)");
-                    return Err(b.error(format!(
-                        "microfacet distribution {d} is not supported; caustica's rough conductor is GGX \
-                         (<string name=\"distribution\" value=\"ggx\"/>)"
-                    )));
-                }
-            }
+            distribution = match p.string("distribution")?.as_deref() {
+                Some("ggx") => Microfacet::Ggx,
+                None | Some("beckmann") => Microfacet::Beckmann,
+                Some(d) => return Err(b.error(format!("microfacet distribution `{d}` (read: beckmann, ggx)"))),
+            };
             p.boolean("sample_visible")?;
             let (a, au, av) = (p.float("alpha")?, p.float("alpha_u")?, p.float("alpha_v")?);
             match (a, au, av) {
@@ -472,7 +469,8 @@ impl<'a> Cx<'a> {
         let material = p.string("material")?;
         let (eta, k) = match (material.as_deref(), eta, k) {
             (None | Some("none"), None, None) => {
-                return Ok(MaterialSpec::Mirror { specular: specular.unwrap_or([1.0; 3]), roughness, two_sided });
+                let specular = specular.unwrap_or([1.0; 3]);
+                return Ok(MaterialSpec::Mirror { specular, roughness, distribution, two_sided });
             }
             (Some(m), None, None) => {
                 let (e, k) = crate::scene::material::complex_ior(m).ok_or_else(|| {
@@ -484,7 +482,15 @@ impl<'a> Cx<'a> {
             (None, Some(e), None) => (e, [0.0; 3]),
             _ => return Err(b.error("give `material`, or `eta` and `k`, not both")),
         };
-        Ok(MaterialSpec::Conductor { preset: None, specular, eta: Some(eta), k: Some(k), roughness, two_sided })
+        Ok(MaterialSpec::Conductor {
+            preset: None,
+            specular,
+            eta: Some(eta),
+            k: Some(k),
+            roughness,
+            distribution,
+            two_sided,
+        })
     }
 
     /// Converts a `<texture>` once and returns its name in `[textures]`.
