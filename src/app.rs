@@ -241,10 +241,12 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         None => String::new(),
     };
     let n_env = usize::from(scene.lights.env.is_some());
+    let n_distant =
+        scene.lights.list.iter().filter(|l| matches!(l, crate::scene::light::LightKind::Distant { .. })).count();
     println!(
-        "lights      {} point, {} emissive primitives{env}, total power {:?} W",
+        "lights      {} point, {n_distant} distant, {} emissive primitives{env}, total power {:?} W",
         n_points,
-        scene.lights.list.len() - n_points - n_env,
+        scene.lights.list.len() - n_points - n_env - n_distant,
         scene.lights.total_power().to_array()
     );
     println!("bounds      {:?} .. {:?}", scene.bounds.0.to_array(), scene.bounds.1.to_array());

@@ -76,7 +76,7 @@ fn may_be_lit(scene: &Scene, s: usize) -> bool {
                 let n = (b - a).cross(c - a);
                 corners.iter().any(|&q| (q - a).dot(n) > 0.0)
             }
-            LightKind::Point { .. } | LightKind::Sphere { .. } | LightKind::Env => true,
+            LightKind::Point { .. } | LightKind::Sphere { .. } | LightKind::Env | LightKind::Distant { .. } => true,
         }
     })
 }

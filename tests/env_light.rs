@@ -1,7 +1,8 @@
-//! Environment lights: a constant sky is a furnace for a convex diffuse object (every point sees the
+//! Lights at infinity: a constant sky is a furnace for a convex diffuse object (every point sees the
 //! whole sky over its hemisphere, so L = ρ·L_env, in PT and PM); one bright texel lights a plane like a
-//! distant light; the photons a sky sends carry the flux that crosses the object (E = π L_env on every
-//! surface element); photons aimed at glass from the sky keep the caustic power of uniform emission.
+//! distant light, and a `distant` light follows Lambert's law (1e-3); the photons a sky or a distant
+//! light sends carry the flux that crosses the object (E = π L_env, or E cos θ, on every element);
+//! photons aimed at glass keep the caustic power of uniform emission.
 mod common;
 
 use caustica::accel::Accel;
@@ -124,4 +125,33 @@ fn sky_photons_carry_the_flux_that_crosses_the_object_and_targeting_keeps_it() {
     let (uniform, aimed) = (caustic(false), caustic(true));
     eprintln!("sky caustic through the glass ball: uniform {uniform}, aimed {aimed}");
     assert!((aimed / uniform - 1.0).abs() < 0.03, "caustic power aimed {aimed} vs uniform {uniform}");
+}
+
+#[test]
+fn a_distant_light_follows_lamberts_law_and_its_photons_carry_e_cos_area() {
+    // A 2 × 2 diffuse plane, ρ = 0.5, under parallel light of irradiance 3 at 60° from its normal:
+    // L = ρ/π · E cos 60° everywhere, and the plane receives E cos 60° · 4 of flux.
+    let scene = common::scene(
+        "[camera]\norigin = [0.0, 3.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, -1.0]\nfov = 20.0\nresolution = [16, 16]\n\
+         [materials]\nm = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
+         glass = { type = \"dielectric\", ior = 1.5 }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, 0.0, 1.0]\nedge_u = [2.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -2.0]\nmaterial = \"m\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.6, 0.5, 0.6]\nradius = 0.2\nmaterial = \"glass\"\n\
+         [[lights]]\ntype = \"distant\"\ndirection = [0.8660254, -0.5, 0.0]\nirradiance = [3.0, 3.0, 3.0]\n",
+    );
+    let accel = Accel::new(&scene).unwrap();
+    let img = render_path(&scene, &accel, 16, true).image;
+    let want = 0.5 / std::f32::consts::PI * 3.0 * 0.5;
+    // The camera looks straight down at the middle of the plane, away from the glass ball's shadow.
+    let centre = img.pixels[(8 * img.width + 8) as usize].x;
+    eprintln!("distant light: centre pixel {centre}, Lambert {want}");
+    assert!((centre / want - 1.0).abs() < 1e-3, "{centre} vs {want}");
+    let req = |targeted| MapRequest { want: [200_000, 0, 50_000], targeted, targets: None, ..Default::default() };
+    let uniform = build_maps(&scene, &accel, &req(false), true).unwrap();
+    let direct = uniform.maps[DIRECT].as_ref().unwrap().total_power().x;
+    let caustic = uniform.maps[CAUSTIC].as_ref().unwrap().total_power().x;
+    let aimed = build_maps(&scene, &accel, &req(true), true).unwrap().maps[CAUSTIC].as_ref().unwrap().total_power().x;
+    eprintln!("distant light flux: direct {direct} + caustic {caustic} of about 6 (the ball shades a little); aimed caustic {aimed}");
+    assert!(direct + caustic > 0.97 * 6.0 && direct + caustic < 1.02 * 6.0, "{direct} + {caustic}");
+    assert!((aimed / caustic - 1.0).abs() < 0.03, "aimed {aimed} vs uniform {caustic}");
 }

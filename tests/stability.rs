@@ -47,7 +47,7 @@ fn transformed(mut scene: Scene, s: f32, t: Vec3) -> Scene {
         .collect();
     scene.camera.origin = scene.camera.origin * s + t;
     scene.bounds = (scene.bounds.0 * s + t, scene.bounds.1 * s + t);
-    scene.lights = Lights::build(&scene, &points, None);
+    scene.lights = Lights::build(&scene, &points, &[], None);
     scene
 }
 

@@ -235,6 +235,14 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
         let phi = l * (ny.dot(w).abs() * targets.total_area / (pdf * p_sel));
         return Some(Launch { ray: Ray::new(y + w * far, -w), phi, aim: Some((shape, far)) });
     }
+    if let crate::scene::light::LightKind::Distant { dir, irradiance } = &lights.list[li] {
+        // Parallel light: the flux reaching the target element is E|n·d| dA.
+        let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());
+        let (shape, y, ny) = targets.sample(scene, u_sel, u_tri, u);
+        let far = 2.0 * (lights.sphere.1 + (y - lights.sphere.0).length());
+        let phi = *irradiance * (ny.dot(*dir).abs() * targets.total_area / p_sel);
+        return Some(Launch { ray: Ray::new(y - *dir * far, *dir), phi, aim: Some((shape, far)) });
+    }
     let lp = lights.sample_point(scene, li, rng.next_2d())?;
     let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());
     let (shape, y, ny) = targets.sample(scene, u_sel, u_tri, u);

@@ -385,6 +385,9 @@ pub enum LightSpec {
         #[serde(default)]
         radiance: Option<V3>,
     },
+    /// Parallel light from infinitely far away (the sun): travelling along `direction`, giving
+    /// `irradiance` (W/m²) to a surface that faces it.
+    Distant { direction: V3, irradiance: V3 },
     /// The same radiance from every direction, infinitely far away (a white sky, a furnace).
     Constant { radiance: V3 },
     /// A lat-long environment image (EXR linear, PNG/JPEG sRGB) around the scene, Mitsuba's layout

@@ -23,13 +23,19 @@ pub enum LightKind {
     },
     /// The environment (`Lights::env`): light from infinitely far away.
     Env,
+    /// A distant (directional) light: parallel rays travelling along `dir` (unit), `irradiance` on a
+    /// surface facing them.
+    Distant {
+        dir: Vec3,
+        irradiance: Rgb,
+    },
 }
 
 impl LightKind {
     /// The emissive shape this light belongs to (None for point lights).
     pub fn shape(&self) -> Option<u32> {
         match self {
-            LightKind::Point { .. } | LightKind::Env => None,
+            LightKind::Point { .. } | LightKind::Env | LightKind::Distant { .. } => None,
             LightKind::Triangle { shape, .. } | LightKind::Sphere { shape } => Some(*shape),
         }
     }
@@ -49,6 +55,8 @@ pub struct Lights {
     pub shape_offset: Vec<Option<u32>>,
     /// The environment light and its index in `list`.
     pub env: Option<(EnvLight, usize)>,
+    /// Centre and radius of the scene's bounding sphere (where light from infinity enters).
+    pub sphere: (Vec3, f32),
 }
 
 /// A point on a light seen from a reference point.
@@ -74,16 +82,22 @@ pub struct EmittedRay {
 }
 
 impl Lights {
-    /// Every light of the scene; an environment is fitted around the scene's bounds.
-    pub fn build(scene: &Scene, points: &[(Vec3, Rgb)], env: Option<EnvLight>) -> Lights {
-        let mut l = Lights { shape_offset: vec![None; scene.shapes.len()], ..Default::default() };
+    /// Every light of the scene: point lights (position, power), distant lights (direction of travel,
+    /// irradiance), emissive shapes, and an environment fitted around the scene's bounds.
+    pub fn build(scene: &Scene, points: &[(Vec3, Rgb)], distant: &[(Vec3, Rgb)], env: Option<EnvLight>) -> Lights {
+        let (lo, hi) = scene.bounds;
+        let sphere = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3));
+        let mut l = Lights { shape_offset: vec![None; scene.shapes.len()], sphere, ..Default::default() };
         if let Some(mut e) = env {
-            let (lo, hi) = scene.bounds;
-            e.center = (lo + hi) * 0.5;
-            e.radius = ((hi - lo).length() * 0.5).max(1e-3);
+            (e.center, e.radius) = sphere;
             l.list.push(LightKind::Env);
             l.power.push(e.power());
             l.env = Some((e, 0));
+        }
+        for &(dir, irradiance) in distant {
+            l.list.push(LightKind::Distant { dir: dir.normalize(), irradiance });
+            // The power that crosses the bounding sphere: E πR².
+            l.power.push(irradiance * (PI * sphere.1 * sphere.1));
         }
         for &(position, power) in points {
             l.list.push(LightKind::Point { position, intensity: power / (4.0 * PI) });
@@ -226,6 +240,11 @@ impl Lights {
                 let pdf = p_sel / (2.0 * PI * one_minus);
                 Some(LightSample { wi, dist, p, li: s.emission, pdf, delta: false })
             }
+            LightKind::Distant { dir, irradiance } => {
+                let dist = 2.0 * (self.sphere.1 + (x - self.sphere.0).length());
+                let wi = -*dir;
+                Some(LightSample { wi, dist, p: x + wi * dist, li: *irradiance, pdf: p_sel, delta: true })
+            }
             LightKind::Env => {
                 let (e, _) = self.env.as_ref()?;
                 let (wi, li, pdf) = e.sample(u)?;
@@ -271,7 +290,7 @@ impl Lights {
     /// and emitted radiance (area lights) or intensity (point lights). None for the environment.
     pub fn sample_point(&self, scene: &Scene, i: usize, u: [f32; 2]) -> Option<LightPoint> {
         Some(match &self.list[i] {
-            LightKind::Env => return None,
+            LightKind::Env | LightKind::Distant { .. } => return None,
             LightKind::Point { position, intensity } => {
                 LightPoint { p: *position, n: Vec3::ZERO, size: 0.0, pdf_area: 1.0, le: *intensity }
             }
@@ -298,6 +317,14 @@ impl Lights {
         if let (LightKind::Env, Some((e, _))) = (&self.list[i], &self.env) {
             let (ray, phi) = e.emit(u_dir, u_pos)?;
             return Some(EmittedRay { ray, phi: phi / p_sel });
+        }
+        if let LightKind::Distant { dir, .. } = &self.list[i] {
+            // A uniform point on the disc of radius R facing the light, R beyond the centre.
+            let (c, r) = self.sphere;
+            let f = Frame::from_normal(*dir);
+            let d = sampling::concentric_disk(u_pos);
+            let o = c - *dir * (2.0 * r) + (f.s * d[0] + f.t * d[1]) * r;
+            return Some(EmittedRay { ray: Ray::new(o, *dir), phi: self.power[i] / p_sel });
         }
         let phi = self.power[i] / p_sel;
         let lp = self.sample_point(scene, i, u_pos)?;

@@ -190,6 +190,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     materials.push(SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO }));
     names.push("(light)".into());
     let mut points = Vec::new();
+    let mut distant = Vec::new();
     let mut env = None;
     for (i, spec) in file.lights.iter().enumerate() {
         let key = format!("lights[{i}]");
@@ -199,6 +200,13 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
                     return Err(cx.err(&key, "a second environment light (a scene has at most one)"));
                 }
                 env = Some(build_env(&cx, &key, spec, dir)?);
+            }
+            LightSpec::Distant { direction, irradiance } => {
+                let d = Vec3::from_array(*direction);
+                if d.length() == 0.0 {
+                    return Err(cx.err(&format!("{key}.direction"), "is the zero vector"));
+                }
+                distant.push((d, cx.colour(&format!("{key}.irradiance"), *irradiance, None)?));
             }
             _ => build_light(&cx, &key, spec, black, &mut shapes, &mut points)?,
         }
@@ -216,7 +224,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         bounds,
         load_seconds: 0.0,
     };
-    scene.lights = Lights::build(&scene, &points, env);
+    scene.lights = Lights::build(&scene, &points, &distant, env);
     if scene.lights.is_empty() {
         return Err(
             cx.err("lights", "the scene has no light with positive power (add [[lights]] or an emissive shape)")
@@ -726,7 +734,9 @@ fn build_light(
             let geometry = Geometry::Mesh(mesh::quad(Vec3::from_array(*corner), eu, ev));
             shapes.push(Shape { name: key.into(), geometry, material: black, emission });
         }
-        LightSpec::Constant { .. } | LightSpec::Envmap { .. } => unreachable!("built by build_env"),
+        LightSpec::Constant { .. } | LightSpec::Envmap { .. } | LightSpec::Distant { .. } => {
+            unreachable!("built in build()")
+        }
     }
     Ok(())
 }

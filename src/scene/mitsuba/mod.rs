@@ -25,7 +25,7 @@ pub struct Converted {
 
 const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
 const BSDFS: &str = "diffuse, dielectric, thindielectric, conductor, roughconductor (ggx, beckmann), twosided";
-const EMITTERS: &str = "area (inside a shape), point, constant, envmap";
+const EMITTERS: &str = "area (inside a shape), point, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
 
@@ -585,10 +585,27 @@ impl<'a> Cx<'a> {
                     .unwrap_or_default();
                 self.file.lights.push(LightSpec::Envmap { file: self.resolve(e, &file), scale, transform });
             }
+            Some("directional") => {
+                let irradiance = match p.colour("irradiance")? {
+                    None => [1.0; 3],
+                    Some(ColourProp::Rgb(c)) => c,
+                    Some(_) => return Err(e.error("a textured irradiance is not supported")),
+                };
+                let (d, m) = (p.point("direction")?, p.transform("to_world")?);
+                let direction = match (d, m) {
+                    (Some(_), Some(_)) => return Err(e.error("give `direction` or `to_world`, not both")),
+                    (Some(d), None) => d,
+                    (None, m) => m.unwrap_or(Mat4::IDENTITY).transform_vector3(Vec3::Z).to_array(),
+                };
+                self.file.lights.push(LightSpec::Distant { direction, irradiance });
+            }
             Some("area") => return Err(e.error("an area emitter must sit inside the <shape> that emits")),
             _ => return Err(e.error(format!("emitter type not read (read: {EMITTERS})"))),
         }
-        p.finish("intensity, position, to_world (point); radiance (constant); filename, scale, to_world (envmap)")
+        p.finish(
+            "intensity, position, to_world (point); irradiance, direction, to_world (directional); radiance \
+             (constant); filename, scale, to_world (envmap)",
+        )
     }
 }
 
