@@ -231,12 +231,12 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     let n_points =
         scene.lights.list.iter().filter(|l| matches!(l, crate::scene::light::LightKind::Point { .. })).count();
     let env = match &scene.lights.env {
-        Some((e, _)) => {
+        Some((e, i)) => {
             let kind = match &e.image {
                 Some(i) => format!("an environment map {}×{}", i.width, i.height),
                 None => format!("a constant environment {:?}", e.scale.to_array()),
             };
-            format!(", {kind} (power through the scene's sphere {:?} W)", e.power().to_array())
+            format!(", {kind} (power through the scene's sphere {:?} W)", scene.lights.power[*i].to_array())
         }
         None => String::new(),
     };

@@ -1,7 +1,6 @@
 //! Same image bits whatever the thread count: path tracing, and photon mapping (maps and eye pass).
 use caustica::accel::Accel;
-use caustica::integrator::photon_map::{build_maps, MapRequest};
-use caustica::pipeline::{plan_for, render_path, render_photon_map};
+use caustica::pipeline::{plan_for, render_path, render_pm};
 use caustica::scene::load_scene_with;
 use std::path::Path;
 
@@ -42,15 +41,8 @@ fn photon_mapper_is_bit_identical_for_1_and_2_threads() {
     let s = scene();
     let a = Accel::new(&s).unwrap();
     let run = || {
-        let plan = plan_for(&s, &a);
-        let req = MapRequest {
-            want: plan.photons,
-            targeted: true,
-            targets: Some(plan.caustic_targets.clone()),
-            ..Default::default()
-        };
-        let maps = build_maps(&s, &a, &req, true).unwrap();
-        (maps.stats.stored, maps.stats.n_emitted, render_photon_map(&s, &a, &maps, &plan, None, true).image)
+        let (maps, r) = render_pm(&s, &a, &plan_for(&s, &a), true).unwrap();
+        (maps.stats.stored, maps.stats.n_emitted, r.image)
     };
     let one = with_threads(1, run);
     let two = with_threads(2, run);

@@ -8,7 +8,7 @@ mod common;
 use caustica::accel::Accel;
 use caustica::integrator::photon_map::{build_maps, MapRequest};
 use caustica::photon::trace::{CAUSTIC, DIRECT};
-use caustica::pipeline::{plan_for, render_path, render_photon_map};
+use caustica::pipeline::{plan_for, render_path, render_pm};
 
 const SKY: &str = "[camera]\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 30.0\nresolution = [32, 32]\n\
                    [[lights]]\ntype = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n";
@@ -42,15 +42,7 @@ fn a_diffuse_sphere_under_a_constant_sky_has_radiance_albedo_times_sky_in_pt_and
     ));
     let accel = Accel::new(&scene).unwrap();
     let pt = render_path(&scene, &accel, 1024, true).image;
-    let plan = plan_for(&scene, &accel);
-    let req = MapRequest {
-        want: plan.photons,
-        targeted: true,
-        targets: Some(plan.caustic_targets.clone()),
-        ..Default::default()
-    };
-    let maps = build_maps(&scene, &accel, &req, true).unwrap();
-    let pm = render_photon_map(&scene, &accel, &maps, &plan, None, true).image;
+    let pm = render_pm(&scene, &accel, &plan_for(&scene, &accel), true).unwrap().1.image;
     for (name, img) in [("PT", &pt), ("PM", &pm)] {
         let px = sphere_and_sky(img);
         let worst = px.iter().filter(|p| p.0).map(|p| (p.1 - 0.5).abs()).fold(0.0, f32::max);

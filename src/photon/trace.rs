@@ -225,23 +225,14 @@ fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
 fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<Launch> {
     let lights = &scene.lights;
     let (li, p_sel) = sampling::sample_cdf(&lights.cdf, rng.next_f32());
-    if let (crate::scene::light::LightKind::Env, Some((env, _))) = (&lights.list[li], &lights.env) {
-        // From the environment: a direction ω by its distribution, the target point y by area; the flux
-        // reaching y's surface element from ω is L(ω)|n·ω| dω dA.
-        let (w, l, pdf) = env.sample(rng.next_2d())?;
+    if let Some(s) = lights.sample_infinite(li, rng.next_2d()) {
+        // From infinity (environment or distant light): a direction ω by its distribution, the target
+        // point y by area; the flux reaching y's surface element from ω is L(ω)|n·ω| dω dA (E|n·ω| dA).
         let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());
         let (shape, y, ny) = targets.sample(scene, u_sel, u_tri, u);
-        let far = 2.0 * (env.radius + (y - env.center).length());
-        let phi = l * (ny.dot(w).abs() * targets.total_area / (pdf * p_sel));
-        return Some(Launch { ray: Ray::new(y + w * far, -w), phi, aim: Some((shape, far)) });
-    }
-    if let crate::scene::light::LightKind::Distant { dir, irradiance } = &lights.list[li] {
-        // Parallel light: the flux reaching the target element is E|n·d| dA.
-        let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());
-        let (shape, y, ny) = targets.sample(scene, u_sel, u_tri, u);
-        let far = 2.0 * (lights.sphere.1 + (y - lights.sphere.0).length());
-        let phi = *irradiance * (ny.dot(*dir).abs() * targets.total_area / p_sel);
-        return Some(Launch { ray: Ray::new(y - *dir * far, *dir), phi, aim: Some((shape, far)) });
+        let far = lights.beyond_scene(y);
+        let phi = s.li * (ny.dot(s.wi).abs() * targets.total_area / (s.pdf * p_sel));
+        return Some(Launch { ray: Ray::new(y + s.wi * far, -s.wi), phi, aim: Some((shape, far)) });
     }
     let lp = lights.sample_point(scene, li, rng.next_2d())?;
     let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());

@@ -1,8 +1,8 @@
 //! Environment light: constant radiance from every direction, or a lat-long image read as Mitsuba 3's
 //! `envmap` reads it (u = atan2(x, −z)/2π, v = acos(y)/π in the light's own frame; bilinear, texel
 //! columns centred at (i + ½)/W and wrapping, rows at v = j/(H − 1) from pole to pole), importance-sampled
-//! on a W × H grid by luminance × sin θ. Photons come from a disc of the scene's bounding sphere's radius, outside it,
-//! facing the sampled direction; each carries L·πR²/pdf.
+//! on a W × H grid by luminance × sin θ. `Lights` places it around the scene's bounding sphere (photons
+//! from a disc of that radius, facing the sampled direction, each carrying L·πR²/pdf).
 //!
 //! ```toml
 //! [[lights]]
@@ -27,9 +27,6 @@ pub struct EnvLight {
     pub image: Option<EnvImage>,
     /// World → light frame (a rotation).
     pub to_local: Mat3,
-    /// Centre and radius of the scene's bounding sphere (photons start outside it).
-    pub center: Vec3,
-    pub radius: f32,
 }
 
 #[derive(Clone, Debug)]
@@ -184,21 +181,6 @@ impl EnvLight {
             }
         }
     }
-
-    /// Power that crosses the scene's bounding sphere: πR² ∫ L dω.
-    pub fn power(&self) -> Rgb {
-        self.radiance_integral() * (PI * self.radius * self.radius)
-    }
-
-    /// A photon from the environment: direction ω drawn by `sample`, origin uniform on the disc of radius
-    /// R facing ω, R beyond the centre, travelling along −ω; power L(ω)·πR²/pdf(ω).
-    pub fn emit(&self, u_dir: [f32; 2], u_disc: [f32; 2]) -> Option<(crate::math::Ray, Rgb)> {
-        let (w, l, pdf) = self.sample(u_dir)?;
-        let f = crate::math::Frame::from_normal(w);
-        let d = sampling::concentric_disk(u_disc);
-        let o = self.center + w * (2.0 * self.radius) + (f.s * d[0] + f.t * d[1]) * self.radius;
-        Some((crate::math::Ray::new(o, -w), l * (PI * self.radius * self.radius / pdf)))
-    }
 }
 
 #[cfg(test)]
@@ -206,13 +188,7 @@ mod tests {
     use super::*;
 
     fn env(texels: Vec<Rgb>, w: u32, h: u32) -> EnvLight {
-        EnvLight {
-            scale: Rgb::ONE,
-            image: Some(EnvImage::new(w, h, texels)),
-            to_local: Mat3::IDENTITY,
-            center: Vec3::ZERO,
-            radius: 1.0,
-        }
+        EnvLight { scale: Rgb::ONE, image: Some(EnvImage::new(w, h, texels)), to_local: Mat3::IDENTITY }
     }
 
     #[test]

@@ -88,16 +88,16 @@ impl Lights {
         let (lo, hi) = scene.bounds;
         let sphere = ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3));
         let mut l = Lights { shape_offset: vec![None; scene.shapes.len()], sphere, ..Default::default() };
-        if let Some(mut e) = env {
-            (e.center, e.radius) = sphere;
+        // Light from infinity: the power that crosses the bounding sphere, πR² ∫L dω or E πR².
+        let disc = PI * sphere.1 * sphere.1;
+        if let Some(e) = env {
             l.list.push(LightKind::Env);
-            l.power.push(e.power());
+            l.power.push(e.radiance_integral() * disc);
             l.env = Some((e, 0));
         }
         for &(dir, irradiance) in distant {
             l.list.push(LightKind::Distant { dir: dir.normalize(), irradiance });
-            // The power that crosses the bounding sphere: E πR².
-            l.power.push(irradiance * (PI * sphere.1 * sphere.1));
+            l.power.push(irradiance * disc);
         }
         for &(position, power) in points {
             l.list.push(LightKind::Point { position, intensity: power / (4.0 * PI) });
@@ -154,6 +154,27 @@ impl Lights {
 
     pub fn is_empty(&self) -> bool {
         self.cdf.last().is_none_or(|&t| t <= 0.0)
+    }
+
+    /// A direction towards light `i` if it lies at infinity (environment, distant light): the unit
+    /// direction towards the light, the radiance (environment) or irradiance (distant) arriving along
+    /// it, and its solid-angle pdf (1 for the delta of a distant light).
+    pub fn sample_infinite(&self, i: usize, u: [f32; 2]) -> Option<InfiniteSample> {
+        match &self.list[i] {
+            LightKind::Env => {
+                let (wi, li, pdf) = self.env.as_ref()?.0.sample(u)?;
+                Some(InfiniteSample { wi, li, pdf, delta: false })
+            }
+            LightKind::Distant { dir, irradiance } => {
+                Some(InfiniteSample { wi: -*dir, li: *irradiance, pdf: 1.0, delta: true })
+            }
+            _ => None,
+        }
+    }
+
+    /// Distance from `x` to a point beyond the scene's bounding sphere (where rays from infinity start).
+    pub fn beyond_scene(&self, x: Vec3) -> f32 {
+        2.0 * (self.sphere.1 + (x - self.sphere.0).length())
     }
 
     /// Radiance of the environment towards `dir` (zero without one).
@@ -240,17 +261,11 @@ impl Lights {
                 let pdf = p_sel / (2.0 * PI * one_minus);
                 Some(LightSample { wi, dist, p, li: s.emission, pdf, delta: false })
             }
-            LightKind::Distant { dir, irradiance } => {
-                let dist = 2.0 * (self.sphere.1 + (x - self.sphere.0).length());
-                let wi = -*dir;
-                Some(LightSample { wi, dist, p: x + wi * dist, li: *irradiance, pdf: p_sel, delta: true })
-            }
-            LightKind::Env => {
-                let (e, _) = self.env.as_ref()?;
-                let (wi, li, pdf) = e.sample(u)?;
+            LightKind::Env | LightKind::Distant { .. } => {
+                let s = self.sample_infinite(i, u)?;
                 // A shadow ray to a point beyond the scene's bounding sphere.
-                let dist = 2.0 * (e.radius + (x - e.center).length());
-                Some(LightSample { wi, dist, p: x + wi * dist, li, pdf: p_sel * pdf, delta: false })
+                let dist = self.beyond_scene(x);
+                Some(LightSample { wi: s.wi, dist, p: x + s.wi * dist, li: s.li, pdf: p_sel * s.pdf, delta: s.delta })
             }
         }
     }
@@ -314,17 +329,14 @@ impl Lights {
             return None;
         }
         let (i, p_sel) = sampling::sample_cdf(&self.cdf, u_sel);
-        if let (LightKind::Env, Some((e, _))) = (&self.list[i], &self.env) {
-            let (ray, phi) = e.emit(u_dir, u_pos)?;
-            return Some(EmittedRay { ray, phi: phi / p_sel });
-        }
-        if let LightKind::Distant { dir, .. } = &self.list[i] {
-            // A uniform point on the disc of radius R facing the light, R beyond the centre.
+        if let Some(s) = self.sample_infinite(i, u_dir) {
+            // From a uniform point on the disc of radius R facing the light, 2R out from the centre: each
+            // photon carries L πR²/pdf (E πR² for a distant light).
             let (c, r) = self.sphere;
-            let f = Frame::from_normal(*dir);
+            let f = Frame::from_normal(s.wi);
             let d = sampling::concentric_disk(u_pos);
-            let o = c - *dir * (2.0 * r) + (f.s * d[0] + f.t * d[1]) * r;
-            return Some(EmittedRay { ray: Ray::new(o, *dir), phi: self.power[i] / p_sel });
+            let o = c + s.wi * (2.0 * r) + (f.s * d[0] + f.t * d[1]) * r;
+            return Some(EmittedRay { ray: Ray::new(o, -s.wi), phi: s.li * (PI * r * r / s.pdf) / p_sel });
         }
         let phi = self.power[i] / p_sel;
         let lp = self.sample_point(scene, i, u_pos)?;
@@ -337,6 +349,15 @@ impl Lights {
         };
         Some(EmittedRay { ray, phi })
     }
+}
+
+/// A direction towards a light at infinity (`Lights::sample_infinite`).
+#[derive(Clone, Copy, Debug)]
+pub struct InfiniteSample {
+    pub wi: Vec3,
+    pub li: Rgb,
+    pub pdf: f32,
+    pub delta: bool,
 }
 
 /// A sampled point on a light.

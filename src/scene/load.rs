@@ -741,7 +741,7 @@ fn build_light(
     Ok(())
 }
 
-/// An environment light (its centre and radius are fitted to the scene by `Lights::build`).
+/// An environment light (`Lights::build` places it around the scene).
 fn build_env(cx: &Ctx, key: &str, spec: &LightSpec, dir: &Path) -> Result<EnvLight, SceneError> {
     let (scale, image, to_local) = match spec {
         LightSpec::Constant { radiance } => {
@@ -767,7 +767,7 @@ fn build_env(cx: &Ctx, key: &str, spec: &LightSpec, dir: &Path) -> Result<EnvLig
         }
         _ => unreachable!("not an environment light"),
     };
-    Ok(EnvLight { scale, image, to_local, center: Vec3::ZERO, radius: 1.0 })
+    Ok(EnvLight { scale, image, to_local })
 }
 
 fn scene_bounds(shapes: &[Shape], points: &[(Vec3, Rgb)]) -> (Vec3, Vec3) {
