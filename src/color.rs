@@ -13,6 +13,15 @@ pub fn srgb_encode(x: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
+/// sRGB-encoded value in [0, 1] → linear (the inverse of the transfer curve `srgb_encode` applies).
+pub fn srgb_decode(x: f32) -> f32 {
+    if x <= 0.04045 {
+        x / 12.92
+    } else {
+        ((x + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -22,6 +31,9 @@ mod tests {
         assert_eq!(srgb_encode(1.0), 255);
         assert_eq!(srgb_encode(0.214_041_14), 128);
         assert_eq!(srgb_encode(f32::NAN), 0);
+        for v in [0u8, 10, 128, 255] {
+            assert_eq!(srgb_encode(srgb_decode(v as f32 / 255.0)), v);
+        }
         assert!((luminance(Rgb::ONE) - 1.0).abs() < 1e-6);
     }
 }

@@ -223,9 +223,12 @@ pub fn run(o: &Options) -> Result<()> {
     report(o, &runs, ref_noise)
 }
 
+/// The first line of the CSV `run` writes and `redraw` reads.
+const CSV_HEADER: &str = "series,spp,photons,gather,seconds,rmse,rmse_raw,rel_mse";
+
 fn report(o: &Options, runs: &[Run], ref_noise: f64) -> Result<()> {
     let csv = with_suffix(o.out, ".csv");
-    let mut text = String::from("series,spp,photons,gather,seconds,rmse,rmse_raw,rel_mse\n");
+    let mut text = format!("{CSV_HEADER}\n");
     for r in runs {
         text += &format!(
             "{},{},{},{},{:.4},{:.6},{:.6},{:.6}\n",
@@ -366,14 +369,12 @@ fn draw_chart<DB: plotters::prelude::DrawingBackend>(
     Ok(())
 }
 
-/// Reads a CSV that `run` wrote (header `series,spp,photons,gather,seconds,rmse,rmse_raw,rel_mse`) and
-/// draws its chart again as OUT.svg and OUT.png.
+/// Reads a CSV that `run` wrote (`CSV_HEADER` first) and draws its chart again as OUT.svg and OUT.png.
 pub fn redraw(csv: &Path, out: &Path, title: &str) -> Result<()> {
     let text = std::fs::read_to_string(csv).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", csv.display()))?;
     let mut lines = text.lines();
-    let header = "series,spp,photons,gather,seconds,rmse,rmse_raw,rel_mse";
-    if lines.next().map(str::trim) != Some(header) {
-        anyhow::bail!("{}: line 1: not a time-vs-error CSV (expected the header `{header}`)", csv.display());
+    if lines.next().map(str::trim) != Some(CSV_HEADER) {
+        anyhow::bail!("{}: line 1: not a time-vs-error CSV (expected the header `{CSV_HEADER}`)", csv.display());
     }
     let mut runs = Vec::new();
     for (i, line) in lines.enumerate().filter(|(_, l)| !l.trim().is_empty()) {

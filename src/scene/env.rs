@@ -78,12 +78,7 @@ impl EnvImage {
     fn lookup(&self, u: f32, v: f32) -> Rgb {
         let (w, h) = (self.width as i64, self.height as i64);
         let at = |x: i64, y: i64| self.texels[(y.clamp(0, h - 1) * w + x.rem_euclid(w)) as usize];
-        let (x, y) = (u * w as f32 - 0.5, v.clamp(0.0, 1.0) * (h - 1) as f32);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        (at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx) * (1.0 - fy)
-            + (at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx) * fy
+        crate::scene::texture::bilinear(u * w as f32 - 0.5, v.clamp(0.0, 1.0) * (h - 1) as f32, at)
     }
 
     /// Density of (u, v) over the unit square.

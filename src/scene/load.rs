@@ -502,11 +502,16 @@ fn build_shape(
     let emission = |e: &Option<V3>| -> Result<Rgb, SceneError> {
         e.map_or(Ok(Rgb::ZERO), |c| cx.colour(&format!("{key}.emission"), c, None))
     };
-    let push = |shapes: &mut Vec<Shape>, mut mesh: TriMesh, transform: &TransformSpec, material: u32, em: Rgb| {
-        mesh.transform(&transform_matrix(key, transform, cx.shown)?);
-        shapes.push(Shape { name: key.into(), geometry: Geometry::Mesh(mesh), material, emission: em });
-        Ok::<(), SceneError>(())
-    };
+    // A mesh turned inside out if asked, then transformed, becomes the shape.
+    let push =
+        |shapes: &mut Vec<Shape>, mut mesh: TriMesh, flip: bool, transform: &TransformSpec, material: u32, em: Rgb| {
+            if flip {
+                mesh.flip();
+            }
+            mesh.transform(&transform_matrix(key, transform, cx.shown)?);
+            shapes.push(Shape { name: key.into(), geometry: Geometry::Mesh(mesh), material, emission: em });
+            Ok::<(), SceneError>(())
+        };
     match spec {
         ShapeSpec::Mesh { file, material, transform, emission: e, smooth, flip_normals } => {
             let path = dir.join(file);
@@ -532,10 +537,7 @@ fn build_shape(
                 if *smooth && m.normals.is_none() {
                     m.compute_smooth_normals();
                 }
-                if *flip_normals {
-                    m.flip();
-                }
-                push(out.shapes, m, transform, mat, emission(e)?)?;
+                push(out.shapes, m, *flip_normals, transform, mat, emission(e)?)?;
             }
         }
         ShapeSpec::Sphere { center, radius, material, transform, emission: e } => {
@@ -544,20 +546,17 @@ fn build_shape(
         }
         ShapeSpec::Heightfield { material, transform, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, transform, lookup(material)?, Rgb::ZERO)?;
+            push(out.shapes, mesh, false, transform, lookup(material)?, Rgb::ZERO)?;
         }
         ShapeSpec::Quad { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Disk { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Box { material, transform, emission: e, flip_normals: flip, .. } => {
-            let mut mesh = generated_mesh(cx, key, spec)?;
-            if *flip {
-                mesh.flip();
-            }
-            push(out.shapes, mesh, transform, lookup(material)?, emission(e)?)?;
+            let mesh = generated_mesh(cx, key, spec)?;
+            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e)?)?;
         }
         ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, transform, lookup(material)?, emission(e)?)?;
+            push(out.shapes, mesh, false, transform, lookup(material)?, emission(e)?)?;
         }
     }
     Ok(())

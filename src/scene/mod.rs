@@ -188,6 +188,14 @@ impl SurfaceHit {
     }
 }
 
+/// Feeds the exact bits of each vector (x, y, z, little-endian) into a content hash.
+pub(crate) fn hash_vec3s<'a>(h: &mut sha2::Sha256, v: impl IntoIterator<Item = &'a Vec3>) {
+    use sha2::Digest;
+    for p in v {
+        p.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
+    }
+}
+
 impl Scene {
     /// SHA-256 (hex) of what the scene is, independent of where its files live: camera, materials,
     /// lights, every shape's geometry (vertex and normal bits, indices) and emission. Render settings
@@ -206,23 +214,17 @@ impl Scene {
         }
         if let Some((e, _)) = &self.lights.env {
             h.update(format!("env {:?} {:?}", e.scale, e.to_local));
-            for t in e.image.iter().flat_map(|i| &i.texels) {
-                t.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
-            }
+            hash_vec3s(&mut h, e.image.iter().flat_map(|i| &i.texels));
         }
         for s in &self.shapes {
             h.update(format!("|{}|{}|{:?}|", s.name, s.material, s.emission));
             match &s.geometry {
                 Geometry::Mesh(m) => {
-                    for p in &m.positions {
-                        p.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
-                    }
+                    hash_vec3s(&mut h, &m.positions);
                     for t in &m.indices {
                         t.iter().for_each(|i| h.update(i.to_le_bytes()));
                     }
-                    for n in m.normals.iter().flatten() {
-                        n.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
-                    }
+                    hash_vec3s(&mut h, m.normals.iter().flatten());
                     for t in m.uvs.iter().flatten() {
                         t.iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
                     }

@@ -68,12 +68,7 @@ impl Texture {
                 if !*bilinear {
                     return at(x.floor() as i64, y.floor() as i64);
                 }
-                let (x, y) = (x - 0.5, y - 0.5);
-                let (x0, y0) = (x.floor(), y.floor());
-                let (fx, fy) = (x - x0, y - y0);
-                let (x0, y0) = (x0 as i64, y0 as i64);
-                (at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx) * (1.0 - fy)
-                    + (at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx) * fy
+                self::bilinear(x - 0.5, y - 0.5, at)
             }
         }
     }
@@ -85,9 +80,7 @@ impl Texture {
             Texture::Checkerboard { .. } => h.update(format!("{self:?}")),
             Texture::Bitmap { width, height, texels, to_uv, bilinear, .. } => {
                 h.update(format!("bitmap {width} {height} {to_uv:?} {bilinear}"));
-                for t in texels {
-                    t.to_array().iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
-                }
+                crate::scene::hash_vec3s(h, texels);
             }
         }
     }
@@ -99,6 +92,16 @@ impl Texture {
             Texture::Bitmap { texels, .. } => texels.iter().map(|t| t.max_element()).fold(0.0, f32::max),
         }
     }
+}
+
+/// Bilinear interpolation at continuous texel coordinates (x, y), texel (i, j) sitting at (i, j); `at`
+/// reads a texel and decides how indices outside the image wrap or clamp.
+pub fn bilinear(x: f32, y: f32, at: impl Fn(i64, i64) -> Rgb) -> Rgb {
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    (at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx) * (1.0 - fy)
+        + (at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx) * fy
 }
 
 /// Reads an image as linear RGB, row 0 first: EXR as stored, PNG and JPEG decoded from sRGB unless
@@ -145,15 +148,7 @@ pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String
         .decode()
         .map_err(|e| format!("cannot decode image (PNG, JPEG or EXR accepted): {e}"))?
         .into_rgb32f();
-    let decode = |x: f32| {
-        if raw {
-            x
-        } else if x <= 0.04045 {
-            x / 12.92
-        } else {
-            ((x + 0.055) / 1.055).powf(2.4)
-        }
-    };
+    let decode = |x: f32| if raw { x } else { crate::color::srgb_decode(x) };
     let texels = img.pixels().map(|p| Rgb::new(decode(p[0]), decode(p[1]), decode(p[2]))).collect();
     Ok((w, h, texels))
 }

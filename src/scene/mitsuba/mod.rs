@@ -270,9 +270,7 @@ impl<'a> Cx<'a> {
     fn shape(&mut self, n: &'a Node) -> Result<(), SceneError> {
         let index = self.file.shapes.len();
         let p = Props::new(n);
-        let m = p.transform("to_world")?;
-        let matrix = |m: Mat4| TransformSpec { matrix: Some(m.transpose().to_cols_array_2d()), ..Default::default() };
-        let transform = m.map(matrix).unwrap_or_default();
+        let transform = transform_spec(p.transform("to_world")?);
         let flip_normals = p.boolean("flip_normals")?.unwrap_or(false);
         let mut emission = None;
         for e in p.objects("emitter") {
@@ -280,11 +278,7 @@ impl<'a> Cx<'a> {
                 return Err(e.error("only an `area` emitter can sit inside a shape"));
             }
             let ep = Props::new(e);
-            emission = Some(match ep.colour("radiance")? {
-                Some(ColourProp::Rgb(c)) => c,
-                None => [1.0; 3],
-                Some(_) => return Err(e.error("a textured radiance is not supported")),
-            });
+            emission = Some(ep.rgb("radiance")?.unwrap_or([1.0; 3]));
             ep.finish("radiance")?;
         }
         let material = self.shape_material(n, &p, index, emission.is_some())?;
@@ -410,16 +404,10 @@ impl<'a> Cx<'a> {
             "dielectric" | "thindielectric" => {
                 let int = p.float_or_name("int_ior", named_ior)?.unwrap_or(1.5046);
                 let ext = p.float_or_name("ext_ior", named_ior)?.unwrap_or(1.000277);
-                match p.colour("specular_reflectance")? {
-                    None => {}
-                    Some(ColourProp::Rgb(c)) if c == [1.0; 3] => {}
-                    Some(_) => return Err(b.error("specular_reflectance other than 1 is not supported")),
+                if p.rgb("specular_reflectance")?.is_some_and(|c| c != [1.0; 3]) {
+                    return Err(b.error("specular_reflectance other than 1 is not supported"));
                 }
-                let tint = match p.colour("specular_transmittance")? {
-                    None => [1.0; 3],
-                    Some(ColourProp::Rgb(c)) => c,
-                    Some(_) => return Err(b.error("a textured specular_transmittance is not supported")),
-                };
+                let tint = p.rgb("specular_transmittance")?.unwrap_or([1.0; 3]);
                 if kind == "dielectric" {
                     MaterialSpec::Dielectric { ior: int, outside_ior: ext, tint }
                 } else {
@@ -453,19 +441,8 @@ impl<'a> Cx<'a> {
         } else {
             0.0
         };
-        let specular = match p.colour("specular_reflectance")? {
-            None => None,
-            Some(ColourProp::Rgb(c)) => Some(c),
-            Some(_) => return Err(b.error("a textured specular_reflectance is not supported")),
-        };
-        let rgb = |name: &str| -> Result<Option<[f32; 3]>, SceneError> {
-            match p.colour(name)? {
-                None => Ok(None),
-                Some(ColourProp::Rgb(c)) => Ok(Some(c)),
-                Some(_) => Err(b.error(format!("a textured `{name}` is not supported"))),
-            }
-        };
-        let (eta, k) = (rgb("eta")?, rgb("k")?);
+        let specular = p.rgb("specular_reflectance")?;
+        let (eta, k) = (p.rgb("eta")?, p.rgb("k")?);
         let material = p.string("material")?;
         let (eta, k) = match (material.as_deref(), eta, k) {
             (None | Some("none"), None, None) => {
@@ -510,12 +487,8 @@ impl<'a> Cx<'a> {
         });
         let spec = match t.attr("type") {
             Some("checkerboard") => {
-                let colour = |key: &str, d: f32| match p.colour(key)? {
-                    None => Ok([d; 3]),
-                    Some(ColourProp::Rgb(c)) => Ok(c),
-                    Some(_) => Err(t.error(format!("`{key}` must be a colour"))),
-                };
-                let (color0, color1) = (colour("color0", 0.4)?, colour("color1", 0.2)?);
+                let color0 = p.rgb("color0")?.unwrap_or([0.4; 3]);
+                let color1 = p.rgb("color1")?.unwrap_or([0.2; 3]);
                 TextureSpec::Checkerboard { color0, color1, scale: [1.0; 2], offset: [0.0; 2], matrix }
             }
             Some("bitmap") => {
@@ -552,11 +525,7 @@ impl<'a> Cx<'a> {
         let p = Props::new(e);
         match e.attr("type") {
             Some("point") => {
-                let intensity = match p.colour("intensity")? {
-                    None => [1.0; 3],
-                    Some(ColourProp::Rgb(c)) => c,
-                    Some(_) => return Err(e.error("a textured intensity is not supported")),
-                };
+                let intensity = p.rgb("intensity")?.unwrap_or([1.0; 3]);
                 let at = p.point("position")?;
                 let m = p.transform("to_world")?;
                 let position = match (at, m) {
@@ -569,28 +538,17 @@ impl<'a> Cx<'a> {
                 self.file.lights.push(LightSpec::Point { position, power });
             }
             Some("constant") => {
-                let radiance = match p.colour("radiance")? {
-                    None => [1.0; 3],
-                    Some(ColourProp::Rgb(c)) => c,
-                    Some(_) => return Err(e.error("a textured radiance is not supported")),
-                };
+                let radiance = p.rgb("radiance")?.unwrap_or([1.0; 3]);
                 self.file.lights.push(LightSpec::Constant { radiance });
             }
             Some("envmap") => {
                 let file = p.string("filename")?.ok_or_else(|| e.error("needs a `filename`"))?;
                 let scale = p.float("scale")?.unwrap_or(1.0);
-                let m = p.transform("to_world")?;
-                let transform = m
-                    .map(|m| TransformSpec { matrix: Some(m.transpose().to_cols_array_2d()), ..Default::default() })
-                    .unwrap_or_default();
+                let transform = transform_spec(p.transform("to_world")?);
                 self.file.lights.push(LightSpec::Envmap { file: self.resolve(e, &file), scale, transform });
             }
             Some("directional") => {
-                let irradiance = match p.colour("irradiance")? {
-                    None => [1.0; 3],
-                    Some(ColourProp::Rgb(c)) => c,
-                    Some(_) => return Err(e.error("a textured irradiance is not supported")),
-                };
+                let irradiance = p.rgb("irradiance")?.unwrap_or([1.0; 3]);
                 let (d, m) = (p.point("direction")?, p.transform("to_world")?);
                 let direction = match (d, m) {
                     (Some(_), Some(_)) => return Err(e.error("give `direction` or `to_world`, not both")),
@@ -649,6 +607,12 @@ fn relative_path(base: &Path, target: &Path) -> PathBuf {
         out.push(c);
     }
     out
+}
+
+/// A Mitsuba `to_world` as the TOML's row-major `matrix` (identity when absent).
+fn transform_spec(m: Option<Mat4>) -> TransformSpec {
+    m.map(|m| TransformSpec { matrix: Some(m.transpose().to_cols_array_2d()), ..Default::default() })
+        .unwrap_or_default()
 }
 
 /// Mitsuba's named indices of refraction.

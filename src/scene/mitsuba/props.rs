@@ -135,6 +135,17 @@ impl<'a> Props<'a> {
         }))
     }
 
+    /// A constant colour: as `colour`, but a texture here is refused (only a diffuse reflectance takes one).
+    pub fn rgb(&self, name: &str) -> Result<Option<[f32; 3]>, SceneError> {
+        match self.colour(name)? {
+            None => Ok(None),
+            Some(ColourProp::Rgb(c)) => Ok(Some(c)),
+            Some(ColourProp::Texture(n) | ColourProp::Ref(n, _)) => Err(
+                n.error(format!("a textured `{name}` is not supported (only a diffuse reflectance takes a texture)"))
+            ),
+        }
+    }
+
     /// A `<transform name=…>` as one matrix (each operation applied after the ones before it).
     pub fn transform(&self, name: &str) -> Result<Option<Mat4>, SceneError> {
         let Some(n) = self.take(name) else { return Ok(None) };
@@ -176,7 +187,7 @@ fn srgb(n: &Node, v: &str) -> Result<[f32; 3], SceneError> {
             _ => return Err(n.error("expected #rrggbb or three numbers")),
         }
     };
-    Ok(enc.map(|x| if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }))
+    Ok(enc.map(crate::color::srgb_decode))
 }
 
 /// `x`, `y`, `z` attributes (missing ones `default`) or one `value="x, y, z"` (one number: all three).
