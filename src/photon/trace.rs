@@ -225,7 +225,8 @@ fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
 fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<Launch> {
     let lights = &scene.lights;
     let (li, p_sel) = sampling::sample_cdf(&lights.cdf, rng.next_f32());
-    if let Some(s) = lights.sample_infinite(li, rng.next_2d()) {
+    if lights.list[li].at_infinity() {
+        let s = lights.sample_infinite(li, rng.next_2d())?;
         // From infinity (environment or distant light): a direction ω by its distribution, the target
         // point y by area; the flux reaching y's surface element from ω is L(ω)|n·ω| dω dA (E|n·ω| dA).
         let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());

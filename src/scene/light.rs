@@ -32,6 +32,11 @@ pub enum LightKind {
 }
 
 impl LightKind {
+    /// An environment or a distant light: light from infinitely far away (`Lights::sample_infinite`).
+    pub fn at_infinity(&self) -> bool {
+        matches!(self, LightKind::Env | LightKind::Distant { .. })
+    }
+
     /// The emissive shape this light belongs to (None for point lights).
     pub fn shape(&self) -> Option<u32> {
         match self {
