@@ -104,10 +104,13 @@ pub struct RenderArgs {
     /// Random seed, overrides render.seed.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// path | photon_map | both | ppm | sppm, overrides render.mode. ppm: progressive photon mapping
-    /// (independent passes with a shrinking radius, averaged); sppm: stochastic progressive photon
-    /// mapping (per-pixel radius and flux). Both converge to the right image as passes accumulate.
-    #[arg(long, value_parser = ["path", "photon_map", "both", "ppm", "sppm"])]
+    /// path | photon_map | both | ppm | sppm | bdpt | vcm, overrides render.mode. ppm: progressive photon
+    /// mapping (independent passes with a shrinking radius, averaged); sppm: stochastic progressive
+    /// photon mapping (per-pixel radius and flux); bdpt: bidirectional path tracing (every light/camera
+    /// subpath pairing, MIS-weighted; light tracing reaches point-light caustics); vcm: bdpt plus photon
+    /// merging under one MIS (render.vcm.connect / render.vcm.merge switch either half off). All four
+    /// converge to the right image as passes accumulate.
+    #[arg(long, value_parser = ["path", "photon_map", "both", "ppm", "sppm", "bdpt", "vcm"])]
     pub mode: Option<String>,
     /// Progressive modes: stop after this many passes (overrides render.progressive.passes).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]

@@ -78,10 +78,10 @@ pub fn render_layers(
         Ok(())
     };
     let mut layers = Vec::new();
-    if matches!(mode, Mode::Ppm | Mode::Sppm) {
+    if mode.is_progressive() {
         if part.is_some() {
             if mode == Mode::Sppm {
-                bail!("--part: sppm cannot be split (each iteration updates every pixel's radius and flux from the one before); use --mode ppm, whose passes are independent");
+                bail!("--part: sppm cannot be split (each iteration updates every pixel's radius and flux from the one before); use --mode ppm, bdpt or vcm, whose passes are independent");
             }
             if scene.render.progressive.time_s > 0.0 {
                 bail!("--part: a part must do a fixed share of the passes; render.progressive.time_s (--time-s) cannot be split, give --passes instead");
@@ -90,15 +90,15 @@ pub fn render_layers(
         }
         let r = render_progressive_share(scene, accel, plan, quiet, &[], (i, n))?;
         let mut stats = base.clone();
-        let name = if mode == Mode::Ppm { "ppm" } else { "sppm" };
+        let name = mode.layer_name();
         stats["mode"] = json!(name);
         stats["plan"] = json!(plan);
         stats["passes"] = json!(r.records);
-        stats["initial_radius"] = json!(crate::integrator::ppm::initial_radius(scene));
+        stats["initial_radius"] = json!(progressive_r1(scene));
         stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "render": r.output.seconds });
         add_counters(&mut stats, &r.output.counters, r.output.seconds);
-        let expected_weight = if mode == Mode::Ppm { scene.render.progressive.passes as f64 } else { 1.0 };
-        let split = if mode == Mode::Ppm { "passes" } else { "none" };
+        let expected_weight = if mode == Mode::Sppm { 1.0 } else { scene.render.progressive.passes as f64 };
+        let split = if mode == Mode::Sppm { "none" } else { "passes" };
         layers.push(Layer { name: name.into(), sums: r.sums, expected_weight, split: split.into(), stats });
         return Ok(layers);
     }
@@ -468,23 +468,40 @@ pub fn render_progressive_share(
     snapshots: &[u32],
     part: (u32, u32),
 ) -> Result<Progressive> {
-    use crate::integrator::ppm::{initial_radius, ppm_pass, radius_at};
+    use crate::integrator::ppm::{ppm_pass, radius_at};
+    use crate::integrator::vcm;
     let p = &scene.render.progressive;
-    let sppm_mode = scene.render.mode == Mode::Sppm;
-    let r1 = initial_radius(scene);
+    let mode = scene.render.mode;
+    let sppm_mode = mode == Mode::Sppm;
+    let r1 = progressive_r1(scene);
     let mut sums = Sums::new(scene.camera.width, scene.camera.height);
     let mut sppm = sppm_mode.then(|| crate::integrator::sppm::Sppm::new(scene, tracer, plan));
     let first = if sppm_mode { 1 } else { p.first_pass };
     let (part, parts) = if sppm_mode { (0, 1) } else { (part.0, part.1.max(1)) };
     let passes: Vec<u32> = (first..first + p.passes).filter(|k| (k - first) % parts == part).collect();
-    let pb = crate::progress::progress(passes.len() as u64, if sppm_mode { "sppm" } else { "ppm" }, quiet);
+    let pb = crate::progress::progress(passes.len() as u64, mode.layer_name(), quiet);
     let (mut records, mut shots) = (Vec::new(), Vec::new());
     let mut counters = Counters::default();
     let (mut seconds, mut emitted) = (0.0f64, 0u64);
+    let vcm_opts = matches!(mode, Mode::Bdpt | Mode::Vcm).then(|| vcm::VcmOptions::of_scene(scene));
     for &i in &passes {
-        let record = match sppm.as_mut() {
-            Some(s) => s.iterate(i)?,
-            None => {
+        let record = match (sppm.as_mut(), vcm_opts) {
+            (Some(s), _) => s.iterate(i)?,
+            (None, Some(opts)) => {
+                let t0 = std::time::Instant::now();
+                let r = if opts.merge { vcm::radius_at(r1, p.alpha, i) } else { 0.0 };
+                let out = vcm::iterate(scene, tracer, opts, i, r);
+                sums.add_image(&out.image);
+                counters += out.counters;
+                crate::integrator::ppm::PassRecord {
+                    pass: i,
+                    seconds: t0.elapsed().as_secs_f64(),
+                    radius: r,
+                    emitted: [0, vcm::light_paths(scene, opts) as u64, 0],
+                    stored: out.light_vertices,
+                }
+            }
+            (None, None) => {
                 let (img, c, record) = ppm_pass(scene, tracer, plan, i, radius_at(r1, p.alpha, i))?;
                 sums.add_image(&img);
                 counters += c;
@@ -495,11 +512,24 @@ pub fn render_progressive_share(
         emitted += record.emitted.iter().sum::<u64>();
         records.push(record);
         pb.set_position(records.len() as u64);
-        pb.set_message(format!(
-            "pass {i}, radius {:.2e} of the diagonal, {:.2} M photons/s",
-            records[records.len() - 1].radius / scene.diagonal().max(1e-30),
-            emitted as f64 / seconds.max(1e-9) / 1e6
-        ));
+        let (radius, what) = match mode {
+            Mode::Bdpt => (String::new(), "light paths"),
+            Mode::Vcm => (
+                format!(
+                    ", merge radius {:.2e} of the diagonal",
+                    records[records.len() - 1].radius / scene.diagonal().max(1e-30)
+                ),
+                "light paths",
+            ),
+            _ => (
+                format!(
+                    ", radius {:.2e} of the diagonal",
+                    records[records.len() - 1].radius / scene.diagonal().max(1e-30)
+                ),
+                "photons",
+            ),
+        };
+        pb.set_message(format!("pass {i}{radius}, {:.2} M {what}/s", emitted as f64 / seconds.max(1e-9) / 1e6));
         if snapshots.contains(&i) {
             let img = match &sppm {
                 Some(s) => s.image(),
@@ -518,4 +548,14 @@ pub fn render_progressive_share(
     }
     let image = sums.image();
     Ok(Progressive { output: RenderOutput { image, counters, seconds }, sums, records, snapshots: shots })
+}
+
+/// The first pass's radius of a progressive mode: the gather radius of ppm/sppm, the merge radius of vcm
+/// (0 for bdpt, which does not merge).
+pub fn progressive_r1(scene: &Scene) -> f32 {
+    match scene.render.mode {
+        Mode::Bdpt => 0.0,
+        Mode::Vcm => crate::integrator::vcm::initial_radius(scene),
+        _ => crate::integrator::ppm::initial_radius(scene),
+    }
 }

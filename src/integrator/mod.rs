@@ -1,10 +1,11 @@
 //! Integrators: the path tracer (reference), the photon-map eye pass and the progressive photon
-//! mappers, sharing light sampling and the walk of a camera ray through mirrors and glass.
+//! mappers, bidirectional path tracing and vertex connection and merging, sharing light sampling and the walk of a camera ray through mirrors and glass.
 pub mod direct;
 pub mod path;
 pub mod photon_map;
 pub mod ppm;
 pub mod sppm;
+pub mod vcm;
 
 /// Per-thread counters, summed after a render.
 #[derive(Clone, Copy, Debug, Default)]

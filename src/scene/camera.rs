@@ -35,6 +35,23 @@ impl Camera {
         Ray::new(self.origin, (self.forward + sx * self.right + sy * self.up).normalize())
     }
 
+    /// Distance from the pinhole to the plane on which one pixel has unit area.
+    pub fn pixel_plane_distance(&self) -> f32 {
+        self.width as f32 / (2.0 * self.tan_half[0])
+    }
+
+    /// Solid-angle density of a primary ray along unit direction `d` when the film position is uniform
+    /// over one pixel (D²/cos³θ with D the unit-pixel plane's distance), 0 behind the camera. It is also
+    /// the pixel's importance times cos θ: light tracing divides by it to land on the film.
+    pub fn pixel_pdf_dir(&self, d: Vec3) -> f32 {
+        let c = d.dot(self.forward);
+        if c <= 0.0 {
+            return 0.0;
+        }
+        let dd = self.pixel_plane_distance();
+        dd * dd / (c * c * c)
+    }
+
     /// Film position of a world point, if it is in front of the camera and on the film.
     pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
         let d = p - self.origin;

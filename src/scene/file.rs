@@ -421,6 +421,30 @@ pub enum Mode {
     Ppm,
     /// Stochastic progressive photon mapping (Hachisuka & Jensen 2009).
     Sppm,
+    /// Bidirectional path tracing with MIS over every (s, t) strategy (`render.vcm` without merging).
+    Bdpt,
+    /// Vertex connection and merging (Georgiev et al. 2012): BDPT and photon merging under one MIS.
+    Vcm,
+}
+
+impl Mode {
+    /// Modes that render in passes and converge as passes accumulate.
+    pub fn is_progressive(self) -> bool {
+        matches!(self, Mode::Ppm | Mode::Sppm | Mode::Bdpt | Mode::Vcm)
+    }
+
+    /// The name of the mode's image layer (and of `--mode`).
+    pub fn layer_name(self) -> &'static str {
+        match self {
+            Mode::Path => "pt",
+            Mode::PhotonMap => "pm",
+            Mode::Both => "both",
+            Mode::Ppm => "ppm",
+            Mode::Sppm => "sppm",
+            Mode::Bdpt => "bdpt",
+            Mode::Vcm => "vcm",
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
@@ -458,6 +482,32 @@ pub struct RenderSettings {
     pub photons: PhotonSettings,
     pub gather: GatherSettings,
     pub progressive: ProgressiveSettings,
+    pub vcm: VcmSettings,
+}
+
+/// `[render.vcm]`: which halves of vertex connection and merging `--mode vcm` uses (`--mode bdpt` is
+/// vcm with `merge = false`). Iterations, time limit, merge radius r_1 and α come from
+/// `[render.progressive]` (r_i = r_1 · i^((α−1)/2)); one light subpath and one camera subpath per pixel
+/// per iteration.
+///
+/// ```toml
+/// [render.vcm]
+/// connect = true   # light sampling, subpath connections, light tracing (false: a progressive photon mapper)
+/// merge = true     # vertex merging (false: bdpt)
+/// light_paths = 0  # light subpaths per iteration (0 = one per pixel; never fewer than the pixels)
+/// ```
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VcmSettings {
+    pub connect: bool,
+    pub merge: bool,
+    pub light_paths: u64,
+}
+
+impl Default for VcmSettings {
+    fn default() -> Self {
+        VcmSettings { connect: true, merge: true, light_paths: 0 }
+    }
 }
 
 /// `[render.progressive]`: the progressive modes (`ppm`, `sppm`).
@@ -513,6 +563,7 @@ impl Default for RenderSettings {
             photons: PhotonSettings::default(),
             gather: GatherSettings::default(),
             progressive: ProgressiveSettings::default(),
+            vcm: VcmSettings::default(),
         }
     }
 }

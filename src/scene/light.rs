@@ -77,13 +77,30 @@ pub struct LightSample {
     /// Solid-angle pdf including the light choice (for point lights: the choice probability).
     pub pdf: f32,
     pub delta: bool,
+    /// For bidirectional MIS: the density with which photon emission (`Lights::emit`) reaches the
+    /// reference point, per unit area there, over the density with which this sampler picks the light
+    /// point (per unit area of the light; the choice alone for point and distant lights, per solid
+    /// angle for the environment), divided by the cosine at the reference point.
+    pub emit_ratio: f32,
 }
 
-/// A photon leaving a light: origin, direction, and power Φ/(p_choice · pdf) before division by n_emitted.
+/// A photon leaving a light: origin, direction, and power Φ/(p_choice · pdf) before division by n_emitted,
+/// with what bidirectional MIS needs to know about how it was drawn.
 #[derive(Clone, Copy, Debug)]
 pub struct EmittedRay {
     pub ray: Ray,
     pub phi: Rgb,
+    /// The light it left (index in `Lights::list`).
+    pub light: usize,
+    /// Density of this ray, light choice included: area × solid angle (cosine lobe) for surfaces, solid
+    /// angle for point lights, disc area 1/(πR²) × direction density for lights at infinity.
+    pub pdf_emit: f32,
+    /// Cosine between the emitter's normal and the ray (1 for point lights and lights at infinity).
+    pub cos: f32,
+    /// The point on the light it left and the light's unit normal there (zero for point lights and
+    /// lights at infinity).
+    pub origin: Vec3,
+    pub normal: Vec3,
 }
 
 impl Lights {
@@ -224,7 +241,15 @@ impl Lights {
                     return None;
                 }
                 let wi = d / dist;
-                Some(LightSample { wi, dist, p: *position, li: *intensity / dist2, pdf: p_sel, delta: true })
+                Some(LightSample {
+                    wi,
+                    dist,
+                    p: *position,
+                    li: *intensity / dist2,
+                    pdf: p_sel,
+                    delta: true,
+                    emit_ratio: 1.0 / (4.0 * PI * dist2),
+                })
             }
             LightKind::Triangle { .. } => {
                 let lp = self.sample_point(scene, i, u)?;
@@ -238,7 +263,8 @@ impl Lights {
                 }
                 let pdf = p_sel * lp.pdf_area * dist2 / cos_l;
                 let p = offset_ray_origin(lp.p, lp.n, -wi, lp.size);
-                Some(LightSample { wi, dist, p, li: lp.le, pdf, delta: false })
+                let emit_ratio = cos_l / (PI * dist2);
+                Some(LightSample { wi, dist, p, li: lp.le, pdf, delta: false, emit_ratio })
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];
@@ -264,13 +290,26 @@ impl Lights {
                 let y = x + wi * dist;
                 let p = offset_ray_origin(y, (y - center).normalize_or_zero(), -wi, radius);
                 let pdf = p_sel / (2.0 * PI * one_minus);
-                Some(LightSample { wi, dist, p, li: s.emission, pdf, delta: false })
+                // Emission reaches x's surface with p_sel/(4πr²) · cos_y/π · cos_x/d² per unit area; this
+                // sampler picks y with pdf · cos_y/d² per unit area of the sphere.
+                let cos_light = (-wi.dot((y - center) / radius)).max(0.0);
+                let emit_ratio = p_sel / (4.0 * PI * radius * radius) / (PI * pdf);
+                let emit_ratio = if cos_light > 0.0 { emit_ratio } else { 0.0 };
+                Some(LightSample { wi, dist, p, li: s.emission, pdf, delta: false, emit_ratio })
             }
             LightKind::Env | LightKind::Distant { .. } => {
                 let s = self.sample_infinite(i, u)?;
                 // A shadow ray to a point beyond the scene's bounding sphere.
                 let dist = self.beyond_scene(x);
-                Some(LightSample { wi: s.wi, dist, p: x + s.wi * dist, li: s.li, pdf: p_sel * s.pdf, delta: s.delta })
+                Some(LightSample {
+                    wi: s.wi,
+                    dist,
+                    p: x + s.wi * dist,
+                    li: s.li,
+                    pdf: p_sel * s.pdf,
+                    delta: s.delta,
+                    emit_ratio: 1.0 / (PI * self.sphere.1 * self.sphere.1),
+                })
             }
         }
     }
@@ -341,18 +380,109 @@ impl Lights {
             let f = Frame::from_normal(s.wi);
             let d = sampling::concentric_disk(u_pos);
             let o = c + s.wi * (2.0 * r) + (f.s * d[0] + f.t * d[1]) * r;
-            return Some(EmittedRay { ray: Ray::new(o, -s.wi), phi: s.li * (PI * r * r / s.pdf) / p_sel });
+            let disc = PI * r * r;
+            return Some(EmittedRay {
+                ray: Ray::new(o, -s.wi),
+                phi: s.li * (disc / s.pdf) / p_sel,
+                light: i,
+                pdf_emit: p_sel * s.pdf / disc,
+                cos: 1.0,
+                origin: o,
+                normal: Vec3::ZERO,
+            });
         }
         let phi = self.power[i] / p_sel;
         let lp = self.sample_point(scene, i, u_pos)?;
         // A point light is no surface: its photons start exactly at it.
-        let ray = if lp.n == Vec3::ZERO {
-            Ray::new(lp.p, sampling::uniform_sphere(u_dir))
+        let (ray, pdf_emit, cos) = if lp.n == Vec3::ZERO {
+            (Ray::new(lp.p, sampling::uniform_sphere(u_dir)), p_sel / (4.0 * PI), 1.0)
         } else {
             let d = sampling::cosine_around(lp.n, u_dir);
-            Ray::new(offset_ray_origin(lp.p, lp.n, d, lp.size), d)
+            let cos = d.dot(lp.n);
+            (Ray::new(offset_ray_origin(lp.p, lp.n, d, lp.size), d), p_sel * lp.pdf_area * cos / PI, cos)
         };
-        Some(EmittedRay { ray, phi })
+        Some(EmittedRay { ray, phi, light: i, pdf_emit, cos, origin: lp.p, normal: lp.n })
+    }
+
+    /// Probability that a light is chosen by power (photon emission, and next-event estimation over
+    /// every light).
+    pub fn power_pdf(&self, i: usize) -> f32 {
+        let total = self.cdf[self.cdf.len() - 1];
+        if total <= 0.0 {
+            return 0.0;
+        }
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        (self.cdf[i] - lo) / total
+    }
+
+    /// Density with which `sample` over every light (`nee = false`) from `x` picks point `y` (unit
+    /// normal `n`) of light `i`, per unit area of the light; for point and distant lights the choice
+    /// probability alone, for the environment per unit solid angle of the direction `y − x`.
+    pub fn direct_pdf_area(&self, scene: &Scene, i: usize, x: Vec3, y: Vec3, n: Vec3) -> f32 {
+        let p_sel = self.power_pdf(i);
+        match &self.list[i] {
+            LightKind::Point { .. } | LightKind::Distant { .. } => p_sel,
+            LightKind::Env => self.env.as_ref().map_or(0.0, |(e, _)| p_sel * e.pdf((y - x).normalize())),
+            LightKind::Triangle { .. } => {
+                let a = self.area_of(scene, i);
+                if a > 0.0 {
+                    p_sel / a
+                } else {
+                    0.0
+                }
+            }
+            LightKind::Sphere { shape } => {
+                let Geometry::Sphere { center, radius } = scene.shapes[*shape as usize].geometry else {
+                    return 0.0;
+                };
+                let dc2 = (center - x).length_squared();
+                let one_minus = cone_of(radius, dc2);
+                if dc2 <= radius * radius * 1.0001 || one_minus <= 0.0 {
+                    return 0.0;
+                }
+                let d = y - x;
+                let cos_y = (-d.normalize().dot(n)).max(0.0);
+                p_sel / (2.0 * PI * one_minus) * cos_y / d.length_squared()
+            }
+        }
+    }
+
+    /// Density with which `emit` produces a ray leaving light `i` at cosine `cos` to its normal (area ×
+    /// solid angle; for the environment, disc area × solid angle of direction `dir` of travel).
+    pub fn emit_pdf(&self, scene: &Scene, i: usize, cos: f32, dir: Vec3) -> f32 {
+        let p_sel = self.power_pdf(i);
+        let disc = PI * self.sphere.1 * self.sphere.1;
+        match &self.list[i] {
+            LightKind::Point { .. } => p_sel / (4.0 * PI),
+            LightKind::Distant { .. } => p_sel / disc,
+            LightKind::Env => self.env.as_ref().map_or(0.0, |(e, _)| p_sel * e.pdf(-dir) / disc),
+            LightKind::Triangle { .. } | LightKind::Sphere { .. } => {
+                let a = self.area_of(scene, i);
+                if a <= 0.0 {
+                    return 0.0;
+                }
+                p_sel / a * cos.max(0.0) / PI
+            }
+        }
+    }
+
+    /// Area of emitter `i` (a triangle or a whole sphere; 0 for the other lights).
+    fn area_of(&self, scene: &Scene, i: usize) -> f32 {
+        match (&self.list[i], &scene.shapes.get(self.list[i].shape().unwrap_or(u32::MAX) as usize).map(|s| &s.geometry))
+        {
+            (LightKind::Triangle { prim, .. }, Some(Geometry::Mesh(m))) => m.area(*prim as usize),
+            (LightKind::Sphere { .. }, Some(Geometry::Sphere { radius, .. })) => 4.0 * PI * radius * radius,
+            _ => 0.0,
+        }
+    }
+
+    /// Index in `list` of the emitter a hit on (`shape`, `prim`) belongs to.
+    pub fn index_of(&self, scene: &Scene, shape: u32, prim: u32) -> Option<usize> {
+        let off = self.shape_offset[shape as usize]? as usize;
+        Some(match scene.shapes[shape as usize].geometry {
+            Geometry::Mesh(_) => off + prim as usize,
+            Geometry::Sphere { .. } => off,
+        })
     }
 }
 

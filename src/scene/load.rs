@@ -275,8 +275,14 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
             "sppm iterations build on each other and must start at 1 (ppm passes are independent)",
         ));
     }
+    if r.mode == crate::scene::file::Mode::Vcm && !r.vcm.connect && !r.vcm.merge {
+        return Err(cx.err("render.vcm", "connect and merge are both false: vcm would render nothing"));
+    }
     if !(pr.time_s.is_finite() && pr.time_s >= 0.0) {
         return Err(cx.err("render.progressive.time_s", "must be ≥ 0 seconds (0 = no time limit)"));
+    }
+    if r.vcm.light_paths > 100_000_000 {
+        return Err(cx.err("render.vcm.light_paths", "must be at most 100000000 (0 = one per pixel)"));
     }
     if pr.photons_per_pass == 0 || pr.photons_per_pass > 100_000_000 {
         return Err(cx.err("render.progressive.photons_per_pass", "must be in [1, 100000000]"));

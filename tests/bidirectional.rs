@@ -1,0 +1,242 @@
+//! Bidirectional path tracing (`bdpt`) and vertex connection and merging (`vcm`) against closed forms
+//! and the path tracer: the furnace, the means of two Cornell boxes, every single (s, t) strategy on its
+//! own (the test that catches a wrong pdf: an unweighted strategy has PT's mean only if its sampling
+//! densities are right), point-light caustics, and the same bits on 1 and 2 threads.
+mod common;
+use caustica::accel::Accel;
+use caustica::film::Image;
+use caustica::integrator::vcm::{iterate, radius_at, VcmOptions};
+use caustica::metrics::compare_masked;
+use caustica::pipeline::{plan_for, render_path, render_progressive};
+use caustica::scene::file::Mode;
+use caustica::scene::{load_scene_with, Scene};
+use std::path::PathBuf;
+
+fn mean(img: &Image) -> f64 {
+    img.pixels.iter().map(|p| (p.x + p.y + p.z) as f64 / 3.0).sum::<f64>() / img.pixels.len() as f64
+}
+
+/// Mean of the image over `passes` iterations and the standard error of that mean (iterations are
+/// independent).
+fn bidir_mean(s: &Scene, a: &Accel, opts: VcmOptions, passes: u32, r1: f32) -> (f64, f64) {
+    let m: Vec<f64> = (1..=passes)
+        .map(|i| mean(&iterate(s, a, opts, i, radius_at(r1, s.render.progressive.alpha, i)).image))
+        .collect();
+    mean_and_error(&m)
+}
+
+fn mean_and_error(m: &[f64]) -> (f64, f64) {
+    let n = m.len() as f64;
+    let mu = m.iter().sum::<f64>() / n;
+    let var = m.iter().map(|x| (x - mu) * (x - mu)).sum::<f64>() / (n - 1.0);
+    (mu, (var / n).sqrt())
+}
+
+/// The path tracer's mean and standard error from `chunks` independent renders of `spp` samples.
+fn pt_mean(s: &mut Scene, a: &Accel, spp: u32, chunks: u64) -> (f64, f64) {
+    let seed = s.render.seed;
+    let m: Vec<f64> = (0..chunks)
+        .map(|k| {
+            s.render.seed = 1000 + k;
+            mean(&render_path(s, a, spp, true).image)
+        })
+        .collect();
+    s.render.seed = seed;
+    mean_and_error(&m)
+}
+
+fn furnace() -> Scene {
+    // Looking at the middle of one wall of a closed box whose walls all emit Le and reflect a: every
+    // point sees Le/(1 − a).
+    let (le, a) = (1.0f32, 0.5f32);
+    common::scene(&format!(
+        "[camera]\norigin = [0.0, 0.0, 0.5]\ntarget = [0.0, 0.0, -1.0]\nfov = 30\nresolution = [16, 16]\n\
+         [materials]\nwall = {{ type = \"diffuse\", reflectance = [{a}, {a}, {a}] }}\n\
+         [render]\nmax_depth = 10000\n[render.progressive]\nradius = 0.05\n{}",
+        common::inward_box(-1.0, 1.0, "wall", Some(le))
+    ))
+}
+
+#[test]
+fn the_furnace_reads_le_over_one_minus_albedo() {
+    let s = furnace();
+    let a = Accel::new(&s).unwrap();
+    for (name, opts) in [("bdpt", VcmOptions::bdpt()), ("vcm", VcmOptions::vcm())] {
+        let (m, e) = bidir_mean(&s, &a, opts, 64, 0.05);
+        eprintln!("{name} furnace: {m:.5} ± {e:.5} (expected 2)");
+        assert!((m / 2.0 - 1.0).abs() < 0.01, "{name}: furnace reads {m}, expected 2");
+    }
+}
+
+fn small(name: &str, res: u32) -> (Scene, Accel) {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    let s = load_scene_with(&p, &[format!("camera.resolution=[{res}, {res}]")]).unwrap();
+    let a = Accel::new(&s).unwrap();
+    (s, a)
+}
+
+#[test]
+fn bdpt_and_vcm_means_equal_the_path_tracers_on_both_cornell_boxes() {
+    for scene in ["cornell-box.toml", "cornell-glass.toml"] {
+        let (mut s, a) = small(scene, 32);
+        let (pt, pt_e) = pt_mean(&mut s, &a, 64, 16);
+        let r1 = caustica::integrator::vcm::initial_radius(&s);
+        for (name, opts) in [("bdpt", VcmOptions::bdpt()), ("vcm", VcmOptions::vcm())] {
+            let (m, e) = bidir_mean(&s, &a, opts, 256, r1);
+            let sigma = (e * e + pt_e * pt_e).sqrt();
+            eprintln!("{scene} {name}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:.2}σ", (m - pt) / sigma);
+            assert!((m - pt).abs() < 3.0 * sigma, "{scene} {name}: mean {m} vs PT {pt} (σ {sigma})");
+        }
+    }
+}
+
+/// A small closed room for the strategy test: diffuse walls, a rough (GGX) gold block, a quad light
+/// under the ceiling and a sphere light (area and cone sampling); no delta BSDF, so every strategy can
+/// make every path.
+fn strategy_room() -> Scene {
+    common::scene(&format!(
+        "[camera]\norigin = [0.0, 0.0, 0.9]\ntarget = [0.0, -0.2, 0.0]\nfov = 60\nresolution = [12, 12]\n\
+         [materials]\nwall = {{ type = \"diffuse\", reflectance = [0.7, 0.6, 0.5] }}\n\
+         gold = {{ type = \"conductor\", preset = \"Au\", roughness = 0.3 }}\n\
+         [[shapes]]\ntype = \"box\"\nmin = [-0.5, -1.0, -0.6]\nmax = [0.1, -0.5, -0.1]\nmaterial = \"gold\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.3, 0.98, -0.3]\nedge_u = [0.6, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.6]\n\
+         material = \"wall\"\nemission = [4.0, 4.0, 4.0]\n\
+         [[lights]]\ntype = \"sphere\"\ncenter = [0.6, -0.6, -0.5]\nradius = 0.15\nradiance = [3.0, 3.0, 3.0]\n{}",
+        common::inward_box(-1.0, 1.0, "wall", None)
+    ))
+}
+
+#[test]
+fn every_strategy_alone_has_the_path_tracers_mean_for_its_path_length() {
+    // Paths of exactly k edges: PT with max_depth k − 1 minus PT with max_depth k − 2, both from the
+    // same seed (the two share every random number up to the last bounce, so the difference is
+    // precise); each (s, t) with s + t − 1 = k, unweighted, must have the same mean.
+    let base = strategy_room();
+    let a = Accel::new(&base).unwrap();
+    let pt_upto = |depth: u32, seed: u64| {
+        let mut s = strategy_room();
+        s.render.max_depth = depth;
+        s.render.seed = seed;
+        mean(&render_path(&s, &a, 4096, true).image)
+    };
+    for k in 2..=4u32 {
+        let diffs: Vec<f64> = (0..8).map(|seed| pt_upto(k - 1, seed) - pt_upto(k - 2, seed)).collect();
+        let (pt, pt_e) = mean_and_error(&diffs);
+        let mut s = strategy_room();
+        s.render.max_depth = k - 1;
+        for sv in 0..=k {
+            let t = k + 1 - sv;
+            let opts = VcmOptions { strategy: Some((sv, t)), ..VcmOptions::bdpt() };
+            let (m, e) = bidir_mean(&s, &a, opts, 1500, 0.0);
+            let sigma = (e * e + pt_e * pt_e).sqrt();
+            eprintln!("k={k} (s,t)=({sv},{t}): {m:.5} ± {e:.5}; PT {pt:.5} ± {pt_e:.5}: {:+.2}σ", (m - pt) / sigma);
+            assert!((m - pt).abs() < 4.0 * sigma + 2e-3 * pt, "k={k} (s,t)=({sv},{t}): {m} vs PT {pt} (σ {sigma})");
+        }
+    }
+}
+
+#[test]
+fn bdpt_and_vcm_are_bit_identical_on_1_and_2_threads() {
+    let (s, a) = small("cornell-glass.toml", 24);
+    let with_threads = |n: usize, opts: VcmOptions| {
+        rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap().install(|| iterate(&s, &a, opts, 3, 0.05).image)
+    };
+    for opts in [VcmOptions::bdpt(), VcmOptions::vcm()] {
+        let one = with_threads(1, opts);
+        let two = with_threads(2, opts);
+        assert!(mean(&one) > 0.0);
+        let same = one
+            .pixels
+            .iter()
+            .zip(&two.pixels)
+            .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits));
+        assert!(same, "{opts:?}: images differ between 1 and 2 threads");
+    }
+}
+
+fn clamped(img: &Image) -> Image {
+    Image { pixels: img.pixels.iter().map(|p| p.clamp(glam::Vec3::ZERO, glam::Vec3::ONE)).collect(), ..img.clone() }
+}
+
+#[test]
+fn point_light_caustics_converge_with_bdpt_and_vcm() {
+    // The cardioid: PT never finds the caustic; light tracing (bdpt) and merging (vcm) do. Each mode
+    // approaches its own long run (another seed): RMSE at 64 passes at most 0.6 × at 4, and the caustic
+    // adds light PT's image lacks.
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cardioid.toml");
+    let load = |mode: Mode, passes: u32, seed: u64| {
+        let sets = ["camera.resolution=[48, 48]".to_string(), "render.vcm.light_paths=50000".to_string()];
+        let mut s = load_scene_with(&p, &sets).unwrap();
+        s.render.mode = mode;
+        s.render.progressive.passes = passes;
+        s.render.seed = seed;
+        s
+    };
+    let s = load(Mode::Bdpt, 1, 0);
+    let a = Accel::new(&s).unwrap();
+    let keep = vec![true; 48 * 48];
+    let pt = render_path(&s, &a, 64, true).image;
+    let lit = |img: &Image| img.pixels.iter().map(|p| p.x as f64).sum::<f64>();
+    for mode in [Mode::Bdpt, Mode::Vcm] {
+        let run = |s: &Scene, snaps: &[u32]| render_progressive(s, &a, &plan_for(s, &a), true, snaps).unwrap();
+        let reference = clamped(&run(&load(mode, 256, 99), &[]).output.image);
+        let snaps = run(&load(mode, 64, 0), &[4, 64]).snapshots;
+        let e: Vec<f64> =
+            snaps.iter().map(|(_, _, img)| compare_masked(&clamped(img), &reference, &keep).unwrap().rmse).collect();
+        eprintln!(
+            "{mode:?} cardioid: RMSE against 256 passes {:.5} at 4 passes, {:.5} at 64; image sums PT {:.1}, {mode:?} {:.1}",
+            e[0],
+            e[1],
+            lit(&pt),
+            lit(&snaps[1].2)
+        );
+        assert!(e[1] <= 0.6 * e[0], "{mode:?}: RMSE {} at 64 passes vs {} at 4", e[1], e[0]);
+        assert!(lit(&snaps[1].2) > 1.05 * lit(&pt), "{mode:?}: the caustic adds no light over PT's image");
+    }
+}
+
+/// An open scene with every kind of light (quad, sphere, point, distant, constant sky) over diffuse
+/// and rough gold, or (`glass`) a glass ball under the lights PT can also see through glass (no point
+/// or distant light: their caustics are beyond PT). The MIS weights of each light kind must sum to one,
+/// so the means agree with PT.
+fn every_light(glass: bool) -> Scene {
+    let (ball, delta) = if glass {
+        ("[[shapes]]\ntype = \"sphere\"\ncenter = [0.5, 0.35, 0.2]\nradius = 0.35\nmaterial = \"glass\"\n", "")
+    } else {
+        (
+            "",
+            "[[lights]]\ntype = \"point\"\nposition = [-1.0, 1.2, 0.8]\npower = [6.0, 6.0, 6.0]\n\
+             [[lights]]\ntype = \"distant\"\ndirection = [0.3, -1.0, -0.4]\nirradiance = [0.8, 0.8, 0.8]\n",
+        )
+    };
+    common::scene(&format!(
+        "[camera]\norigin = [0.0, 1.6, 2.6]\ntarget = [0.0, 0.3, 0.0]\nfov = 45\nresolution = [24, 24]\n\
+         [materials]\nm = {{ type = \"diffuse\", reflectance = [0.6, 0.5, 0.4] }}\n\
+         gold = {{ type = \"conductor\", preset = \"Au\", roughness = 0.2 }}\n\
+         glass = {{ type = \"dielectric\", ior = 1.5 }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, -1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 1.5, 0.0]\nmaterial = \"m\"\n\
+         {ball}[[shapes]]\ntype = \"box\"\nmin = [-0.9, 0.0, -0.6]\nmax = [-0.3, 0.5, 0.0]\nmaterial = \"gold\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.4, 1.4, -1.0]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.4]\n\
+         material = \"m\"\nemission = [3.0, 3.0, 3.0]\n\
+         [[lights]]\ntype = \"sphere\"\ncenter = [1.0, 0.9, -0.8]\nradius = 0.12\nradiance = [6.0, 5.0, 4.0]\n\
+         {delta}[[lights]]\ntype = \"constant\"\nradiance = [0.2, 0.25, 0.3]\n",
+    ))
+}
+
+#[test]
+fn mis_weights_sum_to_one_for_every_kind_of_light() {
+    for glass in [false, true] {
+        let mut s = every_light(glass);
+        s.render.max_depth = 6;
+        let a = Accel::new(&s).unwrap();
+        let (pt, pt_e) = pt_mean(&mut s, &a, 256, 16);
+        let r1 = caustica::integrator::vcm::initial_radius(&s);
+        for (name, opts) in [("bdpt", VcmOptions::bdpt()), ("vcm", VcmOptions::vcm())] {
+            let (m, e) = bidir_mean(&s, &a, opts, 1024, r1);
+            let sigma = (e * e + pt_e * pt_e).sqrt();
+            eprintln!("glass {glass} {name}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ", (m - pt) / sigma);
+            assert!((m - pt).abs() < 3.0 * sigma, "glass {glass} {name}: mean {m} vs PT {pt} (σ {sigma})");
+        }
+    }
+}
