@@ -42,13 +42,23 @@ pub fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Command::Bench(BenchCommand::TimeVsError { scene, budget_s, ref_spp, ref_photons, out, set, quiet }) => {
+        Command::Bench(BenchCommand::TimeVsError {
+            scene,
+            budget_s,
+            methods,
+            ref_spp,
+            ref_photons,
+            out,
+            set,
+            quiet,
+        }) => {
             let stem = scene.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
             let out = crate::output::in_folder(out.unwrap_or_else(|| PathBuf::from("out/tve/")), &stem);
             let ref_spp = if ref_photons.is_none() { Some(ref_spp.unwrap_or(1024)) } else { ref_spp };
             crate::timeerror::run(&crate::timeerror::Options {
                 scene: &scene,
                 budget_s,
+                methods: &methods,
                 ref_spp,
                 ref_photons,
                 out: &out,

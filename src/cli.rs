@@ -156,14 +156,20 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 5)]
         rounds: u32,
     },
-    /// PT at a sweep of spp and PM at sweeps of photon and gather counts, timed and scored against a
-    /// cached reference: CSV, log-log chart (SVG, PNG), and the equal-time RMSE ratio PM/PT.
+    /// PT at a sweep of spp, PM at sweeps of photon and gather counts, one run each of PPM, SPPM, BDPT
+    /// and VCM read after 1, 2, 4, … passes, timed and scored against a cached reference: CSV, log-log
+    /// chart (SVG, PNG), the equal-time RMSE ratios to PT and VCM's ratio to the best of PT, PPM, SPPM.
     TimeVsError {
         /// Scene file (TOML, or Mitsuba 3 XML).
         scene: PathBuf,
-        /// Seconds to spend in all (split evenly between PT, PM photons, PM gather, PPM and SPPM).
+        /// Every sweep gets a fifth of this many seconds (PT, PM photons, PM gather, PPM, SPPM; BDPT and
+        /// VCM get the same share on top).
         #[arg(long, default_value_t = 60.0)]
         budget_s: f64,
+        /// Which sweeps to run, comma-separated: pt, pm (photon and gather counts), ppm, sppm, bdpt, vcm.
+        #[arg(long, value_delimiter = ',', default_value = "pt,pm,ppm,sppm,bdpt,vcm",
+              value_parser = ["pt", "pm", "ppm", "sppm", "bdpt", "vcm"])]
+        methods: Vec<String>,
         /// Reference samples per pixel (path tracer).
         #[arg(long)]
         ref_spp: Option<u32>,

@@ -33,6 +33,8 @@ pub struct Run {
 pub struct Options<'a> {
     pub scene: &'a Path,
     pub budget_s: f64,
+    /// Sweeps to run: pt, pm, ppm, sppm, bdpt, vcm.
+    pub methods: &'a [String],
     pub ref_spp: Option<u32>,
     pub ref_photons: Option<u64>,
     pub out: &'a Path,
@@ -132,11 +134,13 @@ impl Sweep<'_> {
         Ok(())
     }
 
-    /// One progressive run (`ppm` or `sppm`) for the sweep's time share, read after 1, 2, 4, … passes:
-    /// the time of a point is the run's own time up to that pass.
+    /// One progressive run (`ppm`, `sppm`, `bdpt` or `vcm`) for the sweep's time share, read after 1, 2,
+    /// 4, … passes: the time of a point is the run's own time up to that pass. The photons column counts
+    /// photons (light subpaths for bdpt and vcm) shot up to that pass.
     fn progressive(&self, mode: crate::scene::file::Mode, runs: &mut Vec<Run>) -> Result<()> {
+        use crate::scene::file::Mode;
         let mut sets = self.o.sets.to_vec();
-        let name = if mode == crate::scene::file::Mode::Ppm { "ppm" } else { "sppm" };
+        let name = mode.layer_name();
         sets.push(format!("render.mode=\"{name}\""));
         sets.push("render.progressive.passes=100000".into());
         sets.push(format!("render.progressive.time_s={:?}", self.share));
@@ -144,7 +148,12 @@ impl Sweep<'_> {
         let plan = crate::pipeline::plan_for(&s, &self.accel);
         let marks: Vec<u32> = (0..17).map(|i| 1u32 << i).collect();
         let p = crate::pipeline::render_progressive(&s, &self.accel, &plan, true, &marks)?;
-        let per_pass = s.render.progressive.photons_per_pass;
+        let per_pass = match mode {
+            Mode::Bdpt | Mode::Vcm => {
+                crate::integrator::vcm::light_paths(&s, crate::integrator::vcm::VcmOptions::of_scene(&s)) as u64
+            }
+            _ => s.render.progressive.photons_per_pass,
+        };
         let series = name.to_uppercase();
         for (i, secs, img) in &p.snapshots {
             runs.push(self.row(&series, *i, per_pass * *i as u64, 0, *secs, img)?);
@@ -211,14 +220,23 @@ pub fn run(o: &Options) -> Result<()> {
         reference: clamp(&r.image),
         ref_var: ref_noise * ref_noise,
         share: o.budget_s / 5.0,
-        pb: crate::progress::progress(12 + 8 + 7 + 2 * 18, "sweep", o.quiet),
+        pb: crate::progress::progress(12 + 8 + 7 + 4 * 18, "sweep", o.quiet),
     };
     let mut runs: Vec<Run> = Vec::new();
-    sweep.path_tracing(&base, &mut runs)?;
-    sweep.photon_counts(base.render.gather.caustic, &mut runs)?;
-    sweep.gather_counts(&mut runs)?;
-    sweep.progressive(crate::scene::file::Mode::Ppm, &mut runs)?;
-    sweep.progressive(crate::scene::file::Mode::Sppm, &mut runs)?;
+    let wants = |m: &str| o.methods.iter().any(|x| x == m);
+    if wants("pt") {
+        sweep.path_tracing(&base, &mut runs)?;
+    }
+    if wants("pm") {
+        sweep.photon_counts(base.render.gather.caustic, &mut runs)?;
+        sweep.gather_counts(&mut runs)?;
+    }
+    use crate::scene::file::Mode;
+    for mode in [Mode::Ppm, Mode::Sppm, Mode::Bdpt, Mode::Vcm] {
+        if wants(mode.layer_name()) {
+            sweep.progressive(mode, &mut runs)?;
+        }
+    }
     sweep.pb.finish_and_clear();
     report(o, &runs, ref_noise)
 }
@@ -263,7 +281,7 @@ fn report(o: &Options, runs: &[Run], ref_noise: f64) -> Result<()> {
     if let Some((x, r)) = best {
         println!("equal-time RMSE ratio PM/PT: {x:.3} (best PM run: {} photons, gather {}, {:.2} s); reference noise (its mean's RMSE, clamped and masked, subtracted from every score) {ref_noise:.5}", r.photons, r.gather, r.seconds);
     }
-    for name in ["PT", "PM photons", "PPM", "SPPM"] {
+    for name in ["PT", "PM photons", "PPM", "SPPM", "BDPT", "VCM"] {
         let s: Vec<&Run> = runs.iter().filter(|r| r.series == name).collect();
         let Some(last) = s.last() else { continue };
         let vs_pt = pt_rmse_at(&pt, last.seconds).map_or("-".into(), |p| format!("{:.3}", last.rmse / p));
@@ -274,19 +292,43 @@ fn report(o: &Options, runs: &[Run], ref_noise: f64) -> Result<()> {
             slope(&s, 4.0).map_or("-".into(), |k| format!("{k:.3}"))
         );
     }
+    if let Some((t, vcm, best, who)) = vcm_versus_best(runs) {
+        println!(
+            "VCM at {t:.1} s: RMSE {vcm:.5} = {:.3} × the best of PT, PPM and SPPM there ({who}, {best:.5})",
+            vcm / best
+        );
+    }
     chart_svg(&with_suffix(o.out, ".svg"), runs, &o.scene.display().to_string())?;
     chart_png(&with_suffix(o.out, ".png"), runs, &o.scene.display().to_string())?;
     println!("wrote {}, {}.svg and {}.png", csv.display(), o.out.display(), o.out.display());
     Ok(())
 }
 
-const SERIES: [(&str, [f32; 3]); 5] = [
+const SERIES: [(&str, [f32; 3]); 7] = [
     ("PT", [0.85, 0.2, 0.15]),
     ("PM photons", [0.15, 0.45, 0.85]),
     ("PM gather", [0.2, 0.7, 0.3]),
     ("PPM", [0.75, 0.45, 0.05]),
     ("SPPM", [0.55, 0.2, 0.75]),
+    ("BDPT", [0.1, 0.65, 0.7]),
+    ("VCM", [0.1, 0.1, 0.1]),
 ];
+
+/// VCM's last point against the best of PT, PPM and SPPM at the same time (each interpolated log-log
+/// between its runs, extrapolated with slope −1/2 beyond them): (seconds, VCM's RMSE, the best RMSE,
+/// which series).
+pub fn vcm_versus_best(runs: &[Run]) -> Option<(f64, f64, f64, &'static str)> {
+    let last = runs.iter().rfind(|r| r.series == "VCM")?;
+    let t = last.seconds;
+    ["PT", "PPM", "SPPM"]
+        .iter()
+        .filter_map(|&name| {
+            let s: Vec<Run> = runs.iter().filter(|r| r.series == name).cloned().collect();
+            pt_rmse_at(&s, t).map(|e| (e, name))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(best, who)| (t, last.rmse, best, who))
+}
 
 /// Least-squares slope of log RMSE against log seconds over the runs from `from_s` seconds on (None
 /// with fewer than two such runs).

@@ -88,6 +88,12 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         ("not_finite", GOOD.replace("fov = 40", "fov = nan"), vec![], vec!["camera.fov", "not finite"]),
         (
+            "vcm_does_nothing",
+            format!("{GOOD}\n[render]\nmode = \"vcm\"\n[render.vcm]\nconnect = false\nmerge = false\n"),
+            vec![],
+            vec!["render.vcm", "both false"],
+        ),
+        (
             "degenerate_transform",
             GOOD.replace("material = \"white\"", "material = \"white\"\ntransform = { scale = [1.0, 0.0, 1.0] }"),
             vec![],

@@ -100,6 +100,17 @@ struct LightVertex {
     d_vm: f32,
 }
 
+/// What merging reads of a light vertex, stored in the k-d tree in tree order (spatially coherent, a
+/// fraction of a `LightVertex`'s size).
+#[derive(Clone, Copy, Debug, Default)]
+struct MergeVertex {
+    wo: Vec3,
+    beta: Rgb,
+    len: u32,
+    d_vcm: f32,
+    d_vm: f32,
+}
+
 /// Constants of one iteration.
 struct Iteration {
     max_len: u32,
@@ -168,13 +179,14 @@ pub fn iterate(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, i: u32, r: 
         opts,
     };
     let v = Vcm { scene, tracer, it };
+    let (sampler, seed) = (scene.render.sampler, scene.render.seed);
     // Light subpaths, in fixed chunks.
     let chunks: Vec<LightChunk> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|ci| {
             let (mut verts, mut ends, mut splats, mut c) = (Vec::new(), Vec::new(), Vec::new(), Counters::default());
             for k in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
-                let mut rng = Rng::new(scene.render.seed ^ 0x7C3A_0000_0000_0000, i as u64, k as u64);
+                let mut rng = Rng::camera(sampler, scene.render.seed ^ 0x7C3A_0000_0000_0000, k as u64, (i - 1) as u64);
                 v.light_path(&mut rng, &mut verts, &mut splats, &mut c);
                 ends.push(verts.len() as u32);
             }
@@ -198,14 +210,18 @@ pub fn iterate(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, i: u32, r: 
         counters += c;
     }
     let tree = if opts.merge && !verts.is_empty() {
-        let pts: Vec<([f32; 3], u32)> =
-            verts.iter().enumerate().map(|(k, lv)| (lv.si.p.to_array(), k as u32)).collect();
+        let pts: Vec<([f32; 3], MergeVertex)> = verts
+            .iter()
+            .map(|lv| {
+                let m = MergeVertex { wo: lv.wo, beta: lv.beta, len: lv.len, d_vcm: lv.d_vcm, d_vm: lv.d_vm };
+                (lv.si.p.to_array(), m)
+            })
+            .collect();
         KdTree::build(pts).ok()
     } else {
         None
     };
     let light = LightPaths { verts: &verts, ends: &ends, tree: tree.as_ref() };
-    let (sampler, seed) = (scene.render.sampler, scene.render.seed);
     let camera: Vec<(Rgb, Counters)> = (0..pixels)
         .into_par_iter()
         .map(|k| {
@@ -238,7 +254,7 @@ struct LightPaths<'a> {
     verts: &'a [LightVertex],
     /// Light path k's vertices are verts[ends[k]..ends[k + 1]].
     ends: &'a [u32],
-    tree: Option<&'a KdTree<u32>>,
+    tree: Option<&'a KdTree<MergeVertex>>,
 }
 
 struct Vcm<'a> {
@@ -470,7 +486,7 @@ impl Vcm<'_> {
                     }
                 }
                 if let Some(tree) = light.tree {
-                    l += sp.beta * self.merge(&sp, &si, wo, &mat, light.verts, tree);
+                    l += sp.beta * self.merge(&sp, &si, wo, &mat, tree);
                 }
             }
             prev = si.p;
@@ -626,15 +642,7 @@ impl Vcm<'_> {
     /// Vertex merging at a non-delta camera vertex [tech. rep. (37)-(39)]: the light vertices within
     /// the iteration's radius, as a density estimate over the disc; to be multiplied by the camera
     /// throughput.
-    fn merge(
-        &self,
-        sp: &SubPath,
-        si: &SurfaceHit,
-        wo: Vec3,
-        mat: &Material,
-        verts: &[LightVertex],
-        tree: &KdTree<u32>,
-    ) -> Rgb {
+    fn merge(&self, sp: &SubPath, si: &SurfaceHit, wo: Vec3, mat: &Material, tree: &KdTree<MergeVertex>) -> Rgb {
         let it = &self.it;
         if it.opts.strategy.is_some() {
             return Rgb::ZERO;
@@ -644,7 +652,7 @@ impl Vcm<'_> {
             let mut s = s.borrow_mut();
             tree.within_res(si.p.to_array(), it.r2, &mut s);
             for &(_, ti) in s.items() {
-                let lv = &verts[*tree.item(ti) as usize];
+                let lv = tree.item(ti);
                 if lv.len + sp.len > it.max_len || lv.wo.dot(si.ng) * wo.dot(si.ng) <= 0.0 {
                     continue;
                 }
