@@ -57,6 +57,8 @@ fn merge(parts: &[PathBuf], out: &Path) -> (i32, String) {
     caustica(&args.iter().map(String::as_str).collect::<Vec<_>>())
 }
 
+const GLASS_VCM: &[&str] = &["--set", "camera.resolution=[48,36]", "--mode", "vcm", "--passes", "8"];
+
 fn split_equals_single(name: &str, scene: &str, extra: &[&str], n: u32, must_be_identical: bool) {
     let d = dir(name);
     let single = d.join("single");
@@ -100,6 +102,12 @@ fn photon_map_parts_merge_bit_identically() {
 #[test]
 fn ppm_parts_merge_to_the_single_render() {
     split_equals_single("ppm", "cornell-glass.toml", GLASS_PPM, 3, false);
+}
+
+/// VCM's iterations are independent too (light tracing splats included): 8 in 3 parts.
+#[test]
+fn vcm_parts_merge_to_the_single_render() {
+    split_equals_single("vcm", "cornell-glass.toml", GLASS_VCM, 3, false);
 }
 
 fn refused(name: &str, parts: &[PathBuf], out: &Path, expect: &[&str]) {
