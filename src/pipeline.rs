@@ -497,8 +497,9 @@ pub fn render_progressive_share(
                     pass: i,
                     seconds: t0.elapsed().as_secs_f64(),
                     radius: r,
-                    emitted: [0, vcm::light_paths(scene, opts) as u64, 0],
+                    emitted: [0; 3],
                     stored: out.light_vertices,
+                    light_paths: vcm::light_paths(scene, opts) as u64,
                 }
             }
             (None, None) => {
@@ -509,7 +510,7 @@ pub fn render_progressive_share(
             }
         };
         seconds += record.seconds;
-        emitted += record.emitted.iter().sum::<u64>();
+        emitted += record.emitted.iter().sum::<u64>() + record.light_paths;
         records.push(record);
         pb.set_position(records.len() as u64);
         let (radius, what) = match mode {

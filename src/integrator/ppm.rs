@@ -21,7 +21,15 @@ pub struct PassRecord {
     pub radius: f32,
     /// Photons shot for the direct, indirect and caustic maps (0 = map not built).
     pub emitted: [u64; 3],
+    /// Photons stored (bdpt, vcm: light vertices stored).
     pub stored: u64,
+    /// bdpt, vcm: light subpaths traced (0 for the photon mappers).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub light_paths: u64,
+}
+
+fn is_zero(x: &u64) -> bool {
+    *x == 0
 }
 
 /// r_i for pass `i` (1-based): r_i² = r_1² Π_{k=1}^{i−1} (k + α)/(k + 1).
@@ -101,6 +109,7 @@ pub fn ppm_pass(
         radius: r,
         emitted: maps.stats.n_emitted,
         stored: maps.stats.stored.iter().sum(),
+        light_paths: 0,
     };
     Ok((out.image, out.counters, record))
 }

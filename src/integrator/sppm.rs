@@ -127,6 +127,7 @@ impl<'a> Sppm<'a> {
             radius: mean_r as f32,
             emitted: maps.stats.n_emitted,
             stored: maps.stats.stored.iter().sum(),
+            light_paths: 0,
         })
     }
 
