@@ -81,14 +81,19 @@ fn small(name: &str, res: u32) -> (Scene, Accel) {
 fn bdpt_and_vcm_means_equal_the_path_tracers_on_both_cornell_boxes() {
     for scene in ["cornell-box.toml", "cornell-glass.toml"] {
         let (mut s, a) = small(scene, 32);
-        let (pt, pt_e) = pt_mean(&mut s, &a, 64, 16);
-        let r1 = caustica::integrator::vcm::initial_radius(&s);
-        for (name, opts) in [("bdpt", VcmOptions::bdpt()), ("vcm", VcmOptions::vcm())] {
-            let (m, e) = bidir_mean(&mut s, &a, opts, 256, r1);
-            let sigma = (e * e + pt_e * pt_e).sqrt();
-            eprintln!("{scene} {name}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:.2}σ", (m - pt) / sigma);
-            assert!((m - pt).abs() < 3.0 * sigma, "{scene} {name}: mean {m} vs PT {pt} (σ {sigma})");
-        }
+        means_match_pt(scene, &mut s, &a, 64, 256);
+    }
+}
+
+/// BDPT's and VCM's means over `passes` iterations equal PT's (16 renders of `pt_spp`) within 3σ.
+fn means_match_pt(label: &str, s: &mut Scene, a: &Accel, pt_spp: u32, passes: u32) {
+    let (pt, pt_e) = pt_mean(s, a, pt_spp, 16);
+    let r1 = caustica::integrator::vcm::initial_radius(s);
+    for (name, opts) in [("bdpt", VcmOptions::bdpt()), ("vcm", VcmOptions::vcm())] {
+        let (m, e) = bidir_mean(s, a, opts, passes, r1);
+        let sigma = (e * e + pt_e * pt_e).sqrt();
+        eprintln!("{label} {name}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ", (m - pt) / sigma);
+        assert!((m - pt).abs() < 3.0 * sigma, "{label} {name}: mean {m} vs PT {pt} (σ {sigma})");
     }
 }
 
@@ -194,13 +199,6 @@ fn mis_weights_sum_to_one_for_every_kind_of_light() {
         let mut s = every_light(glass);
         s.render.max_depth = 6;
         let a = Accel::new(&s).unwrap();
-        let (pt, pt_e) = pt_mean(&mut s, &a, 256, 16);
-        let r1 = caustica::integrator::vcm::initial_radius(&s);
-        for (name, opts) in [("bdpt", VcmOptions::bdpt()), ("vcm", VcmOptions::vcm())] {
-            let (m, e) = bidir_mean(&mut s, &a, opts, 1024, r1);
-            let sigma = (e * e + pt_e * pt_e).sqrt();
-            eprintln!("glass {glass} {name}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ", (m - pt) / sigma);
-            assert!((m - pt).abs() < 3.0 * sigma, "glass {glass} {name}: mean {m} vs PT {pt} (σ {sigma})");
-        }
+        means_match_pt(&format!("glass {glass}"), &mut s, &a, 256, 1024);
     }
 }

@@ -215,12 +215,7 @@ impl Lights {
 
     /// Probability that next-event estimation chooses light `i`.
     pub fn choice_pdf(&self, i: usize) -> f32 {
-        let total = self.nee_cdf[self.nee_cdf.len() - 1];
-        if total <= 0.0 {
-            return 0.0;
-        }
-        let lo = if i == 0 { 0.0 } else { self.nee_cdf[i - 1] };
-        (self.nee_cdf[i] - lo) / total
+        cdf_pdf(&self.nee_cdf, i)
     }
 
     /// Samples a light point for direct light at `x`: from the next-event distribution (`nee`, with
@@ -407,12 +402,7 @@ impl Lights {
     /// Probability that a light is chosen by power (photon emission, and next-event estimation over
     /// every light).
     pub fn power_pdf(&self, i: usize) -> f32 {
-        let total = self.cdf[self.cdf.len() - 1];
-        if total <= 0.0 {
-            return 0.0;
-        }
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        (self.cdf[i] - lo) / total
+        cdf_pdf(&self.cdf, i)
     }
 
     /// Density with which `sample` over every light (`nee = false`) from `x` picks point `y` (unit
@@ -504,6 +494,16 @@ pub struct LightPoint {
     pub size: f32,
     pub pdf_area: f32,
     pub le: Rgb,
+}
+
+/// Probability of entry `i` of an unnormalised running sum `cdf` (0 if it sums to nothing).
+fn cdf_pdf(cdf: &[f32], i: usize) -> f32 {
+    let total = cdf[cdf.len() - 1];
+    if total <= 0.0 {
+        return 0.0;
+    }
+    let lo = if i == 0 { 0.0 } else { cdf[i - 1] };
+    (cdf[i] - lo) / total
 }
 
 /// 1 − cos θmax of the cone a sphere of `radius` subtends from distance² `dc2`, computed as
