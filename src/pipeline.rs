@@ -513,23 +513,13 @@ pub fn render_progressive_share(
         emitted += record.emitted.iter().sum::<u64>() + record.light_paths;
         records.push(record);
         pb.set_position(records.len() as u64);
-        let (radius, what) = match mode {
-            Mode::Bdpt => (String::new(), "light paths"),
-            Mode::Vcm => (
-                format!(
-                    ", merge radius {:.2e} of the diagonal",
-                    records[records.len() - 1].radius / scene.diagonal().max(1e-30)
-                ),
-                "light paths",
-            ),
-            _ => (
-                format!(
-                    ", radius {:.2e} of the diagonal",
-                    records[records.len() - 1].radius / scene.diagonal().max(1e-30)
-                ),
-                "photons",
-            ),
+        let (radius_name, what) = match mode {
+            Mode::Bdpt => (None, "light paths"),
+            Mode::Vcm => (Some("merge radius"), "light paths"),
+            _ => (Some("radius"), "photons"),
         };
+        let r_rel = records[records.len() - 1].radius / scene.diagonal().max(1e-30);
+        let radius = radius_name.map_or(String::new(), |n| format!(", {n} {r_rel:.2e} of the diagonal"));
         pb.set_message(format!("pass {i}{radius}, {:.2} M {what}/s", emitted as f64 / seconds.max(1e-9) / 1e6));
         if snapshots.contains(&i) {
             let img = match &sppm {

@@ -4,7 +4,8 @@ use super::Counters;
 use crate::accel::Tracer;
 use crate::color::Rgb;
 use crate::math::{sampling::power_heuristic, Rng};
-use crate::scene::{Scene, SurfaceHit};
+use crate::scene::light::LightSample;
+use crate::scene::{Material, Scene, SurfaceHit};
 use glam::Vec3;
 
 /// How the caller combines this estimate with light found by BSDF sampling.
@@ -29,27 +30,45 @@ pub fn estimate_direct(
     strategy: DirectStrategy,
 ) -> Rgb {
     let mat = scene.bsdf(si, wo);
-    let u_sel = rng.next_f32();
-    let u = rng.next_2d();
     let mis = strategy == DirectStrategy::Mis;
-    let Some(ls) = scene.lights.sample(scene, si.p, u_sel, u, mis) else {
+    let Some((ls, f)) = sample_light(scene, si, wo, &mat, rng, mis) else {
         return Rgb::ZERO;
     };
-    if ls.pdf <= 0.0 || ls.li == Rgb::ZERO {
-        return Rgb::ZERO;
-    }
-    // Light must be on the side the BSDF can scatter into (geometric test avoids light leaks).
-    if ls.wi.dot(si.ng) * wo.dot(si.ng) <= 0.0 {
-        return Rgb::ZERO;
-    }
-    let f = mat.eval(wo, ls.wi, si.ns) * ls.wi.dot(si.ns).abs();
-    if f == Rgb::ZERO {
-        return Rgb::ZERO;
-    }
-    c.rays += 1;
-    if tracer.occluded(&si.spawn_to(ls.p)) {
+    if !unoccluded(tracer, si, &ls, c) {
         return Rgb::ZERO;
     }
     let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns)) };
     f * ls.li * (w / ls.pdf)
+}
+
+/// A light point for direct light at `si` (seen along `wo`, BSDF `mat`), drawn from the next-event
+/// distribution (`nee`) or from every light by power, with f·|cos θ| towards it; None when no light can
+/// arrive that way (no sample, no radiance, the light behind the surface, a zero BSDF). No shadow ray.
+pub fn sample_light(
+    scene: &Scene,
+    si: &SurfaceHit,
+    wo: Vec3,
+    mat: &Material,
+    rng: &mut Rng,
+    nee: bool,
+) -> Option<(LightSample, Rgb)> {
+    let u_sel = rng.next_f32();
+    let u = rng.next_2d();
+    let ls = scene.lights.sample(scene, si.p, u_sel, u, nee)?;
+    if ls.pdf <= 0.0 || ls.li == Rgb::ZERO {
+        return None;
+    }
+    // Light must be on the side the BSDF can scatter into (geometric test avoids light leaks).
+    if ls.wi.dot(si.ng) * wo.dot(si.ng) <= 0.0 {
+        return None;
+    }
+    let f = mat.eval(wo, ls.wi, si.ns) * ls.wi.dot(si.ns).abs();
+    (f != Rgb::ZERO).then_some((ls, f))
+}
+
+/// Traces the shadow ray from `si` to the sampled light point (counted in `c`): true when nothing
+/// blocks it.
+pub fn unoccluded(tracer: &dyn Tracer, si: &SurfaceHit, ls: &LightSample, c: &mut Counters) -> bool {
+    c.rays += 1;
+    !tracer.occluded(&si.spawn_to(ls.p))
 }

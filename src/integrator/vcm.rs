@@ -15,6 +15,7 @@
 //! An iteration is a pure function of (scene, seed, i): iterations can be averaged in any grouping,
 //! and light-tracing splats are summed in a fixed order (per chunk of light paths, chunks in order),
 //! so images are the same bits on any thread count.
+use super::direct::{sample_light, unoccluded};
 use super::Counters;
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
@@ -98,6 +99,14 @@ struct LightVertex {
     d_vcm: f32,
     d_vc: f32,
     d_vm: f32,
+}
+
+impl LightVertex {
+    /// The adjoint BSDF at the vertex scattering the arriving light towards `dir`, times |cos θ| there
+    /// (Veach's shading-normal correction included).
+    fn f_to(&self, dir: Vec3) -> Rgb {
+        self.mat.eval(self.wo, dir, self.si.ns) * (self.si.shading_correction(self.wo, dir) * dir.dot(self.si.ns).abs())
+    }
 }
 
 /// What merging reads of a light vertex, stored in the k-d tree in tree order (spatially coherent, a
@@ -186,7 +195,7 @@ pub fn iterate(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, i: u32, r: 
         .map(|ci| {
             let (mut verts, mut ends, mut splats, mut c) = (Vec::new(), Vec::new(), Vec::new(), Counters::default());
             for k in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
-                let mut rng = Rng::camera(sampler, scene.render.seed ^ 0x7C3A_0000_0000_0000, k as u64, (i - 1) as u64);
+                let mut rng = Rng::camera(sampler, seed ^ 0x7C3A_0000_0000_0000, k as u64, (i - 1) as u64);
                 v.light_path(&mut rng, &mut verts, &mut splats, &mut c);
                 ends.push(verts.len() as u32);
             }
@@ -407,7 +416,7 @@ impl Vcm<'_> {
         if dir.dot(lv.si.ng) * lv.wo.dot(lv.si.ng) <= 0.0 {
             return;
         }
-        let f = lv.mat.eval(lv.wo, dir, lv.si.ns) * (lv.si.shading_correction(lv.wo, dir) * dir.dot(lv.si.ns).abs());
+        let f = lv.f_to(dir);
         if f == Rgb::ZERO {
             return;
         }
@@ -501,21 +510,11 @@ impl Vcm<'_> {
 
     /// Weight of emission found by the camera subpath (s = 0) on a surface [tech. rep. (42)-(43)].
     fn emitter_hit(&self, sp: &SubPath, si: &SurfaceHit, wo: Vec3, prev: Vec3) -> f32 {
-        let it = &self.it;
-        self.it.weight(0, sp.len + 1, || {
-            if sp.len == 1 {
-                return 1.0;
-            }
-            if !it.opts.connect {
-                return sp.specular as u32 as f32;
-            }
-            let lights = &self.scene.lights;
-            let Some(i) = lights.index_of(self.scene, si.shape, si.prim) else {
-                return 1.0;
-            };
+        let lights = &self.scene.lights;
+        self.s0_weight(sp, || {
+            let i = lights.index_of(self.scene, si.shape, si.prim)?;
             let direct_a = lights.direct_pdf_area(self.scene, i, prev, si.p, si.ng);
-            let emit_w = lights.emit_pdf(self.scene, i, wo.dot(si.ng), -wo);
-            1.0 / (1.0 + direct_a * sp.d_vcm + emit_w * sp.d_vc)
+            Some((direct_a, lights.emit_pdf(self.scene, i, wo.dot(si.ng), -wo)))
         })
     }
 
@@ -529,17 +528,25 @@ impl Vcm<'_> {
         if le == Rgb::ZERO {
             return le;
         }
+        le * self
+            .s0_weight(sp, || Some((lights.power_pdf(*i) * env.pdf(dir), lights.emit_pdf(self.scene, *i, 1.0, -dir))))
+    }
+
+    /// The weight of emission the camera subpath finds (s = 0): 1 seen straight from the camera; without
+    /// connections, 1 along a purely specular chain and 0 otherwise (merging has the rest); else the MIS
+    /// weight from `pdfs`: next-event estimation's density of the emitting point (per area, per solid
+    /// angle for the sky) and emission's density of the ray (None: not a light next-event estimation
+    /// knows, weight 1).
+    fn s0_weight(&self, sp: &SubPath, pdfs: impl FnOnce() -> Option<(f32, f32)>) -> f32 {
         let it = &self.it;
-        le * it.weight(0, sp.len + 1, || {
+        it.weight(0, sp.len + 1, || {
             if sp.len == 1 {
                 return 1.0;
             }
             if !it.opts.connect {
                 return sp.specular as u32 as f32;
             }
-            let direct_w = lights.power_pdf(*i) * env.pdf(dir);
-            let emit_w = lights.emit_pdf(self.scene, *i, 1.0, -dir);
-            1.0 / (1.0 + direct_w * sp.d_vcm + emit_w * sp.d_vc)
+            pdfs().map_or(1.0, |(direct, emit)| 1.0 / (1.0 + direct * sp.d_vcm + emit * sp.d_vc))
         })
     }
 
@@ -553,23 +560,10 @@ impl Vcm<'_> {
         rng: &mut Rng,
         c: &mut Counters,
     ) -> Rgb {
-        let scene = self.scene;
         let it = &self.it;
-        let u_sel = rng.next_f32();
-        let u = rng.next_2d();
-        if sp.len + 1 > it.max_len {
-            return Rgb::ZERO;
-        }
-        let Some(ls) = scene.lights.sample(scene, si.p, u_sel, u, false) else {
+        let Some((ls, f)) = sample_light(self.scene, si, wo, mat, rng, false) else {
             return Rgb::ZERO;
         };
-        if ls.pdf <= 0.0 || ls.li == Rgb::ZERO || ls.wi.dot(si.ng) * wo.dot(si.ng) <= 0.0 {
-            return Rgb::ZERO;
-        }
-        let f = mat.eval(wo, ls.wi, si.ns) * ls.wi.dot(si.ns).abs();
-        if f == Rgb::ZERO {
-            return Rgb::ZERO;
-        }
         let w = it.weight(1, sp.len + 1, || {
             let dir_pdf = if ls.delta { 0.0 } else { mat.pdf(wo, ls.wi, si.ns) };
             let rev_pdf = mat.pdf(ls.wi, wo, si.ns);
@@ -577,11 +571,7 @@ impl Vcm<'_> {
             let w_camera = ls.emit_ratio * cos_g(si, ls.wi) * (it.mis_vm + sp.d_vcm + sp.d_vc * rev_pdf);
             1.0 / (w_light + 1.0 + w_camera)
         });
-        if w == 0.0 {
-            return Rgb::ZERO;
-        }
-        c.rays += 1;
-        if self.tracer.occluded(&si.spawn_to(ls.p)) {
+        if w == 0.0 || !unoccluded(self.tracer, si, &ls, c) {
             return Rgb::ZERO;
         }
         f * ls.li * (w / ls.pdf)
@@ -589,7 +579,6 @@ impl Vcm<'_> {
 
     /// Connects a camera vertex to a light vertex (s ≥ 2, t ≥ 2) [tech. rep. (40)-(41)]; the result is
     /// to be multiplied by both subpaths' throughputs.
-    #[allow(clippy::too_many_arguments)]
     fn connect(
         &self,
         sp: &SubPath,
@@ -614,8 +603,7 @@ impl Vcm<'_> {
         if f_cam == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        let f_light =
-            lv.mat.eval(lv.wo, -dir, lv.si.ns) * (lv.si.shading_correction(lv.wo, -dir) * dir.dot(lv.si.ns).abs());
+        let f_light = lv.f_to(-dir);
         if f_light == Rgb::ZERO {
             return Rgb::ZERO;
         }

@@ -268,15 +268,8 @@ impl Lights {
                 };
                 let d = center - x;
                 let dc2 = d.length_squared();
-                if dc2 <= radius * radius * 1.0001 {
-                    return None;
-                }
-                let dc = dc2.sqrt();
-                let one_minus = cone_of(radius, dc2);
-                if one_minus <= 0.0 {
-                    return None;
-                }
-                let f = Frame::from_normal(d / dc);
+                let one_minus = visible_cone(radius, dc2)?;
+                let f = Frame::from_normal(d / dc2.sqrt());
                 let wi = f.to_world(sampling::uniform_cone(u, one_minus)).normalize();
                 // A direction rounded just past the silhouette still belongs to the cone: take the
                 // point of closest approach, which lies on the sphere to rounding.
@@ -326,17 +319,8 @@ impl Lights {
                 }
                 self.choice_pdf(i) * dist2 / (cos_l * area)
             }
-            Geometry::Sphere { center, radius } => {
-                let dc2 = (*center - x).length_squared();
-                if dc2 <= radius * radius * 1.0001 {
-                    return 0.0;
-                }
-                let one_minus = cone_of(*radius, dc2);
-                if one_minus <= 0.0 {
-                    return 0.0;
-                }
-                self.choice_pdf(off as usize) / (2.0 * PI * one_minus)
-            }
+            Geometry::Sphere { center, radius } => visible_cone(*radius, (*center - x).length_squared())
+                .map_or(0.0, |one_minus| self.choice_pdf(off as usize) / (2.0 * PI * one_minus)),
         }
     }
 
@@ -425,11 +409,9 @@ impl Lights {
                 let Geometry::Sphere { center, radius } = scene.shapes[*shape as usize].geometry else {
                     return 0.0;
                 };
-                let dc2 = (center - x).length_squared();
-                let one_minus = cone_of(radius, dc2);
-                if dc2 <= radius * radius * 1.0001 || one_minus <= 0.0 {
+                let Some(one_minus) = visible_cone(radius, (center - x).length_squared()) else {
                     return 0.0;
-                }
+                };
                 let d = y - x;
                 let cos_y = (-d.normalize().dot(n)).max(0.0);
                 p_sel / (2.0 * PI * one_minus) * cos_y / d.length_squared()
@@ -458,10 +440,12 @@ impl Lights {
 
     /// Area of emitter `i` (a triangle or a whole sphere; 0 for the other lights).
     fn area_of(&self, scene: &Scene, i: usize) -> f32 {
-        match (&self.list[i], &scene.shapes.get(self.list[i].shape().unwrap_or(u32::MAX) as usize).map(|s| &s.geometry))
-        {
-            (LightKind::Triangle { prim, .. }, Some(Geometry::Mesh(m))) => m.area(*prim as usize),
-            (LightKind::Sphere { .. }, Some(Geometry::Sphere { radius, .. })) => 4.0 * PI * radius * radius,
+        match &self.list[i] {
+            LightKind::Triangle { shape, prim } => match &scene.shapes[*shape as usize].geometry {
+                Geometry::Mesh(m) => m.area(*prim as usize),
+                Geometry::Sphere { .. } => 0.0,
+            },
+            LightKind::Sphere { shape } => scene.shapes[*shape as usize].area(),
             _ => 0.0,
         }
     }
@@ -504,6 +488,16 @@ fn cdf_pdf(cdf: &[f32], i: usize) -> f32 {
     }
     let lo = if i == 0 { 0.0 } else { cdf[i - 1] };
     (cdf[i] - lo) / total
+}
+
+/// 1 − cos θmax of the cone a sphere of `radius` subtends from distance² `dc2`, if the point is outside
+/// the sphere (with a margin) and the cone is not empty: the cone next-event estimation samples.
+fn visible_cone(radius: f32, dc2: f32) -> Option<f32> {
+    if dc2 <= radius * radius * 1.0001 {
+        return None;
+    }
+    let one_minus = cone_of(radius, dc2);
+    (one_minus > 0.0).then_some(one_minus)
 }
 
 /// 1 − cos θmax of the cone a sphere of `radius` subtends from distance² `dc2`, computed as
