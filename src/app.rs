@@ -29,8 +29,9 @@ pub fn run(cli: Cli) -> Result<()> {
             let out = crate::output::in_folder(out.unwrap_or_else(|| PathBuf::from("out/")), &name);
             crate::tools::compare_cmd(&a, &b, reference.as_deref(), &out, exposure)
         }
-        Command::Reference { scene, spp, photons, set, quiet } => {
-            let r = crate::pipeline::reference(&scene, &set, spp, photons, Path::new("out/ref"), quiet)?;
+        Command::Reference { scene, spp, photons, passes, against_spp, dir, set, quiet } => {
+            let kind = crate::pipeline::RefKind::from_options(spp, photons, passes)?;
+            let r = crate::pipeline::reference(&scene, &set, kind, &dir, quiet)?;
             let how = match r.rendered_s {
                 Some(s) => format!("rendered in {s:.1} s"),
                 None => "from the cache; delete it to render again".to_string(),
@@ -40,7 +41,28 @@ pub fn run(cli: Cli) -> Result<()> {
                 r.path.display(),
                 r.halves_rmse
             );
-            Ok(())
+            let Some(n) = against_spp else { return Ok(()) };
+            let other = crate::pipeline::RefKind::Spp(n);
+            let a = crate::timeerror::reference_agreement(&scene, &set, [kind, other], &dir, quiet)?;
+            println!(
+                "against a {n}-spp path-traced reference (clamped to [0, 1], lights masked, as time-vs-error scores):"
+            );
+            let mut agree = true;
+            for s in &a.scales {
+                println!(
+                    "  {:<12} RMSE between the two {:.5}; their noise alone {:.5}; beyond the noise {:.5} (noise alone makes up to {:.5} plausible)",
+                    s.name, s.rmse, s.noise, s.excess, s.allowed
+                );
+                agree &= s.excess <= s.allowed;
+            }
+            let [r, g, b] = a.mean_ratio;
+            println!("  means, this / path traced (R, G, B): {r:.4}, {g:.4}, {b:.4}");
+            if agree {
+                println!("agree within their noise");
+                Ok(())
+            } else {
+                anyhow::bail!("{}: the references differ beyond their noise", scene.display())
+            }
         }
         Command::Bench(BenchCommand::TimeVsError {
             scene,
@@ -48,19 +70,21 @@ pub fn run(cli: Cli) -> Result<()> {
             methods,
             ref_spp,
             ref_photons,
+            ref_passes,
             out,
             set,
             quiet,
         }) => {
             let stem = scene.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
             let out = crate::output::in_folder(out.unwrap_or_else(|| PathBuf::from("out/tve/")), &stem);
-            let ref_spp = if ref_photons.is_none() { Some(ref_spp.unwrap_or(1024)) } else { ref_spp };
+            let ref_spp =
+                if ref_photons.is_none() && ref_passes.is_none() { Some(ref_spp.unwrap_or(1024)) } else { ref_spp };
+            let reference = crate::pipeline::RefKind::from_options(ref_spp, ref_photons, ref_passes)?;
             crate::timeerror::run(&crate::timeerror::Options {
                 scene: &scene,
                 budget_s,
                 methods: &methods,
-                ref_spp,
-                ref_photons,
+                reference,
                 out: &out,
                 quiet,
                 sets: &set,

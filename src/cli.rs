@@ -68,7 +68,8 @@ pub enum Command {
         out: PathBuf,
     },
     /// A long reference render in two independent halves (cached in out/ref), with their RMSE as its
-    /// noise estimate. --spp for the path tracer, --photons for scenes only photon mapping can render.
+    /// noise estimate. --spp for the path tracer; --passes (SPPM) or --photons (fixed PM) for scenes only
+    /// photon mapping can render.
     Reference {
         /// Scene file (TOML, or Mitsuba 3 XML).
         scene: PathBuf,
@@ -76,8 +77,20 @@ pub enum Command {
         #[arg(long, value_parser = clap::value_parser!(u32).range(2..))]
         spp: Option<u32>,
         /// Photon-mapped reference with this many photons (half caustic, a quarter indirect per half).
+        /// Biased: the halves share the gather's blur, which their difference does not show.
         #[arg(long)]
         photons: Option<u64>,
+        /// SPPM reference with this many passes per half (consistent: for scenes PT cannot render,
+        /// such as point-light caustics; check it against a PT or VCM render where one is possible).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        passes: Option<u32>,
+        /// Also render (or read) a path-traced reference at this many spp and report whether the two
+        /// agree within their noise, pixel by pixel and over 8×8 blocks (exit status 1 if they do not).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(2..))]
+        against_spp: Option<u32>,
+        /// Directory the references are cached in.
+        #[arg(long, default_value = "out/ref")]
+        dir: PathBuf,
         /// Scene overrides, as for render (part of the cache key).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
@@ -173,9 +186,13 @@ pub enum BenchCommand {
         /// Reference samples per pixel (path tracer).
         #[arg(long)]
         ref_spp: Option<u32>,
-        /// Reference by photon mapping with this many photons instead (for point-light caustics).
+        /// Reference by fixed photon mapping with this many photons instead (biased: favours PM).
         #[arg(long)]
         ref_photons: Option<u64>,
+        /// Reference by SPPM with this many passes per half instead (consistent; for point-light
+        /// caustics and other scenes PT cannot render).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        ref_passes: Option<u32>,
         /// Output path (a typed extension is dropped): OUT.csv, OUT.svg, OUT.png (default out/tve/<scene name>).
         #[arg(short, long, value_parser = out_base)]
         out: Option<PathBuf>,

@@ -358,16 +358,42 @@ pub struct Reference {
     pub rendered_s: Option<f64>,
 }
 
-/// Renders (or loads from the cache in `dir`) a path-traced reference at `spp`, or with `photons`
-/// (photon mapping at that many caustic and indirect photons, for scenes only PM can render).
-pub fn reference(
-    scene_path: &Path,
-    overrides: &[String],
-    spp: Option<u32>,
-    photons: Option<u64>,
-    dir: &Path,
-    quiet: bool,
-) -> Result<Reference> {
+/// How a reference is rendered.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RefKind {
+    /// The path tracer at this many samples per pixel (split over the two halves).
+    Spp(u32),
+    /// The fixed photon mapper at this many photons (half caustic, a quarter indirect per half). Biased:
+    /// its halves share the blur of the gather, which their difference does not show.
+    Photons(u64),
+    /// SPPM for this many passes per half (a consistent estimator, for scenes PT cannot render: its
+    /// halves' difference shows its noise; its bias shrinks with the passes).
+    SppmPasses(u32),
+}
+
+impl RefKind {
+    /// Exactly one of the three command-line options, named in the error otherwise.
+    pub fn from_options(spp: Option<u32>, photons: Option<u64>, passes: Option<u32>) -> Result<RefKind> {
+        match (spp, photons, passes) {
+            (Some(s), None, None) => Ok(RefKind::Spp(s)),
+            (None, Some(p), None) => Ok(RefKind::Photons(p)),
+            (None, None, Some(n)) => Ok(RefKind::SppmPasses(n)),
+            _ => bail!("give exactly one of --spp, --photons or --passes (for a reference)"),
+        }
+    }
+
+    fn cache_name(self) -> String {
+        match self {
+            RefKind::Spp(s) => format!("{s}spp"),
+            RefKind::Photons(p) => format!("{p}photons"),
+            RefKind::SppmPasses(n) => format!("sppm{n}passes"),
+        }
+    }
+}
+
+/// Renders (or loads from the cache in `dir`) a reference of the given kind as two independent halves
+/// (different seeds).
+pub fn reference(scene_path: &Path, overrides: &[String], kind: RefKind, dir: &Path, quiet: bool) -> Result<Reference> {
     let mut text =
         std::fs::read(scene_path).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", scene_path.display()))?;
     // The cache key covers the scene text and the overrides.
@@ -378,11 +404,7 @@ pub fn reference(
         text.iter().fold(0xCBF2_9CE4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x100_0000_01B3)),
     );
     let stem = scene_path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
-    let what = match (spp, photons) {
-        (Some(s), None) => format!("{s}spp"),
-        (None, Some(p)) => format!("{p}photons"),
-        _ => bail!("give exactly one of --spp or --photons"),
-    };
+    let what = kind.cache_name();
     let base = dir.join(format!("{stem}-{what}-{key:016x}"));
     let exr = with_suffix(&base, ".exr");
     let js = with_suffix(&base, ".json");
@@ -400,15 +422,27 @@ pub fn reference(
     for half in 0..2u64 {
         let mut sets = overrides.to_vec();
         sets.push(format!("render.seed={}", 1_000_003 * (half + 1)));
-        if let Some(p) = photons {
-            sets.push(format!("render.photons.caustic={}", p / 2));
-            sets.push(format!("render.photons.indirect={}", p / 4));
+        match kind {
+            RefKind::Photons(p) => {
+                sets.push(format!("render.photons.caustic={}", p / 2));
+                sets.push(format!("render.photons.indirect={}", p / 4));
+            }
+            RefKind::SppmPasses(n) => {
+                sets.push("render.mode=\"sppm\"".to_string());
+                sets.push(format!("render.progressive.passes={n}"));
+                sets.push("render.progressive.time_s=0.0".to_string());
+            }
+            RefKind::Spp(_) => {}
         }
         let scene = crate::scene::load_scene_with(scene_path, &sets)?;
         let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
-        let img = match spp {
-            Some(s) => render_path(&scene, &accel, (s / 2).max(1), quiet).image,
-            None => render_pm_default(&scene, &accel, quiet)?.image,
+        let img = match kind {
+            RefKind::Spp(s) => render_path(&scene, &accel, (s / 2).max(1), quiet).image,
+            RefKind::Photons(_) => render_pm_default(&scene, &accel, quiet)?.image,
+            RefKind::SppmPasses(_) => {
+                let plan = plan_for(&scene, &accel);
+                render_progressive(&scene, &accel, &plan, quiet, &[])?.output.image
+            }
         };
         halves.push(img);
     }

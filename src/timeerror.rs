@@ -35,8 +35,7 @@ pub struct Options<'a> {
     pub budget_s: f64,
     /// Sweeps to run: pt, pm, ppm, sppm, bdpt, vcm.
     pub methods: &'a [String],
-    pub ref_spp: Option<u32>,
-    pub ref_photons: Option<u64>,
+    pub reference: crate::pipeline::RefKind,
     pub out: &'a Path,
     pub quiet: bool,
     /// Scene overrides applied to every render and to the reference (e.g. a smaller resolution).
@@ -198,7 +197,7 @@ pub fn run(o: &Options) -> Result<()> {
     let dir = o.out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
     let t0 = Instant::now();
-    let r = reference(o.scene, o.sets, o.ref_spp, o.ref_photons, &dir.join("ref"), o.quiet)?;
+    let r = reference(o.scene, o.sets, o.reference, &dir.join("ref"), o.quiet)?;
     eprintln!(
         "reference {} (noise: halves differ by RMSE {:.5}) in {:.1} s",
         r.path.display(),
@@ -481,6 +480,92 @@ fn chart_png(path: &Path, runs: &[Run], title: &str) -> Result<()> {
     let mut rgb = vec![255u8; (w * h * 3) as usize];
     draw_chart(plotters::prelude::BitMapBackend::with_buffer(&mut rgb, (w, h)).into(), runs, title)?;
     crate::output::write_png_rgb8(path, w, h, &rgb)
+}
+
+/// Two references of one scene compared on the scoring scale (clamped, lights masked), at full
+/// resolution and averaged over `BLOCK`×`BLOCK` blocks (where per-pixel noise drowns a small bias).
+pub struct Agreement {
+    pub scales: Vec<Scale>,
+    /// Per channel, the mean of the first over the mean of the second (masked pixels, unclamped).
+    pub mean_ratio: [f64; 3],
+}
+
+/// One scale of an `Agreement`.
+pub struct Scale {
+    pub name: String,
+    /// RMSE between the two references' means.
+    pub rmse: f64,
+    /// The RMSE their noises alone would give, √(σa² + σb²) (each σ half its halves' difference).
+    pub noise: f64,
+    /// The difference beyond that noise, √max(0, RMSE² − σa² − σb²).
+    pub excess: f64,
+    /// Largest excess pure noise makes plausible: three standard deviations of RMSE² (about
+    /// 2·noise⁴/n for n Gaussian values, doubled for the noise figures' own error), √(6/√n)·noise.
+    pub allowed: f64,
+}
+
+const BLOCK: u32 = 8;
+
+/// Averages of the kept pixels over `b`×`b` blocks (blocks with none kept are left out), as a one-row
+/// image with its all-kept mask.
+fn block_means(img: &Image, keep: &[bool], b: u32) -> Image {
+    let (bw, bh) = (img.width.div_ceil(b), img.height.div_ceil(b));
+    let mut sum = vec![(Rgb::ZERO, 0u32); (bw * bh) as usize];
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let i = (y * img.width + x) as usize;
+            if keep[i] {
+                let s = &mut sum[((y / b) * bw + x / b) as usize];
+                s.0 += img.pixels[i];
+                s.1 += 1;
+            }
+        }
+    }
+    let pixels: Vec<Rgb> = sum.iter().filter(|s| s.1 > 0).map(|s| s.0 / s.1 as f32).collect();
+    Image { width: pixels.len() as u32, height: 1, pixels }
+}
+
+/// Compares references `a` and `b` (each rendered or read from the cache in `dir`): whether a consistent
+/// estimator's reference (SPPM) agrees with a path-traced one within their noise before it is used.
+pub fn reference_agreement(
+    scene: &Path,
+    sets: &[String],
+    kinds: [crate::pipeline::RefKind; 2],
+    dir: &Path,
+    quiet: bool,
+) -> Result<Agreement> {
+    let refs = [reference(scene, sets, kinds[0], dir, quiet)?, reference(scene, sets, kinds[1], dir, quiet)?];
+    let base = load_scene_with(scene, sets)?;
+    let accel = Accel::new(&base).map_err(anyhow::Error::msg)?;
+    let keep = light_free_pixels(&base, &accel, 4);
+    let rmse = |x: &Image, y: &Image, keep: &[bool]| {
+        compare_masked(x, y, keep)
+            .map(|e| e.rmse)
+            .ok_or_else(|| anyhow::anyhow!("{}: the references differ in size", scene.display()))
+    };
+    let mut scales = Vec::new();
+    for b in [1, BLOCK] {
+        let view = |img: &Image| if b == 1 { clamp(img) } else { block_means(&clamp(img), &keep, b) };
+        let k: Vec<bool> = if b == 1 { keep.clone() } else { vec![true; view(&refs[0].image).pixels.len()] };
+        let d = rmse(&view(&refs[0].image), &view(&refs[1].image), &k)?;
+        // Each mean errs by half its halves' difference.
+        let noise: Vec<f64> = refs
+            .iter()
+            .map(|r| rmse(&view(&r.halves[0]), &view(&r.halves[1]), &k).map(|x| x / 2.0))
+            .collect::<Result<_>>()?;
+        let expected = (noise[0] * noise[0] + noise[1] * noise[1]).sqrt();
+        let excess = (d * d - expected * expected).max(0.0).sqrt();
+        let name = if b == 1 { "pixels".to_string() } else { format!("{b}×{b} blocks") };
+        let n = (k.iter().filter(|x| **x).count() * 3).max(1) as f64;
+        scales.push(Scale { name, rmse: d, noise: expected, excess, allowed: (6.0 / n.sqrt()).sqrt() * expected });
+    }
+    let mut mean_ratio = [0.0; 3];
+    for (c, m) in mean_ratio.iter_mut().enumerate() {
+        let mean =
+            |img: &Image| img.pixels.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| p[c] as f64).sum::<f64>();
+        *m = mean(&refs[0].image) / mean(&refs[1].image).max(1e-300);
+    }
+    Ok(Agreement { scales, mean_ratio })
 }
 
 #[cfg(test)]

@@ -200,3 +200,24 @@ fn bench_chart_redraws_a_csv_and_refuses_a_bad_one_naming_the_line() {
     assert!(err.contains("bad.csv: line 3") && err.contains("seconds"), "{err}");
     assert!(!d.join("bad.png").exists());
 }
+
+/// `reference --against-spp` accepts a reference that converges to the same image (PT at fewer samples)
+/// and refuses a biased one (a fixed photon map with few photons and a wide gather),
+/// with exit status 1.
+#[test]
+fn reference_agreement_tells_a_biased_reference_from_a_noisy_one() {
+    let d = dir("reference-agreement");
+    let box_ = scene("cornell-box.toml");
+    let run = |kind: &[&str]| {
+        let mut args = vec!["reference", box_.as_str()];
+        args.extend_from_slice(kind);
+        args.extend_from_slice(&["--against-spp", "512", "--set", "camera.resolution=[32,32]", "-q"]);
+        caustica(&args, &d)
+    };
+    let (code, out, err) = run(&["--spp", "64"]);
+    assert_eq!(code, 0, "PT 64 spp against PT 512 spp: {out}{err}");
+    assert!(out.contains("agree within their noise"), "{out}");
+    let (code, out, err) = run(&["--photons", "20000"]);
+    assert_eq!(code, 1, "a 20,000-photon map against PT should differ beyond the noise: {out}{err}");
+    assert!(err.contains("differ beyond their noise"), "{err}");
+}
