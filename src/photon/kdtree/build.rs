@@ -32,19 +32,21 @@ impl<T: Copy + Default + Send + Sync> KdTree<T> {
         // Into structure-of-arrays form from the back, a block at a time, shrinking the source as it
         // empties: the points are held about once, not twice, at the peak (the positions' zeroed
         // allocation is only backed by memory where it is written).
-        let mut pos = vec![[0.0f32; 3]; n];
+        let mut xyz = [vec![0.0f32; n], vec![0.0f32; n], vec![0.0f32; n]];
         let mut items = vec![T::default(); n];
         const BLOCK: usize = 1 << 20;
         while !pts.is_empty() {
             let from = pts.len().saturating_sub(BLOCK);
             for (i, (p, item)) in pts.drain(from..).enumerate() {
-                pos[from + i] = p;
+                for (axis, c) in xyz.iter_mut().zip(p) {
+                    axis[from + i] = c;
+                }
                 items[from + i] = item;
             }
             pts.shrink_to_fit();
         }
         Ok(KdTree {
-            pos,
+            xyz,
             items,
             splits: splits.into_iter().map(|a| f32::from_bits(a.into_inner())).collect(),
             axes: axes.into_iter().map(|a| a.into_inner()).collect(),

@@ -88,15 +88,15 @@ impl<T> KdTree<T> {
                 let far_d2 = e.d2 - e.off[axis] * e.off[axis] + diff * diff;
                 if far_d2 <= bound {
                     if e.depth + 3 >= self.depth {
-                        // The far child's buckets (one to four) will likely be scanned soon: start their
-                        // cache misses now, while the near side is being searched.
-                        let levels = self.depth - e.depth - 1;
-                        let (lo, hi) = (far.1, far.2);
-                        let step = ((hi - lo) >> levels).max(1);
-                        let mut i = lo;
-                        while i < hi {
-                            std::hint::black_box(self.pos[i as usize][0]);
-                            i += step;
+                        // The far child's buckets (one to four) will likely be scanned soon: prefetch
+                        // them (a hint that does not wait) while the near side is being searched.
+                        let (lo, hi) = (far.1 as usize, far.2 as usize);
+                        for axis in &self.xyz {
+                            let mut i = lo;
+                            while i < hi {
+                                mem_prefetch::prefetch_read_data::<_, 3>(&axis[i]);
+                                i += 16;
+                            }
                         }
                     }
                     let mut off = e.off;
@@ -117,10 +117,11 @@ impl<T> KdTree<T> {
     pub(super) fn bucket_d2(&self, q: [f32; 3], lo: u32, hi: u32, out: &mut [f32; super::BUCKET]) -> usize {
         let (lo, hi) = (lo as usize, hi as usize);
         let n = hi - lo;
-        for (o, p) in out.iter_mut().zip(&self.pos[lo..hi]) {
-            let dx = p[0] - q[0];
-            let dy = p[1] - q[1];
-            let dz = p[2] - q[2];
+        let (xs, ys, zs) = (&self.xyz[0][lo..hi], &self.xyz[1][lo..hi], &self.xyz[2][lo..hi]);
+        for (((o, x), y), z) in out.iter_mut().zip(xs).zip(ys).zip(zs) {
+            let dx = x - q[0];
+            let dy = y - q[1];
+            let dz = z - q[2];
             *o = dx * dx + dy * dy + dz * dz;
         }
         n

@@ -1,5 +1,5 @@
 //! Hand-written balanced k-d tree for photons: median splits, implicit heap-ordered split planes (no
-//! pointers), leaf buckets of up to `BUCKET` points with structure-of-arrays coordinates, and items
+//! pointers), leaf buckets of up to `BUCKET` points, coordinates as one array per axis, and items
 //! reordered into tree order. Queries: k nearest within a radius, all within a radius, nearest one.
 mod build;
 mod knn;
@@ -21,8 +21,9 @@ pub enum KdError {
 
 /// A balanced k-d tree over 3-D points carrying items of type `T`.
 pub struct KdTree<T> {
-    /// Positions in tree order; a bucket's points are contiguous (one or two cache lines per visit).
-    pos: Vec<[f32; 3]>,
+    /// Coordinates in tree order, one array per axis (x, y, z): a bucket's points are contiguous in
+    /// each, so its distances are computed four or eight at a time without shuffles.
+    xyz: [Vec<f32>; 3],
     items: Vec<T>,
     /// Split value of internal node i (heap order: children 2i+1, 2i+2).
     splits: Vec<f32>,
@@ -34,16 +35,17 @@ pub struct KdTree<T> {
 
 impl<T> KdTree<T> {
     pub fn len(&self) -> usize {
-        self.pos.len()
+        self.xyz[0].len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.pos.is_empty()
+        self.xyz[0].is_empty()
     }
 
     /// Position of the point at tree index `i`.
     pub fn position(&self, i: u32) -> [f32; 3] {
-        self.pos[i as usize]
+        let i = i as usize;
+        [self.xyz[0][i], self.xyz[1][i], self.xyz[2][i]]
     }
 
     pub fn item(&self, i: u32) -> &T {
