@@ -7,7 +7,7 @@ use crate::color::Rgb;
 use crate::film::Image;
 use crate::metrics::{compare_masked, light_free_pixels};
 use crate::output::with_suffix;
-use crate::pipeline::reference;
+use crate::pipeline::{reference, Reference};
 use crate::scene::load_scene_with;
 use anyhow::Result;
 use serde::Serialize;
@@ -207,8 +207,7 @@ pub fn run(o: &Options) -> Result<()> {
     let base = load_scene_with(o.scene, o.sets)?;
     let accel = Accel::new(&base).map_err(anyhow::Error::msg)?;
     let keep = light_free_pixels(&base, &accel, 4);
-    // The reference's noise on the scale of the scores: halves differ by d, their mean errs by d/2.
-    let ref_noise = compare_masked(&clamp(&r.halves[0]), &clamp(&r.halves[1]), &keep).map_or(0.0, |e| e.rmse / 2.0);
+    let ref_noise = mean_noise(&r, clamp, &keep).unwrap_or(0.0);
     eprintln!(
         "reference noise on the scoring scale (clamped, lights masked): RMSE {ref_noise:.5}; subtracted in quadrature"
     );
@@ -525,34 +524,33 @@ fn block_means(img: &Image, keep: &[bool], b: u32) -> Image {
     Image { width: pixels.len() as u32, height: 1, pixels }
 }
 
-/// Compares references `a` and `b` (each rendered or read from the cache in `dir`): whether a consistent
+/// A reference mean's own RMSE on the scale `view` puts images on (over the `keep` values): its halves
+/// differ by d, their mean errs by d/2. None if the halves' sizes do not fit `keep`.
+fn mean_noise(r: &Reference, view: impl Fn(&Image) -> Image, keep: &[bool]) -> Option<f64> {
+    compare_masked(&view(&r.halves[0]), &view(&r.halves[1]), keep).map(|e| e.rmse / 2.0)
+}
+
+impl Agreement {
+    /// Whether no scale differs beyond what the noise makes plausible.
+    pub fn agrees(&self) -> bool {
+        self.scales.iter().all(|s| s.excess <= s.allowed)
+    }
+}
+
+/// Compares two references of `scene` (rendered with the overrides `sets`): whether a consistent
 /// estimator's reference (SPPM) agrees with a path-traced one within their noise before it is used.
-pub fn reference_agreement(
-    scene: &Path,
-    sets: &[String],
-    kinds: [crate::pipeline::RefKind; 2],
-    dir: &Path,
-    quiet: bool,
-) -> Result<Agreement> {
-    let refs = [reference(scene, sets, kinds[0], dir, quiet)?, reference(scene, sets, kinds[1], dir, quiet)?];
+pub fn reference_agreement(scene: &Path, sets: &[String], refs: [&Reference; 2]) -> Result<Agreement> {
     let base = load_scene_with(scene, sets)?;
     let accel = Accel::new(&base).map_err(anyhow::Error::msg)?;
     let keep = light_free_pixels(&base, &accel, 4);
-    let rmse = |x: &Image, y: &Image, keep: &[bool]| {
-        compare_masked(x, y, keep)
-            .map(|e| e.rmse)
-            .ok_or_else(|| anyhow::anyhow!("{}: the references differ in size", scene.display()))
-    };
+    let size = || anyhow::anyhow!("{}: the references differ in size from the scene", scene.display());
     let mut scales = Vec::new();
     for b in [1, BLOCK] {
         let view = |img: &Image| if b == 1 { clamp(img) } else { block_means(&clamp(img), &keep, b) };
-        let k: Vec<bool> = if b == 1 { keep.clone() } else { vec![true; view(&refs[0].image).pixels.len()] };
-        let d = rmse(&view(&refs[0].image), &view(&refs[1].image), &k)?;
-        // Each mean errs by half its halves' difference.
-        let noise: Vec<f64> = refs
-            .iter()
-            .map(|r| rmse(&view(&r.halves[0]), &view(&r.halves[1]), &k).map(|x| x / 2.0))
-            .collect::<Result<_>>()?;
+        let (a, c) = (view(&refs[0].image), view(&refs[1].image));
+        let k: Vec<bool> = if b == 1 { keep.clone() } else { vec![true; a.pixels.len()] };
+        let d = compare_masked(&a, &c, &k).ok_or_else(size)?.rmse;
+        let noise = [mean_noise(refs[0], view, &k).ok_or_else(size)?, mean_noise(refs[1], view, &k).ok_or_else(size)?];
         let expected = (noise[0] * noise[0] + noise[1] * noise[1]).sqrt();
         let excess = (d * d - expected * expected).max(0.0).sqrt();
         let name = if b == 1 { "pixels".to_string() } else { format!("{b}×{b} blocks") };
