@@ -4,7 +4,7 @@
 mod common;
 use caustica::accel::{Accel, Tracer};
 use caustica::integrator::path::PathTracer;
-use caustica::integrator::Counters;
+use caustica::integrator::{specular_chain, Counters};
 use caustica::math::{Ray, Rng};
 use caustica::pipeline::render_path;
 use caustica::scene::material::{fresnel_dielectric, Material};
@@ -207,4 +207,55 @@ fn russian_roulette_does_not_count_refractions_radiance_scale_against_a_path() {
     eprintln!("through glass: mean {mean:.5} (closed form {expect:.5}), relative variance {rel_var:.3}");
     assert!((mean / expect - 1.0).abs() < 0.02, "mean {mean} vs closed form {expect}");
     assert!(rel_var < 0.3, "relative variance {rel_var}: roulette cut paths inside the glass");
+}
+
+#[test]
+fn a_split_first_glass_hit_sees_both_lights_in_their_fresnel_shares_on_every_sample() {
+    // A camera ray meets a glass surface (n = 1.5, one interface at y = 0) at 60°: its mirror direction
+    // runs into a quad light above, its refracted direction into another below. Splitting the first hit
+    // must give every sample F·L_up + (1 − F)·L_down/η² (Fresnel from the closed form, not the library);
+    // picking one lobe per sample gives L_up or L_down/η², with that mean.
+    let text = "[camera]\norigin = [0.0, 5.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\n\
+        [materials]\nglass = { type = \"dielectric\", ior = 1.5 }\n\
+        [[shapes]]\ntype = \"quad\"\ncorner = [-50.0, 0.0, -50.0]\nedge_u = [0.0, 0.0, 100.0]\nedge_v = [100.0, 0.0, 0.0]\nmaterial = \"glass\"\n\
+        [[lights]]\ntype = \"quad\"\ncorner = [-20.0, 3.0, -20.0]\nedge_u = [40.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, 40.0]\npower = [4000.0, 4000.0, 4000.0]\n\
+        [[lights]]\ntype = \"quad\"\ncorner = [-20.0, -3.0, -20.0]\nedge_u = [0.0, 0.0, 40.0]\nedge_v = [40.0, 0.0, 0.0]\npower = [1000.0, 1000.0, 1000.0]\n";
+    let scene = common::scene(text);
+    let accel = Accel::new(&scene).unwrap();
+    let theta = 60f32.to_radians();
+    let d = Vec3::new(theta.sin(), -theta.cos(), 0.0);
+    let o = Vec3::new(0.0, 1.0, 0.0) - d / theta.cos();
+    // Each light's radiance where the two lobes meet it, read off the surface they hit.
+    let seen = |ray: Ray| {
+        let i = caustica::accel::interact(&scene, &accel, &ray).expect("the lobe meets its light");
+        scene.emitted(&i.si, i.wo).x as f64
+    };
+    let (eta, cos_i) = (1.5f64, theta.cos() as f64);
+    let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (eta * eta)).sqrt();
+    let t_dir = Vec3::new((theta.sin() as f64 / eta) as f32, -(cos_t as f32), 0.0);
+    let (l_up, l_down) =
+        (seen(Ray::new(Vec3::ZERO, Vec3::new(d.x, -d.y, 0.0))), seen(Ray::new(Vec3::new(0.0, -1e-3, 0.0), t_dir)));
+    assert!(l_up > 0.0 && l_down > 0.0 && (l_up - l_down / (eta * eta)).abs() > 0.5 * l_up, "{l_up} {l_down}");
+    let rs = ((cos_i - eta * cos_t) / (cos_i + eta * cos_t)).powi(2);
+    let rp = ((eta * cos_i - cos_t) / (eta * cos_i + cos_t)).powi(2);
+    let f = 0.5 * (rs + rp);
+    let expect = f * l_up + (1.0 - f) * l_down / (eta * eta);
+    let n = 4000;
+    let (mut unsplit, mut reflected) = (0.0f64, 0);
+    for k in 0..n {
+        let mut rng = Rng::new(3, k, 0);
+        let (e, end) =
+            specular_chain(&scene, &accel, Ray::new(o, d), Vec3::ONE, &mut rng, &mut Counters::default(), true);
+        assert!(end.is_some(), "the chain ends on a light");
+        assert!((e.x as f64 - expect).abs() < 1e-4 * expect, "sample {k}: {} vs {expect}", e.x);
+        let mut rng = Rng::new(3, k, 0);
+        let (e, _) =
+            specular_chain(&scene, &accel, Ray::new(o, d), Vec3::ONE, &mut rng, &mut Counters::default(), false);
+        unsplit += e.x as f64;
+        reflected += ((e.x as f64 - l_up).abs() < 1e-3 * l_up) as u32;
+    }
+    // Unsplit: the same mean within 5σ of a Bernoulli(F) choice between the two values.
+    let sigma = (f * (1.0 - f) / n as f64).sqrt() * (l_up - l_down / (eta * eta)).abs();
+    assert!((unsplit / n as f64 - expect).abs() < 5.0 * sigma, "unsplit mean {} vs {expect}", unsplit / n as f64);
+    assert!(reflected > 0 && reflected < n as u32, "{reflected} of {n} unsplit samples reflected");
 }

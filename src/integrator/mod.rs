@@ -33,6 +33,12 @@ pub struct ChainEnd {
 /// Follows `ray` (throughput `beta`) through non-diffuse surfaces, at most `render.max_depth + 1`
 /// hits, to the first diffuse one. Returns the emission seen on the way, weighted by the throughput
 /// (the diffuse hit's own included), and the diffuse hit, if the chain reached one.
+///
+/// With `split_first`, a first hit on smooth glass or water follows both of its lobes for the emission:
+/// the lobe sampled (which alone leads to the diffuse hit returned) and the other one, each weighted by
+/// its Fresnel share instead of being picked with that probability. A light mirrored in a water surface
+/// is then seen by every sample that points at its reflection rather than by one in twenty-five of them;
+/// the expected emission is unchanged (both lobes' shares add up to the whole), its variance falls.
 pub fn specular_chain(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
@@ -40,23 +46,44 @@ pub fn specular_chain(
     mut beta: crate::color::Rgb,
     rng: &mut crate::math::Rng,
     c: &mut Counters,
+    split_first: bool,
 ) -> (crate::color::Rgb, Option<ChainEnd>) {
     use crate::color::Rgb;
     let mut emitted = Rgb::ZERO;
-    for _ in 0..=scene.render.max_depth {
+    // Emission along the sampled lobe after a split is weighted by its share, not divided by its
+    // probability: `beta * emit_scale` (the returned hit keeps `beta`).
+    let mut emit_scale = 1.0f32;
+    for depth in 0..=scene.render.max_depth {
         c.rays += 1;
         let Some(crate::accel::Interaction { si, wo, .. }) = crate::accel::interact(scene, tracer, &ray) else {
-            emitted += beta * scene.lights.env_radiance(ray.d);
+            emitted += beta * emit_scale * scene.lights.env_radiance(ray.d);
             break;
         };
-        emitted += beta * scene.emitted(&si, wo);
+        emitted += beta * emit_scale * scene.emitted(&si, wo);
         let mat = scene.bsdf(&si, wo);
         if mat.is_diffuse() {
             return (emitted, Some(ChainEnd { si, wo, beta }));
         }
-        let Some((bs, next)) = si.scatter(&mat, wo, rng, crate::scene::TransportMode::Radiance) else {
+        let (u, uc) = (rng.next_2d(), rng.next_f32());
+        let Some((bs, next)) = si.scatter_with(&mat, wo, u, uc, crate::scene::TransportMode::Radiance) else {
             break;
         };
+        let two_lobes = matches!(
+            mat,
+            crate::scene::material::Material::Dielectric { .. }
+                | crate::scene::material::Material::ThinDielectric { .. }
+        );
+        if split_first && depth == 0 && two_lobes && bs.pdf < 1.0 {
+            // The other lobe: reflection is chosen for uc < F, so uc = 0 forces it and uc = 1 refraction.
+            let other_uc = if bs.transmitted { 0.0 } else { 1.0 };
+            if let Some((other, other_ray)) =
+                si.scatter_with(&mat, wo, u, other_uc, crate::scene::TransportMode::Radiance)
+            {
+                let share = other.weight * other.pdf;
+                emitted += specular_chain(scene, tracer, other_ray, beta * share, rng, c, false).0;
+            }
+            emit_scale = bs.pdf;
+        }
         beta *= bs.weight;
         if beta == Rgb::ZERO {
             break;

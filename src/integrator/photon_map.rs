@@ -326,7 +326,8 @@ impl<'a> PhotonMapper<'a> {
 
     /// Follows a ray through specular surfaces to a diffuse one; `emission` adds lights seen on the way.
     fn follow(&self, ray: Ray, beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32) -> Rgb {
-        let (emitted, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c);
+        let split = emission && self.only.is_none();
+        let (emitted, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, split);
         let mut l = if emission && self.only.is_none() { emitted } else { Rgb::ZERO };
         if let Some(e) = end {
             // Final-gather rays are the ones that do not count emission.

@@ -6,6 +6,10 @@
 //! photon count N, radius r and flux τ: N' = N + αM, r'² = r² N'/(N + M), τ' = (τ + Φ) r'²/r².
 //! Unless the scene fixes the radius, each pixel starts at the distance of the 30th nearest photon of
 //! the densest map at its first visible point (capped by the scene-wide initial radius).
+//! Pixels whose centre looks into a mirror, glass or water take `specular_spp` extra camera samples per
+//! iteration for the light seen along the chain and at its end (emission, direct light): a small
+//! light's glint through a wavy surface covers a sliver of a pixel, and it is found only by sampling the
+//! pixel's area. The visible point comes from the first sample only.
 //! Every pixel updates only its own state, in parallel: no shared sums, the same bits on any thread
 //! count.
 use super::direct::{estimate_direct, DirectStrategy};
@@ -26,6 +30,9 @@ use std::cell::RefCell;
 /// Photons a pixel's first radius is chosen to hold (in the densest map), when the scene sets none.
 const INITIAL_K: usize = 30;
 
+/// Keys the extra camera samples of pixels behind specular surfaces apart from the visible points'.
+const EXTRA_SAMPLES_KEY: u64 = 0x5350_504D_4558_5452;
+
 thread_local! {
     static SCRATCH: RefCell<KnnResult> = RefCell::new(KnnResult::new());
 }
@@ -45,6 +52,10 @@ pub struct Sppm<'a> {
     tracer: &'a dyn Tracer,
     plan: &'a Plan,
     pixels: Vec<PixelState>,
+    /// Extra camera samples per iteration, per pixel: `plan.specular_spp` where the ray through the
+    /// pixel's centre first meets a non-diffuse surface, else 0. A fixed function of the pixel (not of
+    /// the samples it weighs), so the average over the samples stays unbiased.
+    extra: Vec<u32>,
     iterations: u32,
     pub counters: Counters,
 }
@@ -53,8 +64,24 @@ impl<'a> Sppm<'a> {
     pub fn new(scene: &'a Scene, tracer: &'a dyn Tracer, plan: &'a Plan) -> Sppm<'a> {
         let r = initial_radius(scene);
         let px = PixelState { ld: [0.0; 3], n: 0.0, r, tau: Rgb::ZERO };
-        let count = scene.camera.width as usize * scene.camera.height as usize;
-        Sppm { scene, tracer, plan, pixels: vec![px; count], iterations: 0, counters: Counters::default() }
+        let cam = &scene.camera;
+        let count = cam.width as usize * cam.height as usize;
+        let width = cam.width as usize;
+        let extra = (0..count)
+            .into_par_iter()
+            .map(|k| {
+                if plan.specular_spp == 0 {
+                    return 0;
+                }
+                let ray = cam.ray((k % width) as f32 + 0.5, (k / width) as f32 + 0.5);
+                match tracer.intersect(&ray) {
+                    Some(h) if !scene.material_of(h.shape).bsdf.is_diffuse() => plan.specular_spp,
+                    _ => 0,
+                }
+            })
+            .collect();
+        let counters = Counters { rays: if plan.specular_spp > 0 { count as u64 } else { 0 }, nonfinite: 0 };
+        Sppm { scene, tracer, plan, pixels: vec![px; count], extra, iterations: 0, counters }
     }
 
     /// Runs iteration `i` (1-based; the photons and eye samples of iteration i are keyed by i).
@@ -68,7 +95,17 @@ impl<'a> Sppm<'a> {
                 // Iteration i is camera sample i − 1 of each pixel: stratified across iterations.
                 let mut rng = Rng::camera(sampler, base_seed, k as u64, (i - 1) as u64);
                 let mut c = Counters::default();
-                let (l, vp) = self.camera_path((k % width) as f32, (k / width) as f32, &mut rng, &mut c);
+                let (x, y) = ((k % width) as f32, (k / width) as f32);
+                let (mut l, vp) = self.camera_path(x, y, &mut rng, &mut c);
+                let extra = self.extra[k] as u64;
+                if extra > 0 {
+                    for j in 0..extra {
+                        let index = (i - 1) as u64 * extra + j;
+                        let mut rng = Rng::camera(sampler, base_seed ^ EXTRA_SAMPLES_KEY, k as u64, index);
+                        l += self.camera_path(x, y, &mut rng, &mut c).0;
+                    }
+                    l /= (extra + 1) as f32;
+                }
                 (l, vp, c)
             })
             .collect();
@@ -137,7 +174,8 @@ impl<'a> Sppm<'a> {
     fn camera_path(&self, x: f32, y: f32, rng: &mut Rng, c: &mut Counters) -> (Rgb, Option<ChainEnd>) {
         let scene = self.scene;
         let [u, v] = rng.next_2d();
-        let (mut l, end) = specular_chain(scene, self.tracer, scene.camera.ray(x + u, y + v), Rgb::ONE, rng, c);
+        let ray = scene.camera.ray(x + u, y + v);
+        let (mut l, end) = specular_chain(scene, self.tracer, ray, Rgb::ONE, rng, c, true);
         if let (Some(e), DirectLight::ShadowRays) = (&end, scene.render.direct_light) {
             l += e.beta * estimate_direct(scene, self.tracer, &e.si, e.wo, rng, c, DirectStrategy::LightOnly);
         }

@@ -166,7 +166,19 @@ impl SurfaceHit {
         mode: TransportMode,
     ) -> Option<(material::BsdfSample, crate::math::Ray)> {
         let u = rng.next_2d();
-        let mut bs = mat.sample(wo, self.ns, u, rng.next_f32(), mode)?;
+        self.scatter_with(mat, wo, u, rng.next_f32(), mode)
+    }
+
+    /// `scatter` with the random numbers given (`u` for the direction, `uc` for the lobe).
+    pub fn scatter_with(
+        &self,
+        mat: &Material,
+        wo: Vec3,
+        u: [f32; 2],
+        uc: f32,
+        mode: TransportMode,
+    ) -> Option<(material::BsdfSample, crate::math::Ray)> {
+        let mut bs = mat.sample(wo, self.ns, u, uc, mode)?;
         let same_side = bs.wi.dot(self.ng) * wo.dot(self.ng) > 0.0;
         if same_side == bs.transmitted {
             return None;
