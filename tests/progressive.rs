@@ -42,6 +42,54 @@ fn the_furnace_converges_to_le_over_one_minus_albedo_in_both_modes() {
     }
 }
 
+#[test]
+fn sppm_reads_the_furnace_right_up_to_its_edges_and_corners() {
+    // The furnace seen from close to one of its corners: every point of every wall reads
+    // Le/(1 − a) = 2, the reflected half of it from photons (direct light too, so no shadow-ray noise).
+    // A gather disc that reaches past an edge holds photons over only part of its area; divided by the
+    // whole disc it reads 1 + c (c the part covered: about 1.5 at an edge, 1.25 in the corner). Checked
+    // on the pixels that see within 0.03 of an edge (about one radius), with and without the edge
+    // correction (the same photons and visible points: only the divisor differs).
+    let mut s = furnace(Mode::Sppm);
+    s.camera = caustica::scene::Camera::new(
+        glam::Vec3::new(-0.6, -0.55, -0.5),
+        glam::Vec3::splat(-1.0),
+        glam::Vec3::Y,
+        50.0,
+        caustica::scene::file::FovAxis::X,
+        [24, 24],
+    );
+    s.render.progressive.passes = 64;
+    s.render.direct_light = caustica::scene::file::DirectLight::PhotonMap;
+    let a = Accel::new(&s).unwrap();
+    let near_edge: Vec<bool> = (0..24 * 24)
+        .map(|k| {
+            let ray = s.camera.ray((k % 24) as f32 + 0.5, (k / 24) as f32 + 0.5);
+            let hit = caustica::accel::Tracer::intersect(&a, &ray).expect("a closed box");
+            ray.at(hit.t).to_array().iter().filter(|c| c.abs() > 0.97).count() >= 2
+        })
+        .collect();
+    let edge_pixels = near_edge.iter().filter(|&&e| e).count();
+    assert!(edge_pixels >= 30, "only {edge_pixels} pixels see an edge");
+    let means = |img: &Image| {
+        let (mut edge, mut rest) = (0.0f64, 0.0f64);
+        for (p, &e) in img.pixels.iter().zip(&near_edge) {
+            *(if e { &mut edge } else { &mut rest }) += p.x as f64;
+        }
+        (edge / edge_pixels as f64, rest / (img.pixels.len() - edge_pixels) as f64)
+    };
+    let (edge, rest) = means(&run(&s, &a, &[]).output.image);
+    s.render.progressive.edge_correction = false;
+    let (plain_edge, plain_rest) = means(&run(&s, &a, &[]).output.image);
+    eprintln!(
+        "furnace corner, {edge_pixels} edge pixels: corrected {edge:.4} (elsewhere {rest:.4}), \
+         plain {plain_edge:.4} (elsewhere {plain_rest:.4}); expected 2"
+    );
+    assert!((edge / 2.0 - 1.0).abs() < 0.015, "edge pixels read {edge} with the correction, expected 2");
+    assert!((rest / 2.0 - 1.0).abs() < 0.015, "other pixels read {rest} with the correction, expected 2");
+    assert!(plain_edge < 1.95, "without the correction the edge pixels should read dark, not {plain_edge}");
+}
+
 fn glass(mode: Mode) -> (Scene, Accel) {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-glass.toml");
     let mut s = load_scene_with(&p, &["camera.resolution=[48, 48]".to_string()]).unwrap();

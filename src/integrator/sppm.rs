@@ -10,6 +10,11 @@
 //! iteration for the light seen along the chain and at its end (emission, direct light): a small
 //! light's glint through a wavy surface covers a sliver of a pixel, and it is found only by sampling the
 //! pixel's area. The visible point comes from the first sample only.
+//! A gather disc that reaches past a wall or an edge holds photons over only part of its area, so the
+//! plain estimate darkens a band one radius wide along every corner of a room. Each iteration probes
+//! `EDGE_PROBES` points of the disc (stratified by area) for a surface that could hold its photons and
+//! accumulates the covered fraction; the estimate divides the flux by that accumulated area instead of
+//! n discs (a ratio of sums: consistent, and exact where the disc is whole).
 //! Every pixel updates only its own state, in parallel: no shared sums, the same bits on any thread
 //! count.
 use super::direct::{estimate_direct, DirectStrategy};
@@ -30,6 +35,12 @@ use std::cell::RefCell;
 /// Photons a pixel's first radius is chosen to hold (in the densest map), when the scene sets none.
 const INITIAL_K: usize = 30;
 
+/// Points of each pixel's disc probed per iteration for the surface under them.
+const EDGE_PROBES: usize = 2;
+
+/// Keys the edge probes' random numbers apart from the camera samples'.
+const EDGE_PROBES_KEY: u64 = 0x4544_4745_5052_4F42;
+
 /// Keys the extra camera samples of pixels behind specular surfaces apart from the visible points'.
 const EXTRA_SAMPLES_KEY: u64 = 0x5350_504D_4558_5452;
 
@@ -45,6 +56,9 @@ struct PixelState {
     n: f32,
     r: f32,
     tau: Rgb,
+    /// Sum over iterations of the fraction of the disc that is surface (1 for an iteration without a
+    /// visible point, or without edge correction): the number of whole discs τ is divided by.
+    discs: f64,
 }
 
 pub struct Sppm<'a> {
@@ -63,7 +77,7 @@ pub struct Sppm<'a> {
 impl<'a> Sppm<'a> {
     pub fn new(scene: &'a Scene, tracer: &'a dyn Tracer, plan: &'a Plan) -> Sppm<'a> {
         let r = initial_radius(scene);
-        let px = PixelState { ld: [0.0; 3], n: 0.0, r, tau: Rgb::ZERO };
+        let px = PixelState { ld: [0.0; 3], n: 0.0, r, tau: Rgb::ZERO, discs: 0.0 };
         let cam = &scene.camera;
         let count = cam.width as usize * cam.height as usize;
         let width = cam.width as usize;
@@ -116,46 +130,65 @@ impl<'a> Sppm<'a> {
         // INITIAL_K photons in the densest map of the first iteration: small inside a caustic, large
         // where photons are sparse (capped by the scene-wide initial radius).
         let adapt = i == 1 && scene.render.progressive.radius <= 0.0;
-        self.pixels.par_iter_mut().zip(&camera).for_each(|(px, (l, vp, _))| {
-            for k in 0..3 {
-                px.ld[k] += l[k] as f64;
-            }
-            let Some(vp) = vp else {
-                return;
-            };
-            if adapt {
-                let g = crate::photon::estimate::Gather { k: INITIAL_K, max_r2: px.r * px.r, cone_k: 0.0 };
-                SCRATCH.with(|s| {
-                    let mut s = s.borrow_mut();
-                    for map in maps.maps.iter().flatten() {
-                        let r2 = map.tree.knn(vp.si.p.to_array(), g.k, g.max_r2, &mut s);
-                        if s.len() >= g.k && r2 > 0.0 {
-                            px.r = px.r.min(r2.sqrt());
+        let edges = scene.render.progressive.edge_correction;
+        let probes: Vec<u64> = self
+            .pixels
+            .par_iter_mut()
+            .zip(&camera)
+            .enumerate()
+            .map(|(k, (px, (l, vp, _)))| {
+                for c in 0..3 {
+                    px.ld[c] += l[c] as f64;
+                }
+                let Some(vp) = vp else {
+                    px.discs += 1.0;
+                    return 0;
+                };
+                if adapt {
+                    let g = crate::photon::estimate::Gather { k: INITIAL_K, max_r2: px.r * px.r, cone_k: 0.0 };
+                    SCRATCH.with(|s| {
+                        let mut s = s.borrow_mut();
+                        for map in maps.maps.iter().flatten() {
+                            let r2 = map.tree.knn(vp.si.p.to_array(), g.k, g.max_r2, &mut s);
+                            if s.len() >= g.k && r2 > 0.0 {
+                                px.r = px.r.min(r2.sqrt());
+                            }
                         }
+                    });
+                }
+                let (mut flux, mut m) = (Rgb::ZERO, 0u32);
+                SCRATCH.with(|s| {
+                    for map in maps.maps.iter().flatten() {
+                        let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, &mut s.borrow_mut());
+                        flux += f;
+                        m += c;
                     }
                 });
-            }
-            let (mut flux, mut m) = (Rgb::ZERO, 0u32);
-            SCRATCH.with(|s| {
-                for map in maps.maps.iter().flatten() {
-                    let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, &mut s.borrow_mut());
-                    flux += f;
-                    m += c;
+                let mut rays = 0;
+                px.discs += if edges {
+                    let mut rng = Rng::new(base_seed ^ EDGE_PROBES_KEY, k as u64, i as u64);
+                    let (covered, r) = disc_coverage(scene, self.tracer, &vp.si, vp.wo, px.r, &mut rng);
+                    rays = r;
+                    covered
+                } else {
+                    1.0
+                };
+                if m > 0 {
+                    let rho = scene.bsdf(&vp.si, vp.wo).albedo();
+                    let phi = vp.beta * rho / std::f32::consts::PI * flux;
+                    let n_new = px.n + alpha * m as f32;
+                    let r_new = px.r * (n_new / (px.n + m as f32)).sqrt();
+                    px.tau = (px.tau + phi) * ((r_new * r_new) / (px.r * px.r));
+                    px.n = n_new;
+                    px.r = r_new;
                 }
-            });
-            if m > 0 {
-                let rho = scene.bsdf(&vp.si, vp.wo).albedo();
-                let phi = vp.beta * rho / std::f32::consts::PI * flux;
-                let n_new = px.n + alpha * m as f32;
-                let r_new = px.r * (n_new / (px.n + m as f32)).sqrt();
-                px.tau = (px.tau + phi) * ((r_new * r_new) / (px.r * px.r));
-                px.n = n_new;
-                px.r = r_new;
-            }
-        });
+                rays
+            })
+            .collect();
         for (_, _, c) in &camera {
             self.counters += *c;
         }
+        self.counters.rays += probes.iter().sum::<u64>();
         self.iterations = i;
         let mean_r = self.pixels.iter().map(|p| p.r as f64).sum::<f64>() / self.pixels.len().max(1) as f64;
         Ok(PassRecord {
@@ -182,17 +215,60 @@ impl<'a> Sppm<'a> {
         (l, end)
     }
 
-    /// The current estimate: L = Ld / n + τ / (n π r²) after n iterations.
+    /// The current estimate: L = Ld / n + τ / (D π r²) after n iterations, D the number of whole discs
+    /// the flux was gathered over (n without edge correction; never taken below n/4, a quarter disc
+    /// per iteration, so a few unlucky probes early on cannot blow a pixel up).
     pub fn image(&self) -> Image {
         let cam = &self.scene.camera;
         let mut img = Image::new(cam.width, cam.height);
         let n = self.iterations.max(1) as f64;
         for (o, px) in img.pixels.iter_mut().zip(&self.pixels) {
             let area = std::f64::consts::PI * (px.r as f64) * (px.r as f64);
+            let discs = px.discs.max(0.25 * n);
             for k in 0..3 {
-                o[k] = (px.ld[k] / n + px.tau[k] as f64 / (n * area)) as f32;
+                o[k] = (px.ld[k] / n + px.tau[k] as f64 / (discs * area)) as f32;
             }
         }
         img
     }
+}
+
+/// The fraction of the gather disc of radius `r` about `si` (in its tangent plane) under which a surface
+/// could hold the photons `flux_within` accepts there, from `EDGE_PROBES` points stratified by area (one
+/// per sector, a random rotation): for each, a ray down through the estimate's slab (±r/4 about the
+/// plane, as the photon filter) looks for a diffuse surface facing the same way within 53°, passing
+/// through anything else (glass, a ball's underside, the back of a wall). Returns it with the rays cast.
+pub fn disc_coverage(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    si: &crate::scene::SurfaceHit,
+    wo: glam::Vec3,
+    r: f32,
+    rng: &mut Rng,
+) -> (f64, u64) {
+    let n = crate::math::face_forward(si.ng, wo);
+    let frame = crate::math::Frame::from_normal(n);
+    let h = 0.25 * r;
+    let (turn, mut rays, mut covered) = (rng.next_f32(), 0u64, 0usize);
+    for j in 0..EDGE_PROBES {
+        let [u, v] = rng.next_2d();
+        let phi = 2.0 * std::f32::consts::PI * (turn + (j as f32 + u) / EDGE_PROBES as f32);
+        let rho = r * v.sqrt();
+        let q = si.p + frame.to_world(glam::Vec3::new(rho * phi.cos(), rho * phi.sin(), 0.0));
+        let mut ray = crate::math::Ray { o: q + n * h, d: -n, tmin: 0.0, tmax: 2.0 * h };
+        // A few surfaces at most stand in the slab: pass through the ones that cannot hold photons.
+        for _ in 0..4 {
+            rays += 1;
+            let Some(hit) = tracer.intersect(&ray) else {
+                break;
+            };
+            let s = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
+            if s.ng.dot(n).abs() >= 0.6 && scene.bsdf(&s, n).is_diffuse() {
+                covered += 1;
+                break;
+            }
+            ray.tmin = hit.t + 1e-4 * h;
+        }
+    }
+    (covered as f64 / EDGE_PROBES as f64, rays)
 }

@@ -520,6 +520,7 @@ impl Default for VcmSettings {
 /// photons_per_pass = 100000
 /// alpha = 0.6667           # radius shrinkage: r_i² = r_1² Π (k + α)/(k + 1)
 /// radius = 0.0             # initial gather radius in scene units (0 = automatic)
+/// edge_correction = true   # sppm: divide each pixel's photons by the part of its disc that is surface
 /// ```
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
@@ -530,6 +531,9 @@ pub struct ProgressiveSettings {
     pub photons_per_pass: u64,
     pub alpha: f32,
     pub radius: f32,
+    /// SPPM: probe how much of each pixel's gather disc lies on a surface that could hold its photons,
+    /// and divide by that area instead of the whole disc's (no dark band along walls and edges).
+    pub edge_correction: bool,
 }
 
 impl Default for ProgressiveSettings {
@@ -541,6 +545,7 @@ impl Default for ProgressiveSettings {
             photons_per_pass: 100_000,
             alpha: 2.0 / 3.0,
             radius: 0.0,
+            edge_correction: true,
         }
     }
 }
