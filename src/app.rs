@@ -47,12 +47,26 @@ pub fn run(cli: Cli) -> Result<()> {
             println!(
                 "against a {n}-spp path-traced reference (clamped to [0, 1], lights masked, as time-vs-error scores):"
             );
-            for s in &a.scales {
+            for (i, s) in a.scales.iter().enumerate() {
                 println!(
-                    "  {:<12} RMSE between the two {:.5}; their noise alone {:.5}; beyond the noise {:.5} (noise alone makes up to {:.5} plausible)",
-                    s.name, s.rmse, s.noise, s.excess, s.allowed
+                    "  {:<12} RMSE between the two {:.5}; their noise alone {:.5}; beyond the noise {:.5} (noise alone makes up to {:.5} plausible{})",
+                    s.name,
+                    s.rmse,
+                    s.noise,
+                    s.excess,
+                    s.allowed,
+                    if i == 0 { "" } else { " if it were the same everywhere; for information" }
                 );
             }
+            let t = &a.local;
+            println!(
+                "  {:<12} difference² over the local noise variance (3×3 blocks around each), mean {:.3}; noise alone gives {:.3}, up to {:.3} plausible over {} blocks",
+                format!("{0}×{0} blocks", crate::timeerror::BLOCK),
+                t.chi2,
+                t.expected,
+                t.allowed,
+                t.blocks
+            );
             let [r, g, b] = a.mean_ratio;
             println!("  means, this / path traced (R, G, B): {r:.4}, {g:.4}, {b:.4}");
             if a.agrees() {

@@ -485,8 +485,28 @@ fn chart_png(path: &Path, runs: &[Run], title: &str) -> Result<()> {
 /// resolution and averaged over `BLOCK`×`BLOCK` blocks (where per-pixel noise drowns a small bias).
 pub struct Agreement {
     pub scales: Vec<Scale>,
+    /// The blocks' differences against their local noise (the verdict on the block scale).
+    pub local: LocalNoiseTest,
     /// Per channel, the mean of the first over the mean of the second (masked pixels, unclamped).
     pub mean_ratio: [f64; 3],
+}
+
+/// `BLOCK`×`BLOCK` block means compared against the noise where they are: each block's difference d
+/// (per channel) over v, the two references' noise variances (from their halves, (h0 − h1)²/4 each)
+/// pooled over the 3×3 blocks around it. A caustic or the ring round a light is far noisier than a
+/// wall, and a test against the image-wide noise level flags such regions even when only noise
+/// differs there; d²/v does not. Pure noise makes d²/v about F(1, ν)-distributed, ν ≥ 9 (nine pooled
+/// blocks), so its mean is at most ν/(ν − 2) = 9/7; a bias adds (bias² / v) on top.
+pub struct LocalNoiseTest {
+    /// Blocks compared (those with kept pixels and some noise or difference).
+    pub blocks: usize,
+    /// Mean of d²/v over blocks and channels.
+    pub chi2: f64,
+    /// What noise alone gives on average (9/7).
+    pub expected: f64,
+    /// Largest mean noise alone makes plausible: `expected` plus three standard deviations of the
+    /// mean of `blocks` F(1, 9) values (variance 2·9²·8/(7²·5) each).
+    pub allowed: f64,
 }
 
 /// One scale of an `Agreement`.
@@ -503,7 +523,7 @@ pub struct Scale {
     pub allowed: f64,
 }
 
-const BLOCK: u32 = 8;
+pub const BLOCK: u32 = 8;
 
 /// Averages of the kept pixels over `b`×`b` blocks (blocks with none kept are left out), as a one-row
 /// image with its all-kept mask.
@@ -531,9 +551,78 @@ fn mean_noise(r: &Reference, view: impl Fn(&Image) -> Image, keep: &[bool]) -> O
 }
 
 impl Agreement {
-    /// Whether no scale differs beyond what the noise makes plausible.
+    /// Whether the pixels differ by no more than noise makes plausible, and the blocks by no more than
+    /// their local noise does (the block scale's image-wide figure is for information: with noise that
+    /// varies across the image its plausible bound is too tight).
     pub fn agrees(&self) -> bool {
-        self.scales.iter().all(|s| s.excess <= s.allowed)
+        self.scales.first().is_none_or(|s| s.excess <= s.allowed) && self.local.chi2 <= self.local.allowed
+    }
+}
+
+/// Per block of `b`×`b` pixels, the mean of its kept pixels (None where none is kept), row by row, and
+/// the number of blocks per row.
+fn block_grid(img: &Image, keep: &[bool], b: u32) -> (Vec<Option<Rgb>>, usize) {
+    let bw = img.width.div_ceil(b);
+    let mut sum = vec![(Rgb::ZERO, 0u32); (bw * img.height.div_ceil(b)) as usize];
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let i = (y * img.width + x) as usize;
+            if keep[i] {
+                let s = &mut sum[((y / b) * bw + x / b) as usize];
+                s.0 += img.pixels[i];
+                s.1 += 1;
+            }
+        }
+    }
+    (sum.iter().map(|s| (s.1 > 0).then(|| s.0 / s.1 as f32)).collect(), bw as usize)
+}
+
+/// The local-noise test of two references on `BLOCK`×`BLOCK` blocks of their clamped images.
+fn local_noise_test(refs: [&Reference; 2], keep: &[bool]) -> LocalNoiseTest {
+    let grid = |img: &Image| block_grid(&clamp(img), keep, BLOCK);
+    let ((a, bw), (c, _)) = (grid(&refs[0].image), grid(&refs[1].image));
+    // Per block and channel: the noise variance of both means, from each one's halves.
+    let mut var = vec![None; a.len()];
+    for r in refs {
+        let (h0, h1) = (grid(&r.halves[0]).0, grid(&r.halves[1]).0);
+        for (v, (x, y)) in var.iter_mut().zip(h0.iter().zip(&h1)) {
+            if let (Some(x), Some(y)) = (x, y) {
+                let d = (*x - *y).as_dvec3();
+                *v = Some(v.unwrap_or(glam::DVec3::ZERO) + d * d / 4.0);
+            }
+        }
+    }
+    let bh = a.len() / bw.max(1);
+    let (mut sum, mut count) = (0.0f64, 0usize);
+    for by in 0..bh {
+        for bx in 0..bw {
+            let (Some(x), Some(y)) = (a[by * bw + bx], c[by * bw + bx]) else { continue };
+            let mut pooled = (glam::DVec3::ZERO, 0u32);
+            for ny in by.saturating_sub(1)..(by + 2).min(bh) {
+                for nx in bx.saturating_sub(1)..(bx + 2).min(bw) {
+                    if let Some(v) = var[ny * bw + nx] {
+                        pooled = (pooled.0 + v, pooled.1 + 1);
+                    }
+                }
+            }
+            let v = pooled.0 / pooled.1.max(1) as f64;
+            let d = (x - y).as_dvec3();
+            for k in 0..3 {
+                if d[k] == 0.0 && v[k] == 0.0 {
+                    continue; // black, or saturated, in both: nothing to compare
+                }
+                sum += d[k] * d[k] / v[k].max(1e-300);
+                count += 1;
+            }
+        }
+    }
+    let expected = 9.0 / 7.0;
+    let per_value = 2.0 * 81.0 * 8.0 / (49.0 * 5.0);
+    LocalNoiseTest {
+        blocks: count / 3,
+        chi2: sum / count.max(1) as f64,
+        expected,
+        allowed: expected + 3.0 * (per_value / (count / 3).max(1) as f64).sqrt(),
     }
 }
 
@@ -563,7 +652,7 @@ pub fn reference_agreement(scene: &Path, sets: &[String], refs: [&Reference; 2])
             |img: &Image| img.pixels.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| p[c] as f64).sum::<f64>();
         *m = mean(&refs[0].image) / mean(&refs[1].image).max(1e-300);
     }
-    Ok(Agreement { scales, mean_ratio })
+    Ok(Agreement { scales, local: local_noise_test(refs, &keep), mean_ratio })
 }
 
 #[cfg(test)]
@@ -572,6 +661,50 @@ mod tests {
     fn run(s: f64, e: f64) -> Run {
         Run { series: "PT".into(), spp: 1, photons: 0, gather: 0, seconds: s, rmse: e, rmse_raw: e, rel_mse: 0.0 }
     }
+    /// A reference of a `size`² image whose true value is `truth(x, y)` and whose mean carries Gaussian
+    /// noise of standard deviation `sigma(x, y)` (each half √2 times that).
+    fn synthetic(size: u32, truth: impl Fn(u32, u32) -> f32, sigma: impl Fn(u32, u32) -> f32, seed: u64) -> Reference {
+        let mut rng = crate::math::Rng::new(seed, 0, 0);
+        let mut gauss = || {
+            let (u, v) = (rng.next_f32().max(1e-7), rng.next_f32());
+            (-2.0 * u.ln()).sqrt() * (2.0 * std::f32::consts::PI * v).cos()
+        };
+        let mut halves = [Image::new(size, size), Image::new(size, size)];
+        for h in halves.iter_mut() {
+            for (i, p) in h.pixels.iter_mut().enumerate() {
+                let (x, y) = (i as u32 % size, i as u32 / size);
+                let s = sigma(x, y) * std::f32::consts::SQRT_2;
+                *p = Rgb::new(gauss(), gauss(), gauss()) * s + Rgb::splat(truth(x, y));
+            }
+        }
+        let mut image = Image::new(size, size);
+        for (o, (a, b)) in image.pixels.iter_mut().zip(halves[0].pixels.iter().zip(&halves[1].pixels)) {
+            *o = (*a + *b) * 0.5;
+        }
+        Reference { image, halves, halves_rmse: 0.0, path: "synthetic".into(), rendered_s: None }
+    }
+
+    #[test]
+    fn blocks_are_judged_against_the_noise_where_they_are() {
+        // A 256² image, noise 0.02 per pixel except a 64² "caustic" ten times noisier. Unbiased: the
+        // local test must accept it (the image-wide bound, blind to where the noise is, need not).
+        // The same with the first reference 0.008 darker within 8 pixels of the border (as a gather
+        // disc reaching past a wall would make it, 3.2 block standard deviations there): rejected.
+        let size = 256;
+        let keep = vec![true; (size * size) as usize];
+        let sigma = |x: u32, y: u32| if (96..160).contains(&x) && (96..160).contains(&y) { 0.2 } else { 0.02 };
+        let edge = |x: u32, y: u32| x.min(y).min(size - 1 - x).min(size - 1 - y) < 8;
+        for seed in 0..4 {
+            let fair = [synthetic(size, |_, _| 0.5, sigma, 2 * seed), synthetic(size, |_, _| 0.5, sigma, 2 * seed + 1)];
+            let t = local_noise_test([&fair[0], &fair[1]], &keep);
+            assert!(t.chi2 <= t.allowed, "seed {seed}: unbiased, yet {} > {}", t.chi2, t.allowed);
+            assert!((t.chi2 / t.expected - 1.0).abs() < 0.25, "seed {seed}: {} far from {}", t.chi2, t.expected);
+            let dark = synthetic(size, |x, y| if edge(x, y) { 0.492 } else { 0.5 }, sigma, 2 * seed);
+            let t = local_noise_test([&dark, &fair[1]], &keep);
+            assert!(t.chi2 > t.allowed, "seed {seed}: a biased border passed, {} <= {}", t.chi2, t.allowed);
+        }
+    }
+
     #[test]
     fn pt_interpolation_follows_the_power_law() {
         let pt = [run(1.0, 1.0), run(4.0, 0.5), run(16.0, 0.25)];
