@@ -528,19 +528,7 @@ pub const BLOCK: u32 = 8;
 /// Averages of the kept pixels over `b`×`b` blocks (blocks with none kept are left out), as a one-row
 /// image with its all-kept mask.
 fn block_means(img: &Image, keep: &[bool], b: u32) -> Image {
-    let (bw, bh) = (img.width.div_ceil(b), img.height.div_ceil(b));
-    let mut sum = vec![(Rgb::ZERO, 0u32); (bw * bh) as usize];
-    for y in 0..img.height {
-        for x in 0..img.width {
-            let i = (y * img.width + x) as usize;
-            if keep[i] {
-                let s = &mut sum[((y / b) * bw + x / b) as usize];
-                s.0 += img.pixels[i];
-                s.1 += 1;
-            }
-        }
-    }
-    let pixels: Vec<Rgb> = sum.iter().filter(|s| s.1 > 0).map(|s| s.0 / s.1 as f32).collect();
+    let pixels: Vec<Rgb> = block_grid(img, keep, b).0.into_iter().flatten().collect();
     Image { width: pixels.len() as u32, height: 1, pixels }
 }
 
