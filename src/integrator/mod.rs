@@ -30,6 +30,16 @@ pub struct ChainEnd {
     pub beta: crate::color::Rgb,
 }
 
+/// Whether `ray` first meets a non-diffuse surface (mirror, glass, metal): where the photon-mapping eye
+/// passes take their extra samples.
+pub fn first_hit_specular(
+    scene: &crate::scene::Scene,
+    tracer: &dyn crate::accel::Tracer,
+    ray: &crate::math::Ray,
+) -> bool {
+    tracer.intersect(ray).is_some_and(|h| !scene.material_of(h.shape).bsdf.is_diffuse())
+}
+
 /// Follows `ray` (throughput `beta`) through non-diffuse surfaces, at most `render.max_depth + 1`
 /// hits, to the first diffuse one. Returns the emission seen on the way, weighted by the throughput
 /// (the diffuse hit's own included), and the diffuse hit, if the chain reached one.
@@ -68,12 +78,14 @@ pub fn specular_chain(
         let Some((bs, next)) = si.scatter_with(&mat, wo, u, uc, crate::scene::TransportMode::Radiance) else {
             break;
         };
-        let two_lobes = matches!(
-            mat,
-            crate::scene::material::Material::Dielectric { .. }
-                | crate::scene::material::Material::ThinDielectric { .. }
-        );
-        if split_first && depth == 0 && two_lobes && bs.pdf < 1.0 {
+        let two_lobes = || {
+            matches!(
+                mat,
+                crate::scene::material::Material::Dielectric { .. }
+                    | crate::scene::material::Material::ThinDielectric { .. }
+            )
+        };
+        if split_first && depth == 0 && bs.pdf < 1.0 && two_lobes() {
             // The other lobe: reflection is chosen for uc < F, so uc = 0 forces it and uc = 1 refraction.
             let other_uc = if bs.transmitted { 0.0 } else { 1.0 };
             if let Some((other, other_ray)) =

@@ -326,9 +326,9 @@ impl<'a> PhotonMapper<'a> {
 
     /// Follows a ray through specular surfaces to a diffuse one; `emission` adds lights seen on the way.
     fn follow(&self, ray: Ray, beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32) -> Rgb {
-        let split = emission && self.only.is_none();
-        let (emitted, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, split);
-        let mut l = if emission && self.only.is_none() { emitted } else { Rgb::ZERO };
+        let count_emission = emission && self.only.is_none();
+        let (emitted, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, count_emission);
+        let mut l = if count_emission { emitted } else { Rgb::ZERO };
         if let Some(e) = end {
             // Final-gather rays are the ones that do not count emission.
             l += e.beta * self.diffuse_radiance(&e.si, e.wo, rng, c, fg, !emission);
@@ -339,11 +339,7 @@ impl<'a> PhotonMapper<'a> {
     /// One camera sample. Pixels whose first hit is not diffuse take `specular_spp` extra chains.
     pub fn li(&self, ray: Ray, rng: &mut Rng, c: &mut Counters) -> Rgb {
         let fg = self.scene.render.final_gather;
-        let first = self.tracer.intersect(&ray);
-        let extra = match first {
-            Some(h) if !self.scene.material_of(h.shape).bsdf.is_diffuse() => self.specular_spp,
-            _ => 0,
-        };
+        let extra = if super::first_hit_specular(self.scene, self.tracer, &ray) { self.specular_spp } else { 0 };
         let mut sum = Rgb::ZERO;
         for _ in 0..=extra {
             sum += self.follow(ray, Rgb::ONE, rng, c, true, fg);

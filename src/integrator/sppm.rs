@@ -81,19 +81,21 @@ impl<'a> Sppm<'a> {
         let cam = &scene.camera;
         let count = cam.width as usize * cam.height as usize;
         let width = cam.width as usize;
-        let extra = (0..count)
-            .into_par_iter()
-            .map(|k| {
-                if plan.specular_spp == 0 {
-                    return 0;
-                }
-                let ray = cam.ray((k % width) as f32 + 0.5, (k / width) as f32 + 0.5);
-                match tracer.intersect(&ray) {
-                    Some(h) if !scene.material_of(h.shape).bsdf.is_diffuse() => plan.specular_spp,
-                    _ => 0,
-                }
-            })
-            .collect();
+        let extra = if plan.specular_spp == 0 {
+            vec![0; count]
+        } else {
+            (0..count)
+                .into_par_iter()
+                .map(|k| {
+                    let ray = cam.ray((k % width) as f32 + 0.5, (k / width) as f32 + 0.5);
+                    if super::first_hit_specular(scene, tracer, &ray) {
+                        plan.specular_spp
+                    } else {
+                        0
+                    }
+                })
+                .collect()
+        };
         let counters = Counters { rays: if plan.specular_spp > 0 { count as u64 } else { 0 }, nonfinite: 0 };
         Sppm { scene, tracer, plan, pixels: vec![px; count], extra, iterations: 0, counters }
     }
@@ -112,14 +114,12 @@ impl<'a> Sppm<'a> {
                 let (x, y) = ((k % width) as f32, (k / width) as f32);
                 let (mut l, vp) = self.camera_path(x, y, &mut rng, &mut c);
                 let extra = self.extra[k] as u64;
-                if extra > 0 {
-                    for j in 0..extra {
-                        let index = (i - 1) as u64 * extra + j;
-                        let mut rng = Rng::camera(sampler, base_seed ^ EXTRA_SAMPLES_KEY, k as u64, index);
-                        l += self.camera_path(x, y, &mut rng, &mut c).0;
-                    }
-                    l /= (extra + 1) as f32;
+                for j in 0..extra {
+                    let index = (i - 1) as u64 * extra + j;
+                    let mut rng = Rng::camera(sampler, base_seed ^ EXTRA_SAMPLES_KEY, k as u64, index);
+                    l += self.camera_path(x, y, &mut rng, &mut c).0;
                 }
+                l /= (extra + 1) as f32;
                 (l, vp, c)
             })
             .collect();
@@ -164,15 +164,13 @@ impl<'a> Sppm<'a> {
                         m += c;
                     }
                 });
-                let mut rays = 0;
-                px.discs += if edges {
+                let (covered, rays) = if edges {
                     let mut rng = Rng::new(base_seed ^ EDGE_PROBES_KEY, k as u64, i as u64);
-                    let (covered, r) = disc_coverage(scene, self.tracer, &vp.si, vp.wo, px.r, &mut rng);
-                    rays = r;
-                    covered
+                    disc_coverage(scene, self.tracer, &vp.si, vp.wo, px.r, &mut rng)
                 } else {
-                    1.0
+                    (1.0, 0)
                 };
+                px.discs += covered;
                 if m > 0 {
                     let rho = scene.bsdf(&vp.si, vp.wo).albedo();
                     let phi = vp.beta * rho / std::f32::consts::PI * flux;
