@@ -124,6 +124,14 @@ pub struct Scene {
     pub load_seconds: f64,
 }
 
+/// Mitsuba's sphere parameterisation (z is the pole, u the longitude from +x), in world axes, of the
+/// unit normal `n`.
+fn sphere_uv(n: Vec3) -> glam::Vec2 {
+    let phi = n.y.atan2(n.x);
+    let u = if phi < 0.0 { phi + std::f32::consts::TAU } else { phi } / std::f32::consts::TAU;
+    glam::Vec2::new(u, n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI)
+}
+
 /// A ray's hit turned into surface data.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceHit {
@@ -136,7 +144,8 @@ pub struct SurfaceHit {
     pub prim: u32,
     /// Size of the primitive hit (longest triangle edge, sphere radius), for ray offsets.
     pub scale: f32,
-    /// Texture coordinates (the mesh's, else the barycentric ones; spherical on spheres).
+    /// Texture coordinates (the mesh's, else the barycentric ones; spherical on spheres) where the
+    /// shape's material reads a texture; zero elsewhere (nothing else reads them).
     pub uv: glam::Vec2,
 }
 
@@ -301,6 +310,9 @@ impl Scene {
 
     /// Surface data at a hit (shape, primitive, barycentrics u,v, distance t along `ray`).
     pub fn surface(&self, ray: &crate::math::Ray, shape: u32, prim: u32, u: f32, v: f32, t: f32) -> SurfaceHit {
+        // Texture coordinates cost trigonometry on a sphere and three more vertex reads on a mesh: only
+        // a textured material reads them.
+        let textured = self.material_of(shape).texture.is_some();
         match &self.shapes[shape as usize].geometry {
             Geometry::Mesh(m) => {
                 let [i0, i1, i2] = m.indices[prim as usize];
@@ -324,6 +336,7 @@ impl Scene {
                 };
                 let scale = (b - a).length().max((c - a).length()).max((c - b).length());
                 let uv = match &m.uvs {
+                    _ if !textured => glam::Vec2::ZERO,
                     Some(t) => {
                         let [ta, tb, tc] = [t[i0 as usize], t[i1 as usize], t[i2 as usize]];
                         glam::Vec2::from(ta) * (1.0 - u - v) + glam::Vec2::from(tb) * u + glam::Vec2::from(tc) * v
@@ -336,10 +349,7 @@ impl Scene {
                 let p = ray.at(t);
                 let n = (p - *center).normalize();
                 let p = *center + n * *radius;
-                // Mitsuba's sphere parameterisation (z is the pole), in world axes.
-                let phi = n.y.atan2(n.x);
-                let u = if phi < 0.0 { phi + std::f32::consts::TAU } else { phi } / std::f32::consts::TAU;
-                let uv = glam::Vec2::new(u, n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI);
+                let uv = if textured { sphere_uv(n) } else { glam::Vec2::ZERO };
                 SurfaceHit { p, ng: n, ns: n, shape, prim, scale: *radius, uv }
             }
         }
