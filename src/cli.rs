@@ -175,8 +175,9 @@ pub enum BenchCommand {
     TimeVsError {
         /// Scene file (TOML, or Mitsuba 3 XML).
         scene: PathBuf,
-        /// Every sweep gets a fifth of this many seconds (PT, PM photons, PM gather, PPM, SPPM; BDPT and
-        /// VCM get the same share on top).
+        /// Seconds split equally over the chosen sweeps among PT, PM photons, PM gather, PPM and SPPM
+        /// (all five: a fifth each; `--methods sppm` alone: all of it); BDPT and VCM get the same share on
+        /// top.
         #[arg(long, default_value_t = 60.0)]
         budget_s: f64,
         /// Which sweeps to run, comma-separated: pt, pm (photon and gather counts), ppm, sppm, bdpt, vcm.

@@ -217,7 +217,7 @@ pub fn run(o: &Options) -> Result<()> {
         keep,
         reference: clamp(&r.image),
         ref_var: ref_noise * ref_noise,
-        share: o.budget_s / 5.0,
+        share: o.budget_s / budget_parts(o.methods),
         pb: crate::progress::progress(12 + 8 + 7 + 4 * 18, "sweep", o.quiet),
     };
     let mut runs: Vec<Run> = Vec::new();
@@ -237,6 +237,15 @@ pub fn run(o: &Options) -> Result<()> {
     }
     sweep.pb.finish_and_clear();
     report(o, &runs, ref_noise)
+}
+
+/// How many equal parts the budget is split into: one each for PT, PPM and SPPM, two for PM (its
+/// photon-count and gather-count sweeps); BDPT and VCM get a part on top. All methods: five parts (12 s
+/// each of 60 s); `--methods sppm` alone: the whole budget, so one curve can be followed to its end.
+pub fn budget_parts(methods: &[String]) -> f64 {
+    let wants = |m: &str| methods.iter().any(|x| x == m);
+    let parts = ["pt", "ppm", "sppm"].iter().filter(|m| wants(m)).count() + 2 * usize::from(wants("pm"));
+    parts.max(1) as f64
 }
 
 /// The first line of the CSV `run` writes and `redraw` reads.
@@ -646,6 +655,16 @@ pub fn reference_agreement(scene: &Path, sets: &[String], refs: [&Reference; 2])
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[test]
+    fn the_budget_is_shared_only_by_the_sweeps_that_run() {
+        let m = |s: &str| s.split(',').map(String::from).collect::<Vec<_>>();
+        assert_eq!(budget_parts(&m("pt,pm,ppm,sppm,bdpt,vcm")), 5.0);
+        assert_eq!(budget_parts(&m("sppm")), 1.0);
+        assert_eq!(budget_parts(&m("pt,sppm")), 2.0);
+        assert_eq!(budget_parts(&m("pm")), 2.0);
+        assert_eq!(budget_parts(&m("vcm")), 1.0);
+        assert_eq!(budget_parts(&m("bdpt,vcm,pt")), 1.0);
+    }
     fn run(s: f64, e: f64) -> Run {
         Run { series: "PT".into(), spp: 1, photons: 0, gather: 0, seconds: s, rmse: e, rmse_raw: e, rel_mse: 0.0 }
     }
