@@ -509,6 +509,10 @@ pub fn render_progressive_share(
     let sppm_mode = mode == Mode::Sppm;
     let r1 = progressive_r1(scene);
     let mut sums = Sums::new(scene.camera.width, scene.camera.height);
+    // Set-up (the caustic targets probed once, SPPM's pixel table) counts towards the render's time.
+    let t_setup = std::time::Instant::now();
+    let ppm_mode = matches!(mode, Mode::Ppm);
+    let aim = if ppm_mode { crate::integrator::photon_map::aim_targets(scene, tracer, plan) } else { None };
     let mut sppm = sppm_mode.then(|| crate::integrator::sppm::Sppm::new(scene, tracer, plan));
     let first = if sppm_mode { 1 } else { p.first_pass };
     let (part, parts) = if sppm_mode { (0, 1) } else { (part.0, part.1.max(1)) };
@@ -516,7 +520,7 @@ pub fn render_progressive_share(
     let pb = crate::progress::progress(passes.len() as u64, mode.layer_name(), quiet);
     let (mut records, mut shots) = (Vec::new(), Vec::new());
     let mut counters = Counters::default();
-    let (mut seconds, mut emitted) = (0.0f64, 0u64);
+    let (mut seconds, mut emitted) = (t_setup.elapsed().as_secs_f64(), 0u64);
     let vcm_opts = matches!(mode, Mode::Bdpt | Mode::Vcm).then(|| vcm::VcmOptions::of_scene(scene));
     for &i in &passes {
         let record = match (sppm.as_mut(), vcm_opts) {
@@ -537,7 +541,7 @@ pub fn render_progressive_share(
                 }
             }
             (None, None) => {
-                let (img, c, record) = ppm_pass(scene, tracer, plan, i, radius_at(r1, p.alpha, i))?;
+                let (img, c, record) = ppm_pass(scene, tracer, plan, i, radius_at(r1, p.alpha, i), aim.as_ref())?;
                 sums.add_image(&img);
                 counters += c;
                 record

@@ -170,6 +170,54 @@ fn targeted_caustics_match_uniform_emission_with_less_noise() {
     assert!(st < 0.5 * su, "targeted spread {st} vs uniform {su} at equal shots");
 }
 
+/// A glass block under a small area light, half of its top in the shadow of a board: the light sees
+/// a quarter of the block's area (the top; the sides and bottom face away), less the shadow, which cuts
+/// both top triangles, so the probes misjudge them. Caustic flux and photons stored per shot.
+fn shaded_block_caustic(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64, u64) {
+    let mut s = common::scene(
+        "[camera]\norigin = [0.0, 3.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [16, 16]\n\
+         [materials]\nglass = { type = \"dielectric\", ior = 1.5 }\nwhite = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, -3.0]\nedge_u = [0.0, 0.0, 6.0]\nedge_v = [6.0, 0.0, 0.0]\nmaterial = \"white\"\n\
+         [[shapes]]\ntype = \"box\"\nmin = [-0.5, 0.3, -0.5]\nmax = [0.5, 0.8, 0.5]\nmaterial = \"glass\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.6, 1.5, -0.6]\nedge_u = [0.0, 0.0, 1.2]\nedge_v = [0.6, 0.0, 0.0]\nmaterial = \"white\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.2, 3.0, -0.2]\nedge_u = [0.4, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.4]\n\
+         material = \"white\"\nemission = [10.0, 10.0, 10.0]\n",
+    );
+    s.render.seed = seed;
+    let accel = Accel::new(&s).unwrap();
+    let m = match shots {
+        None => maps(&s, &accel, [0, 0, want], true),
+        Some(n) => {
+            s.render.photons.max_shots_factor = 1;
+            maps(&s, &accel, [0, 0, n], false)
+        }
+    };
+    let map = m.maps[CAUSTIC].as_ref().unwrap();
+    (map.total_power().x as f64, map.n_emitted, map.len() as u64)
+}
+
+/// Aiming only where the light arrives (probed once per triangle, with a share of the shots still by
+/// area) keeps the caustic flux of uniform emission, and most aimed photons now arrive: aimed by area
+/// alone, three in four hit the block elsewhere first (or the board) and were dropped.
+#[test]
+fn aimed_photons_go_where_the_light_arrives_and_keep_the_caustic_flux() {
+    let runs = 8;
+    let aimed: Vec<(f64, u64, u64)> = (0..runs).map(|i| shaded_block_caustic(20_000, None, 10 + i)).collect();
+    let shots = aimed[0].1;
+    let (ma, sa) = mean_std(&aimed.iter().map(|t| t.0).collect::<Vec<_>>());
+    let (reference, _, _) = shaded_block_caustic(0, Some(40 * shots), 7);
+    let uniform: Vec<f64> = (0..4).map(|i| shaded_block_caustic(0, Some(10 * shots), 100 + i).0).collect();
+    let (_, su) = mean_std(&uniform);
+    // The 40× run's spread is half that of the 10× runs.
+    let sigma = (sa * sa / runs as f64 + su * su / 4.0).sqrt();
+    let stored_per_shot = aimed.iter().map(|t| t.2 as f64 / t.1 as f64).sum::<f64>() / runs as f64;
+    eprintln!(
+        "aimed {ma:.5} ± {sa:.5} ({shots} shots, {stored_per_shot:.3} stored per shot), uniform×40 {reference:.5}"
+    );
+    assert!((ma - reference).abs() < 4.0 * sigma, "aimed mean {ma} vs uniform {reference} (σ {sigma})");
+    assert!(stored_per_shot > 0.45, "{stored_per_shot:.3} caustic photons stored per aimed shot");
+}
+
 #[test]
 fn indirect_photon_map_converges_to_the_path_traced_indirect_light() {
     // The indirect part alone: PT(all bounces) − PT(max_depth = 1) with the same seeds is exactly the

@@ -27,6 +27,8 @@ pub struct MapsStats {
     pub global_pass: Option<PassStats>,
     pub caustic_pass: Option<PassStats>,
     pub caustic_targeted: bool,
+    /// Seconds spent probing what the lights see of the caustic targets (0 when they came probed).
+    pub aim_seconds: f64,
     pub stored: [u64; 3],
     pub n_emitted: [u64; 3],
     pub complete: [bool; 3],
@@ -36,9 +38,9 @@ pub struct MapsStats {
 }
 
 impl MapsStats {
-    /// Seconds spent tracing photons, over both passes.
+    /// Seconds spent tracing photons, over both passes, and aiming the caustic ones.
     pub fn trace_seconds(&self) -> f64 {
-        [self.global_pass, self.caustic_pass].iter().flatten().map(|p| p.seconds).sum()
+        self.aim_seconds + [self.global_pass, self.caustic_pass].iter().flatten().map(|p| p.seconds).sum::<f64>()
     }
 }
 
@@ -54,6 +56,16 @@ pub struct MapRequest {
     pub shots: Option<u64>,
     /// Distinguishes the random streams of progressive passes (0 for the fixed photon map).
     pub key: u64,
+    /// The caustic targets with their probed shares, built once for all the passes of a progressive
+    /// render (`aim_targets`); None: built here when the caustic map is aimed.
+    pub aim: Option<std::sync::Arc<Targets>>,
+}
+
+/// The caustic targets `planned` requests aim at, probed once (a ray per target triangle), for a
+/// render whose passes all trace caustic photons; None when no caustic photons are aimed.
+pub fn aim_targets(scene: &Scene, tracer: &dyn Tracer, plan: &crate::plan::Plan) -> Option<std::sync::Arc<Targets>> {
+    let aimed = plan.photons[CAUSTIC] > 0 && scene.render.photons.caustic_targeting;
+    aimed.then(|| std::sync::Arc::new(Targets::new(scene, tracer, Some(&plan.caustic_targets))))
 }
 
 impl MapRequest {
@@ -97,7 +109,17 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
         stats.global_pass = Some(st);
     }
     if req.want[CAUSTIC] > 0 {
-        let targets = Targets::new(scene, req.targets.as_deref());
+        let built;
+        let targets: &Targets = match &req.aim {
+            Some(t) => t,
+            None => {
+                let t_aim = std::time::Instant::now();
+                built =
+                    if req.targeted { Targets::new(scene, tracer, req.targets.as_deref()) } else { Targets::none() };
+                stats.aim_seconds = t_aim.elapsed().as_secs_f64();
+                &built
+            }
+        };
         let targeted = req.targeted && !targets.is_empty();
         let s = PassSettings {
             want: [0, 0, if req.shots.is_some() { u64::MAX } else { req.want[CAUSTIC] }],
@@ -108,7 +130,7 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
             pass: 2 + 2 * req.key,
         };
         let pb = bar(req.want[CAUSTIC], "photons: caustic");
-        let (m, st) = run_pass(scene, tracer, &s, targeted.then_some(&targets), &pb);
+        let (m, st) = run_pass(scene, tracer, &s, targeted.then_some(targets), &pb);
         pb.finish_and_clear();
         let [_, _, c] = m;
         collected[CAUSTIC] = Some(c);

@@ -7,10 +7,12 @@
 use super::photon_map::{build_maps, MapRequest, PhotonMapper};
 use super::Counters;
 use crate::film::Image;
+use crate::photon::trace::Targets;
 use crate::plan::Plan;
 use crate::render::render;
 use crate::scene::Scene;
 use serde::Serialize;
+use std::sync::Arc;
 
 /// What one progressive pass did (recorded in the JSON stats).
 #[derive(Clone, Debug, Serialize)]
@@ -75,11 +77,13 @@ pub fn pass_seed(seed: u64, i: u32) -> u64 {
     crate::math::rng::mix64(seed ^ (0x5050_u64 << 32 | i as u64))
 }
 
-/// The maps a progressive pass builds: those the plan wants, each from exactly `photons_per_pass` shots.
-pub fn pass_request(scene: &Scene, plan: &Plan, i: u32) -> MapRequest {
+/// The maps a progressive pass builds: those the plan wants, each from exactly `photons_per_pass` shots,
+/// caustic photons aimed at `aim` (the render's targets, probed once: `aim_targets`).
+pub fn pass_request(scene: &Scene, plan: &Plan, i: u32, aim: Option<&Arc<Targets>>) -> MapRequest {
     MapRequest {
         shots: Some(scene.render.progressive.photons_per_pass),
         key: i as u64,
+        aim: aim.cloned(),
         ..MapRequest::planned(scene, plan)
     }
 }
@@ -92,9 +96,10 @@ pub fn ppm_pass(
     plan: &Plan,
     i: u32,
     r: f32,
+    aim: Option<&Arc<Targets>>,
 ) -> anyhow::Result<(Image, Counters, PassRecord)> {
     let t0 = std::time::Instant::now();
-    let maps = build_maps(scene, tracer, &pass_request(scene, plan, i), true)?;
+    let maps = build_maps(scene, tracer, &pass_request(scene, plan, i, aim), true)?;
     let mut pm = PhotonMapper::new(scene, tracer, &maps, None);
     pm.specular_spp = plan.specular_spp;
     pm.radius = Some(r);

@@ -70,6 +70,8 @@ pub struct Sppm<'a> {
     /// pixel's centre first meets a non-diffuse surface, else 0. A fixed function of the pixel (not of
     /// the samples it weighs), so the average over the samples stays unbiased.
     extra: Vec<u32>,
+    /// The caustic targets, probed once for every iteration's photons.
+    aim: Option<std::sync::Arc<crate::photon::trace::Targets>>,
     iterations: u32,
     pub counters: Counters,
 }
@@ -97,7 +99,8 @@ impl<'a> Sppm<'a> {
                 .collect()
         };
         let counters = Counters { rays: if plan.specular_spp > 0 { count as u64 } else { 0 }, nonfinite: 0 };
-        Sppm { scene, tracer, plan, pixels: vec![px; count], extra, iterations: 0, counters }
+        let aim = super::photon_map::aim_targets(scene, tracer, plan);
+        Sppm { scene, tracer, plan, pixels: vec![px; count], extra, aim, iterations: 0, counters }
     }
 
     /// Runs iteration `i` (1-based; the photons and eye samples of iteration i are keyed by i).
@@ -123,7 +126,8 @@ impl<'a> Sppm<'a> {
                 (l, vp, c)
             })
             .collect();
-        let maps = build_maps(self.scene, self.tracer, &pass_request(self.scene, self.plan, i), true)?;
+        let maps =
+            build_maps(self.scene, self.tracer, &pass_request(self.scene, self.plan, i, self.aim.as_ref()), true)?;
         let alpha = self.scene.render.progressive.alpha;
         let scene = self.scene;
         // Unless the scene fixes it, a pixel's radius starts where its first visible point finds
