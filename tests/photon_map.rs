@@ -129,13 +129,10 @@ fn ball_lens_focuses_near_the_paraxial_focus() {
     assert!(vals[best] > 5.0 * vals[0], "no focusing: {vals:?}");
 }
 
-/// Total power in the caustic map (an unbiased estimate of the caustic flux on diffuse surfaces) and
-/// the photons shot. `shots` = Some(n): uniform emission with exactly n photons shot (equal work).
-fn caustic_flux(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64) {
-    let mut s = common::scene(
-        &std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-glass.toml"))
-            .unwrap(),
-    );
+/// Total power in `s`'s caustic map (an unbiased estimate of the caustic flux on diffuse surfaces), the
+/// photons shot and the photons stored. `shots` = Some(n): uniform emission with exactly n photons shot
+/// (equal work); None: aimed emission until `want` are stored.
+fn caustic_of(mut s: Scene, want: u64, shots: Option<u64>, seed: u64) -> (f64, u64, u64) {
     s.render.seed = seed;
     let accel = Accel::new(&s).unwrap();
     let m = match shots {
@@ -146,7 +143,17 @@ fn caustic_flux(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64) {
         }
     };
     let map = m.maps[CAUSTIC].as_ref().unwrap();
-    (map.total_power().x as f64, map.n_emitted)
+    (map.total_power().x as f64, map.n_emitted, map.len() as u64)
+}
+
+/// The glass box's caustic flux and photons shot (see `caustic_of`).
+fn caustic_flux(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64) {
+    let s = common::scene(
+        &std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-glass.toml"))
+            .unwrap(),
+    );
+    let (flux, shot, _) = caustic_of(s, want, shots, seed);
+    (flux, shot)
 }
 
 fn mean_std(v: &[f64]) -> (f64, f64) {
@@ -174,7 +181,7 @@ fn targeted_caustics_match_uniform_emission_with_less_noise() {
 /// a quarter of the block's area (the top; the sides and bottom face away), less the shadow, which cuts
 /// both top triangles, so the probes misjudge them. Caustic flux and photons stored per shot.
 fn shaded_block_caustic(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64, u64) {
-    let mut s = common::scene(
+    let s = common::scene(
         "[camera]\norigin = [0.0, 3.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [16, 16]\n\
          [materials]\nglass = { type = \"dielectric\", ior = 1.5 }\nwhite = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, -3.0]\nedge_u = [0.0, 0.0, 6.0]\nedge_v = [6.0, 0.0, 0.0]\nmaterial = \"white\"\n\
@@ -183,17 +190,7 @@ fn shaded_block_caustic(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64, 
          [[shapes]]\ntype = \"quad\"\ncorner = [-0.2, 3.0, -0.2]\nedge_u = [0.4, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.4]\n\
          material = \"white\"\nemission = [10.0, 10.0, 10.0]\n",
     );
-    s.render.seed = seed;
-    let accel = Accel::new(&s).unwrap();
-    let m = match shots {
-        None => maps(&s, &accel, [0, 0, want], true),
-        Some(n) => {
-            s.render.photons.max_shots_factor = 1;
-            maps(&s, &accel, [0, 0, n], false)
-        }
-    };
-    let map = m.maps[CAUSTIC].as_ref().unwrap();
-    (map.total_power().x as f64, map.n_emitted, map.len() as u64)
+    caustic_of(s, want, shots, seed)
 }
 
 /// Aiming only where the light arrives (probed once per triangle, with a share of the shots still by
