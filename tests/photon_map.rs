@@ -215,6 +215,38 @@ fn aimed_photons_go_where_the_light_arrives_and_keep_the_caustic_flux() {
     assert!(stored_per_shot > 0.45, "{stored_per_shot:.3} caustic photons stored per aimed shot");
 }
 
+/// A mirror made of a single triangle (an OBJ with one face) over a floor, under a point light: aimed
+/// photons reach it and carry the caustic flux of uniform emission.
+#[test]
+fn a_one_triangle_mirror_is_aimed_at_like_any_mesh() {
+    let dir = std::env::temp_dir().join(format!("caustica-tri-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("mirror.obj");
+    // Upright in the plane x = −1, facing +x: it throws the light back down onto the floor.
+    std::fs::write(&obj, "v -1 0.2 -0.6\nv -1 0.2 0.6\nv -1 1.2 0\nf 1 3 2\n").unwrap();
+    let text = format!(
+        "[camera]\norigin = [0.0, 3.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [16, 16]\n\
+         [materials]\nmirror = {{ type = \"conductor\", preset = \"Ag\", roughness = 0.0 }}\n\
+         white = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, -3.0]\nedge_u = [0.0, 0.0, 6.0]\nedge_v = [6.0, 0.0, 0.0]\nmaterial = \"white\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, -3.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 3.0, 0.0]\nmaterial = \"white\"\n\
+         [[shapes]]\ntype = \"mesh\"\nfile = \"{}\"\nmaterial = \"mirror\"\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.5, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]\n",
+        obj.display()
+    );
+    let runs = 6;
+    let aimed: Vec<(f64, u64, u64)> =
+        (0..runs).map(|i| caustic_of(common::scene(&text), 5_000, None, 10 + i)).collect();
+    let shots = aimed[0].1;
+    let (ma, sa) = mean_std(&aimed.iter().map(|t| t.0).collect::<Vec<_>>());
+    let uniform: Vec<f64> = (0..4).map(|i| caustic_of(common::scene(&text), 0, Some(50 * shots), 100 + i).0).collect();
+    let (mu, su) = mean_std(&uniform);
+    std::fs::remove_dir_all(&dir).ok();
+    let sigma = (sa * sa / runs as f64 + su * su / 4.0).sqrt();
+    eprintln!("one-triangle mirror: aimed {ma:.5} ± {sa:.5} ({shots} shots), uniform ×50 {mu:.5} ± {su:.5}");
+    assert!(ma > 0.0 && (ma - mu).abs() < 4.0 * sigma, "aimed {ma} vs uniform {mu} (σ {sigma})");
+}
+
 #[test]
 fn indirect_photon_map_converges_to_the_path_traced_indirect_light() {
     // The indirect part alone: PT(all bounces) − PT(max_depth = 1) with the same seeds is exactly the

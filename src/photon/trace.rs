@@ -153,11 +153,14 @@ impl Targets {
         let density = |v: f32| (1.0 - a) * v as f64 / seen.max(f64::MIN_POSITIVE) + a / area;
         let mut t = Targets { shapes, ..Targets::none() };
         let mut total = 0.0f64;
-        for els in &elements {
+        for (els, &shape) in elements.iter().zip(&t.shapes) {
             let shares: Vec<f32> = els.iter().map(|&(ar, v)| (ar as f64 * density(v)) as f32).collect();
             total += shares.iter().map(|&x| x as f64).sum::<f64>();
             t.cdf.push(total as f32);
-            t.tri_pick.push(if els.len() > 1 { sampling::AliasTable::new(&shares) } else { Default::default() });
+            t.tri_pick.push(match scene.shapes[shape as usize].geometry {
+                Geometry::Mesh(_) => sampling::AliasTable::new(&shares),
+                Geometry::Sphere { .. } => Default::default(),
+            });
             t.inv_density.push(els.iter().map(|&(_, v)| (1.0 / density(v)) as f32).collect());
         }
         t
