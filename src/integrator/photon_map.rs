@@ -27,8 +27,10 @@ pub struct MapsStats {
     pub global_pass: Option<PassStats>,
     pub caustic_pass: Option<PassStats>,
     pub caustic_targeted: bool,
-    /// Seconds spent probing what the lights see of the caustic targets (0 when they came probed).
+    /// Seconds spent probing what the lights see of the caustic targets, and the rays it took (0 when
+    /// they came probed).
     pub aim_seconds: f64,
+    pub aim_rays: u64,
     pub stored: [u64; 3],
     pub n_emitted: [u64; 3],
     pub complete: [bool; 3],
@@ -117,6 +119,7 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
                 built =
                     if req.targeted { Targets::new(scene, tracer, req.targets.as_deref()) } else { Targets::none() };
                 stats.aim_seconds = t_aim.elapsed().as_secs_f64();
+                stats.aim_rays = built.probe_rays;
                 &built
             }
         };

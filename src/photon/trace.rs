@@ -90,6 +90,8 @@ pub struct Targets {
     tri_pick: Vec<sampling::AliasTable>,
     /// Per target shape: 1 / p(y) on each triangle (one entry for a sphere).
     inv_density: Vec<Vec<f32>>,
+    /// Rays the probes traced.
+    pub probe_rays: u64,
 }
 
 /// Where the light that aims a photon at a target sits: a point on a light, or a direction from
@@ -151,7 +153,8 @@ impl Targets {
         let seen: f64 = elements.iter().flatten().map(|e| e.0 as f64 * e.1 as f64).sum();
         let a = if seen > 0.0 { AIM_BY_AREA as f64 } else { 1.0 };
         let density = |v: f32| (1.0 - a) * v as f64 / seen.max(f64::MIN_POSITIVE) + a / area;
-        let mut t = Targets { shapes, ..Targets::none() };
+        let probe_rays = if probes.is_empty() { 0 } else { (triangles * per_triangle) as u64 };
+        let mut t = Targets { shapes, probe_rays, ..Targets::none() };
         let mut total = 0.0f64;
         for (els, &shape) in elements.iter().zip(&t.shapes) {
             let shares: Vec<f32> = els.iter().map(|&(ar, v)| (ar as f64 * density(v)) as f32).collect();
@@ -213,7 +216,7 @@ impl Targets {
 
     /// No targets (emission is not aimed).
     pub fn none() -> Targets {
-        Targets { shapes: Vec::new(), cdf: Vec::new(), tri_pick: Vec::new(), inv_density: Vec::new() }
+        Targets { shapes: Vec::new(), cdf: Vec::new(), tri_pick: Vec::new(), inv_density: Vec::new(), probe_rays: 0 }
     }
 
     pub fn is_empty(&self) -> bool {
