@@ -64,8 +64,15 @@ pub struct PassStats {
 /// the probes misjudged as hidden is still aimed at, its photons at most 1/`AIM_BY_AREA` times heavier
 /// than by area alone. The estimate is unbiased for any value in (0, 1].
 const AIM_BY_AREA: f32 = 0.1;
-/// Light points (stratified over the lights' power) the targets' triangles are probed from.
+/// How many of `shapes` are spheres.
+fn sphere_count(scene: &Scene, shapes: &[u32]) -> usize {
+    shapes.iter().filter(|&&s| matches!(scene.shapes[s as usize].geometry, Geometry::Sphere { .. })).count()
+}
+
+/// Most probes a target triangle (or sphere) gets.
 const AIM_PROBES: usize = 64;
+/// Light samples a probe draws before it gives up finding a light point that faces its target point.
+const AIM_LIGHT_TRIES: usize = 8;
 /// Probe rays the targets share: each triangle gets this many over the number of triangles, at least
 /// one (the glass dragon's 871k triangles: one each) and at most `AIM_PROBES` (a 12-triangle glass
 /// block: 64 each, from stratified points of the triangle to each of the light points).
@@ -76,12 +83,13 @@ const AIM_PROBE_RAYS: usize = 1 << 16;
 ///
 ///   p(y) = (1 − a) · v(T)/V + a / A,   a = `AIM_BY_AREA`,
 ///
-/// for y on triangle T: A the targets' total area, v(T) the fraction of probes (a point of T, a light
-/// point) for which a photon aimed from the light point at the point of T arrives there first (what
-/// `trace_one` checks of every aimed photon), V = Σ area(T)·v(T). A closed glass mesh shows a light at
+/// for y on triangle T: A the targets' total area, v(T) the fraction of probes for which a photon aimed
+/// at a point of T, from a light point drawn as direct lighting draws it there (facing that point: the
+/// far side of a sphere light would say nothing about T), arrives first (what `trace_one` checks of
+/// every aimed photon), V = Σ area(T)·v(T). A closed glass mesh shows a light at
 /// most half its area, and its folds hide more (the glass dragon: three aimed photons in four hit the
-/// dragon elsewhere first and were dropped); with the probes most shots arrive. Spheres count as seen
-/// (not probed).
+/// dragon elsewhere first and were dropped); with the probes most shots arrive. A sphere is one element
+/// (uniform on it), probed at `AIM_PROBES` points.
 pub struct Targets {
     shapes: Vec<u32>,
     /// Running sum of each target shape's share of the shots.
@@ -92,13 +100,6 @@ pub struct Targets {
     inv_density: Vec<Vec<f32>>,
     /// Rays the probes traced.
     pub probe_rays: u64,
-}
-
-/// Where the light that aims a photon at a target sits: a point on a light, or a direction from
-/// infinity.
-enum ProbeLight {
-    Point(crate::scene::light::LightPoint),
-    Infinite(Vec3),
 }
 
 impl Targets {
@@ -113,7 +114,7 @@ impl Targets {
             }
             shapes.push(i as u32);
         }
-        let probes = Self::probe_lights(scene);
+        let probing = !scene.lights.is_empty();
         let triangles: usize = shapes
             .iter()
             .map(|&s| match &scene.shapes[s as usize].geometry {
@@ -126,34 +127,56 @@ impl Targets {
         let elements: Vec<Vec<(f32, f32)>> = shapes
             .iter()
             .map(|&shape| match &scene.shapes[shape as usize].geometry {
-                Geometry::Mesh(m) if !probes.is_empty() => (0..m.indices.len())
+                Geometry::Mesh(m) if probing => (0..m.indices.len())
                     .into_par_iter()
                     .map(|j| {
                         let [a, b, c] = m.triangle(j);
                         let seen = (0..per_triangle)
                             .filter(|&k| {
-                                // Stratified on the triangle (k-th of a Hammersley set), each from its own light point.
+                                // Stratified on the triangle (k-th of a Hammersley set).
                                 let u = [
                                     (k as f32 + 0.5) / per_triangle as f32,
                                     (k as u32).reverse_bits() as f32 / 4_294_967_296.0,
                                 ];
                                 let [bu, bv] = sampling::uniform_triangle(u);
                                 let y = a * (1.0 - bu - bv) + b * bu + c * bv;
-                                Self::arrives(scene, tracer, &probes[(j * per_triangle + k) % probes.len()], shape, y)
+                                let mut rng = Rng::new(0xA1A1_5EED, shape as u64, (j * per_triangle + k) as u64);
+                                Self::lit(scene, tracer, shape, y, &mut rng)
                             })
                             .count();
                         (m.area(j), seen as f32 / per_triangle as f32)
                     })
                     .collect(),
                 Geometry::Mesh(m) => (0..m.indices.len()).map(|j| (m.area(j), 1.0)).collect(),
-                Geometry::Sphere { .. } => vec![(scene.shapes[shape as usize].area(), 1.0)],
+                Geometry::Sphere { center, radius } => {
+                    // A sphere is one element, probed at AIM_PROBES stratified points of its surface.
+                    let seen = if probing {
+                        (0..AIM_PROBES)
+                            .into_par_iter()
+                            .filter(|&k| {
+                                let u = [
+                                    (k as f32 + 0.5) / AIM_PROBES as f32,
+                                    (k as u32).reverse_bits() as f32 / 4_294_967_296.0,
+                                ];
+                                let y = *center + sampling::uniform_sphere(u) * *radius;
+                                let mut rng = Rng::new(0xA1A1_5EED, shape as u64, k as u64);
+                                Self::lit(scene, tracer, shape, y, &mut rng)
+                            })
+                            .count() as f32
+                            / AIM_PROBES as f32
+                    } else {
+                        1.0
+                    };
+                    vec![(scene.shapes[shape as usize].area(), seen)]
+                }
             })
             .collect();
         let area: f64 = elements.iter().flatten().map(|e| e.0 as f64).sum();
         let seen: f64 = elements.iter().flatten().map(|e| e.0 as f64 * e.1 as f64).sum();
         let a = if seen > 0.0 { AIM_BY_AREA as f64 } else { 1.0 };
         let density = |v: f32| (1.0 - a) * v as f64 / seen.max(f64::MIN_POSITIVE) + a / area;
-        let probe_rays = if probes.is_empty() { 0 } else { (triangles * per_triangle) as u64 };
+        let spheres = sphere_count(scene, &shapes);
+        let probe_rays = if probing { (triangles * per_triangle + spheres * AIM_PROBES) as u64 } else { 0 };
         let mut t = Targets { shapes, probe_rays, ..Targets::none() };
         let mut total = 0.0f64;
         for (els, &shape) in elements.iter().zip(&t.shapes) {
@@ -169,49 +192,23 @@ impl Targets {
         t
     }
 
-    /// `AIM_PROBES` light points drawn as photons are (a light by power, a point on it), stratified;
-    /// none without lights.
-    fn probe_lights(scene: &Scene) -> Vec<ProbeLight> {
-        let lights = &scene.lights;
-        if lights.is_empty() {
-            return Vec::new();
+    /// Whether a photon aimed at point `y` of target `shape` from a light point drawn as direct lighting
+    /// draws it from `y` (by power; the first of `AIM_LIGHT_TRIES` that faces `y`) gets there first: the
+    /// test `trace_one` applies to every aimed photon.
+    fn lit(scene: &Scene, tracer: &dyn Tracer, shape: u32, y: Vec3, rng: &mut Rng) -> bool {
+        for _ in 0..AIM_LIGHT_TRIES {
+            let Some(ls) = scene.lights.sample(scene, y, rng.next_f32(), rng.next_2d(), false) else {
+                continue;
+            };
+            let d = y - ls.p;
+            let dist = d.length();
+            if dist.is_nan() || dist <= 0.0 {
+                return false;
+            }
+            let ray = Ray::new(ls.p, d / dist);
+            return tracer.intersect(&ray).is_some_and(|h| h.shape == shape && h.t >= dist * (1.0 - 1e-3));
         }
-        (0..AIM_PROBES)
-            .filter_map(|k| {
-                let mut rng = Rng::new(0xA1A1_5EED, 0, k as u64);
-                let (li, _) = sampling::sample_cdf(&lights.cdf, (k as f32 + rng.next_f32()) / AIM_PROBES as f32);
-                if lights.list[li].at_infinity() {
-                    lights.sample_infinite(li, rng.next_2d()).map(|s| ProbeLight::Infinite(s.wi))
-                } else {
-                    lights.sample_point(scene, li, rng.next_2d()).map(ProbeLight::Point)
-                }
-            })
-            .collect()
-    }
-
-    /// Whether a photon aimed from `light` at point `y` of target `shape` gets there first: the test
-    /// `trace_one` applies to every aimed photon.
-    fn arrives(scene: &Scene, tracer: &dyn Tracer, light: &ProbeLight, shape: u32, y: Vec3) -> bool {
-        let (ray, dist) = match light {
-            ProbeLight::Infinite(wi) => {
-                let far = scene.lights.beyond_scene(y);
-                (Ray::new(y + *wi * far, -*wi), far)
-            }
-            ProbeLight::Point(lp) => {
-                let d = y - lp.p;
-                let dist = d.length();
-                if dist <= 0.0 {
-                    return false;
-                }
-                let w = d / dist;
-                if lp.n != Vec3::ZERO && lp.n.dot(w) <= 0.0 {
-                    return false;
-                }
-                let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w, lp.size) };
-                (Ray::new(o, w), dist - (o - lp.p).length())
-            }
-        };
-        tracer.intersect(&ray).is_some_and(|h| h.shape == shape && h.t >= dist * (1.0 - 1e-3))
+        false
     }
 
     /// No targets (emission is not aimed).
