@@ -64,19 +64,19 @@ pub struct PassStats {
 /// the probes misjudged as hidden is still aimed at, its photons at most 1/`AIM_BY_AREA` times heavier
 /// than by area alone. The estimate is unbiased for any value in (0, 1].
 const AIM_BY_AREA: f32 = 0.1;
-/// How many of `shapes` are spheres.
-fn sphere_count(scene: &Scene, shapes: &[u32]) -> usize {
-    shapes.iter().filter(|&&s| matches!(scene.shapes[s as usize].geometry, Geometry::Sphere { .. })).count()
-}
-
 /// Most probes a target triangle (or sphere) gets.
 const AIM_PROBES: usize = 64;
 /// Light samples a probe draws before it gives up finding a light point that faces its target point.
 const AIM_LIGHT_TRIES: usize = 8;
-/// Probe rays the targets share: each triangle gets this many over the number of triangles, at least
+/// Probe rays the targets' triangles share: each gets this many over the number of triangles, at least
 /// one (the glass dragon's 871k triangles: one each) and at most `AIM_PROBES` (a 12-triangle glass
-/// block: 64 each, from stratified points of the triangle to each of the light points).
+/// block: 64 each, at stratified points of the triangle).
 const AIM_PROBE_RAYS: usize = 1 << 16;
+
+/// How many of `shapes` are spheres.
+fn sphere_count(scene: &Scene, shapes: &[u32]) -> usize {
+    shapes.iter().filter(|&&s| matches!(scene.shapes[s as usize].geometry, Geometry::Sphere { .. })).count()
+}
 
 /// Specular surfaces that caustic photons are aimed at. A point is drawn in two steps (a target shape,
 /// then one of its triangles, each by precomputed shares), with density over the targets' area
