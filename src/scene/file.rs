@@ -581,7 +581,8 @@ pub struct PhotonSettings {
     pub caustic: u64,
     /// Give up shooting after this many photons per requested photon (reported, never loops forever).
     pub max_shots_factor: u64,
-    /// Aim caustic photons at specular surfaces (area-weighted); false = uniform emission.
+    /// Aim caustic photons at the parts of specular surfaces the lights reach (probed once; a tenth of
+    /// the shots by area alone); false = uniform emission.
     pub caustic_targeting: bool,
 }
 
