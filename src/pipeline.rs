@@ -511,9 +511,9 @@ pub fn render_progressive_share(
     let mut sums = Sums::new(scene.camera.width, scene.camera.height);
     // Set-up (the caustic targets probed once, SPPM's pixel table) counts towards the render's time.
     let t_setup = std::time::Instant::now();
-    let ppm_mode = matches!(mode, Mode::Ppm);
-    let aim = if ppm_mode { crate::integrator::photon_map::aim_targets(scene, tracer, plan) } else { None };
-    let mut sppm = sppm_mode.then(|| crate::integrator::sppm::Sppm::new(scene, tracer, plan));
+    let photon_passes = matches!(mode, Mode::Ppm | Mode::Sppm);
+    let aim = if photon_passes { crate::integrator::photon_map::aim_targets(scene, tracer, plan) } else { None };
+    let mut sppm = sppm_mode.then(|| crate::integrator::sppm::Sppm::new(scene, tracer, plan, aim.clone()));
     let first = if sppm_mode { 1 } else { p.first_pass };
     let (part, parts) = if sppm_mode { (0, 1) } else { (part.0, part.1.max(1)) };
     let passes: Vec<u32> = (first..first + p.passes).filter(|k| (k - first) % parts == part).collect();

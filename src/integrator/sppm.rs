@@ -77,7 +77,13 @@ pub struct Sppm<'a> {
 }
 
 impl<'a> Sppm<'a> {
-    pub fn new(scene: &'a Scene, tracer: &'a dyn Tracer, plan: &'a Plan) -> Sppm<'a> {
+    /// `aim`: the render's caustic targets, probed once (`photon_map::aim_targets`).
+    pub fn new(
+        scene: &'a Scene,
+        tracer: &'a dyn Tracer,
+        plan: &'a Plan,
+        aim: Option<std::sync::Arc<crate::photon::trace::Targets>>,
+    ) -> Sppm<'a> {
         let r = initial_radius(scene);
         let px = PixelState { ld: [0.0; 3], n: 0.0, r, tau: Rgb::ZERO, discs: 0.0 };
         let cam = &scene.camera;
@@ -99,7 +105,6 @@ impl<'a> Sppm<'a> {
                 .collect()
         };
         let counters = Counters { rays: if plan.specular_spp > 0 { count as u64 } else { 0 }, nonfinite: 0 };
-        let aim = super::photon_map::aim_targets(scene, tracer, plan);
         Sppm { scene, tracer, plan, pixels: vec![px; count], extra, aim, iterations: 0, counters }
     }
 

@@ -73,9 +73,9 @@ const AIM_LIGHT_TRIES: usize = 8;
 /// block: 64 each, at stratified points of the triangle).
 const AIM_PROBE_RAYS: usize = 1 << 16;
 
-/// How many of `shapes` are spheres.
-fn sphere_count(scene: &Scene, shapes: &[u32]) -> usize {
-    shapes.iter().filter(|&&s| matches!(scene.shapes[s as usize].geometry, Geometry::Sphere { .. })).count()
+/// Point `k` of an `n`-point Hammersley set in the unit square (stratified in the first coordinate).
+fn hammersley(k: usize, n: usize) -> [f32; 2] {
+    [(k as f32 + 0.5) / n as f32, (k as u32).reverse_bits() as f32 / 4_294_967_296.0]
 }
 
 /// Specular surfaces that caustic photons are aimed at. A point is drawn in two steps (a target shape,
@@ -115,13 +115,11 @@ impl Targets {
             shapes.push(i as u32);
         }
         let probing = !scene.lights.is_empty();
-        let triangles: usize = shapes
-            .iter()
-            .map(|&s| match &scene.shapes[s as usize].geometry {
-                Geometry::Mesh(m) => m.indices.len(),
-                Geometry::Sphere { .. } => 0,
-            })
-            .sum();
+        let (triangles, spheres) =
+            shapes.iter().fold((0usize, 0usize), |(t, n), &s| match &scene.shapes[s as usize].geometry {
+                Geometry::Mesh(m) => (t + m.indices.len(), n),
+                Geometry::Sphere { .. } => (t, n + 1),
+            });
         let per_triangle = (AIM_PROBE_RAYS / triangles.max(1)).clamp(1, AIM_PROBES);
         // Per target shape, per element (triangle, or the whole sphere): (area, fraction seen).
         let elements: Vec<Vec<(f32, f32)>> = shapes
@@ -133,12 +131,7 @@ impl Targets {
                         let [a, b, c] = m.triangle(j);
                         let seen = (0..per_triangle)
                             .filter(|&k| {
-                                // Stratified on the triangle (k-th of a Hammersley set).
-                                let u = [
-                                    (k as f32 + 0.5) / per_triangle as f32,
-                                    (k as u32).reverse_bits() as f32 / 4_294_967_296.0,
-                                ];
-                                let [bu, bv] = sampling::uniform_triangle(u);
+                                let [bu, bv] = sampling::uniform_triangle(hammersley(k, per_triangle));
                                 let y = a * (1.0 - bu - bv) + b * bu + c * bv;
                                 let mut rng = Rng::new(0xA1A1_5EED, shape as u64, (j * per_triangle + k) as u64);
                                 Self::lit(scene, tracer, shape, y, &mut rng)
@@ -154,11 +147,7 @@ impl Targets {
                         (0..AIM_PROBES)
                             .into_par_iter()
                             .filter(|&k| {
-                                let u = [
-                                    (k as f32 + 0.5) / AIM_PROBES as f32,
-                                    (k as u32).reverse_bits() as f32 / 4_294_967_296.0,
-                                ];
-                                let y = *center + sampling::uniform_sphere(u) * *radius;
+                                let y = *center + sampling::uniform_sphere(hammersley(k, AIM_PROBES)) * *radius;
                                 let mut rng = Rng::new(0xA1A1_5EED, shape as u64, k as u64);
                                 Self::lit(scene, tracer, shape, y, &mut rng)
                             })
@@ -175,7 +164,6 @@ impl Targets {
         let seen: f64 = elements.iter().flatten().map(|e| e.0 as f64 * e.1 as f64).sum();
         let a = if seen > 0.0 { AIM_BY_AREA as f64 } else { 1.0 };
         let density = |v: f32| (1.0 - a) * v as f64 / seen.max(f64::MIN_POSITIVE) + a / area;
-        let spheres = sphere_count(scene, &shapes);
         let probe_rays = if probing { (triangles * per_triangle + spheres * AIM_PROBES) as u64 } else { 0 };
         let mut t = Targets { shapes, probe_rays, ..Targets::none() };
         let mut total = 0.0f64;
