@@ -85,6 +85,8 @@ pub fn run(cli: Cli) -> Result<()> {
             ref_passes,
             out,
             set,
+            sweep_set,
+            ref_set,
             quiet,
         }) => {
             let stem = scene.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
@@ -100,6 +102,8 @@ pub fn run(cli: Cli) -> Result<()> {
                 out: &out,
                 quiet,
                 sets: &set,
+                sweep_sets: &sweep_set,
+                ref_sets: &ref_set,
             })
         }
     }

@@ -200,6 +200,14 @@ pub enum BenchCommand {
         /// Scene overrides for every render and the reference, e.g. --set camera.resolution=[128,128].
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+        /// Overrides for the timed renders only, scored against the same reference, e.g. --sweep-set
+        /// render.final_gather=16 (compare settings without rendering the reference again).
+        #[arg(long = "sweep-set", value_name = "KEY=VALUE")]
+        sweep_set: Vec<String>,
+        /// Overrides for the reference only, e.g. --ref-set render.specular_spp=64 (more samples where
+        /// only camera rays find the light); the reference is cached under these too.
+        #[arg(long = "ref-set", value_name = "KEY=VALUE")]
+        ref_set: Vec<String>,
         /// No progress bars (the table and the files are still written).
         #[arg(short, long)]
         quiet: bool,

@@ -40,6 +40,10 @@ pub struct Options<'a> {
     pub quiet: bool,
     /// Scene overrides applied to every render and to the reference (e.g. a smaller resolution).
     pub sets: &'a [String],
+    /// Overrides applied after `sets` to the timed renders only.
+    pub sweep_sets: &'a [String],
+    /// Overrides applied after `sets` to the reference only (part of its cache key).
+    pub ref_sets: &'a [String],
 }
 
 /// PT's RMSE at `t` seconds, interpolated log-log between its runs (extrapolated with the Monte Carlo
@@ -68,6 +72,8 @@ struct Sweep<'a> {
     ref_var: f64,
     /// Seconds each of the sweeps may spend.
     share: f64,
+    /// The overrides of every timed render: `--set`, then `--sweep-set`.
+    sets: Vec<String>,
     pb: indicatif::ProgressBar,
 }
 
@@ -89,7 +95,7 @@ impl Sweep<'_> {
     /// One planned photon-map render with `photons` caustic photons (half as many direct and indirect),
     /// `spp` eye samples and, if given, gather count `k` for every map.
     fn pm_run(&self, photons: u64, spp: u32, gather: Option<u32>) -> Result<(f64, Image)> {
-        let mut sets = self.o.sets.to_vec();
+        let mut sets = self.sets.clone();
         sets.extend([
             format!("render.pm_spp={spp}"),
             format!("render.photons.caustic={photons}"),
@@ -138,7 +144,7 @@ impl Sweep<'_> {
     /// photons (light subpaths for bdpt and vcm) shot up to that pass.
     fn progressive(&self, mode: crate::scene::file::Mode, runs: &mut Vec<Run>) -> Result<()> {
         use crate::scene::file::Mode;
-        let mut sets = self.o.sets.to_vec();
+        let mut sets = self.sets.clone();
         let name = mode.layer_name();
         sets.push(format!("render.mode=\"{name}\""));
         sets.push("render.progressive.passes=100000".into());
@@ -197,14 +203,25 @@ pub fn run(o: &Options) -> Result<()> {
     let dir = o.out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
     let t0 = Instant::now();
-    let r = reference(o.scene, o.sets, o.reference, &dir.join("ref"), o.quiet)?;
+    let r = reference(o.scene, &[o.sets, o.ref_sets].concat(), o.reference, &dir.join("ref"), o.quiet)?;
     eprintln!(
         "reference {} (noise: halves differ by RMSE {:.5}) in {:.1} s",
         r.path.display(),
         r.halves_rmse,
         t0.elapsed().as_secs_f64()
     );
-    let base = load_scene_with(o.scene, o.sets)?;
+    let sets = [o.sets, o.sweep_sets].concat();
+    let base = load_scene_with(o.scene, &sets)?;
+    let (w, h) = (base.camera.width, base.camera.height);
+    if (r.image.width, r.image.height) != (w, h) {
+        anyhow::bail!(
+            "{}: the reference size differs from the timed renders' ({}×{} against {w}×{h}); a resolution set by \
+             --sweep-set or --ref-set must be set for both, with --set",
+            o.scene.display(),
+            r.image.width,
+            r.image.height
+        );
+    }
     let accel = Accel::new(&base).map_err(anyhow::Error::msg)?;
     let keep = light_free_pixels(&base, &accel, 4);
     let ref_noise = mean_noise(&r, clamp, &keep).unwrap_or(0.0);
@@ -218,6 +235,7 @@ pub fn run(o: &Options) -> Result<()> {
         reference: clamp(&r.image),
         ref_var: ref_noise * ref_noise,
         share: o.budget_s / budget_parts(o.methods),
+        sets,
         pb: crate::progress::progress(12 + 8 + 7 + 4 * 18, "sweep", o.quiet),
     };
     let mut runs: Vec<Run> = Vec::new();

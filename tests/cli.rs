@@ -221,3 +221,45 @@ fn reference_agreement_tells_a_biased_reference_from_a_noisy_one() {
     assert_eq!(code, 1, "a 20,000-photon map against PT should differ beyond the noise: {out}{err}");
     assert!(err.contains("differ beyond their noise"), "{err}");
 }
+
+#[test]
+fn time_vs_error_sweep_and_reference_overrides_reach_only_their_side() {
+    let d = dir("tve-sets");
+    let box_ = scene("cornell-box.toml");
+    let out = d.join("tve").join("box").display().to_string();
+    let base = [
+        "bench",
+        "time-vs-error",
+        box_.as_str(),
+        "--methods",
+        "pt",
+        "--budget-s",
+        "0.05",
+        "--ref-spp",
+        "4",
+        "-q",
+        "-o",
+        out.as_str(),
+        "--set",
+        "camera.resolution=[16,16]",
+    ];
+    let run = |extra: &[&str]| caustica(&[&base[..], extra].concat(), &d);
+    let (code, table, err) = run(&["--sweep-set", "render.max_depth=2"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(table.contains("PT"), "{table}");
+    let refs = files(&d.join("tve").join("ref"));
+    assert_eq!(refs.len(), 4, "one reference (mean, two halves, JSON): {refs:?}");
+    // The sweep's overrides are not part of the reference: without them the same reference is reused.
+    let (code, _, err) = run(&[]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(files(&d.join("tve").join("ref")), refs);
+    // A sweep override reaches the timed renders and not the reference (so the sizes differ) …
+    let (code, _, err) = run(&["--sweep-set", "camera.resolution=[8,8]"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("reference size differs"), "{err}");
+    // … and a reference override the reference alone, which is cached under its own key.
+    let (code, _, err) = run(&["--ref-set", "camera.resolution=[8,8]"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("reference size differs"), "{err}");
+    assert_eq!(files(&d.join("tve").join("ref")).len(), 8, "a second reference for the --ref-set");
+}
