@@ -83,6 +83,20 @@ fn check(pts: &[[f32; 3]], queries: &[[f32; 3]], k: usize, r2: f32) -> Result<()
         if tree.nearest(q, &mut res).map(|x| x.1) != best {
             return Err(format!("nearest at {q:?} differs"));
         }
+        // The nearest point a predicate accepts (here: a third of the points, by their coordinates),
+        // within the cap: what the radiance cache asks for.
+        let pick = |p: [f32; 3]| p[0].to_bits().is_multiple_of(3);
+        let best_where =
+            pts.iter().filter(|p| pick(**p)).map(|p| d2(*p, q)).filter(|x| *x <= r2).min_by(f32::total_cmp);
+        let got = tree.nearest_where(q, r2, &mut res, |i, _| pick(tree.position(i)));
+        if got.map(|x| x.1) != best_where {
+            return Err(format!("nearest_where at {q:?} r2={r2}: {got:?}, brute force {best_where:?}"));
+        }
+        if let Some((i, d)) = got {
+            if !pick(tree.position(i)) || d2(tree.position(i), q) != d {
+                return Err(format!("nearest_where returned a point it should not have: {i}"));
+            }
+        }
     }
     Ok(())
 }

@@ -232,21 +232,17 @@ impl RadianceCache {
         KdTree::build(points).ok().map(|tree| RadianceCache { tree, max_r2 })
     }
 
-    /// Radiance per unit albedo at `si` seen from `wo`: the nearest cached point whose surface faces the
-    /// same way, or None when none of the 8 nearest does.
+    /// Radiance per unit albedo at `si` seen from `wo`: the nearest cached point (within the indirect
+    /// gather's reach) whose surface faces the same way and lies near the tangent plane, or None.
     fn lookup(&self, si: &SurfaceHit, wo: glam::Vec3, res: &mut KnnResult) -> Option<Rgb> {
         let side = crate::math::face_forward(si.ns, wo);
-        self.tree.knn(si.p.to_array(), 8, self.max_r2, res);
-        let mut best: Option<(f32, u32)> = None;
-        for &(d2, i) in res.items() {
-            let c = self.tree.item(i);
-            let n = crate::photon::photon::oct_decode_coarse(c.normal);
-            let off = (glam::Vec3::from_array(self.tree.position(i)) - si.p).dot(side).abs();
-            if n.dot(side) >= 0.8 && off * off <= 0.0625 * d2.max(1e-30) && best.is_none_or(|b| d2 < b.0) {
-                best = Some((d2, i));
-            }
-        }
-        best.map(|(_, i)| Rgb::from_array(self.tree.item(i).l))
+        let same_surface = |i: u32, d2: f32| {
+            let off = (glam::Vec3::from_array(self.tree.position(i)) - si.p).dot(side);
+            off * off <= 0.0625 * d2.max(1e-30)
+                && crate::photon::photon::oct_decode_coarse(self.tree.item(i).normal).dot(side) >= 0.8
+        };
+        let (i, _) = self.tree.nearest_where(si.p.to_array(), self.max_r2, res, same_surface)?;
+        Some(Rgb::from_array(self.tree.item(i).l))
     }
 }
 

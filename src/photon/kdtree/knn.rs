@@ -182,6 +182,33 @@ impl<T> KdTree<T> {
         res.stack = stack;
     }
 
+    /// The nearest point within squared distance `max_r2` that `accept(index, d2)` takes, if any:
+    /// (tree index, squared distance). Only points nearer than the best accepted so far are offered,
+    /// so a cheap test prunes as well as a plain nearest-point search.
+    pub fn nearest_where(
+        &self,
+        q: [f32; 3],
+        max_r2: f32,
+        res: &mut KnnResult,
+        mut accept: impl FnMut(u32, f32) -> bool,
+    ) -> Option<(u32, f32)> {
+        let mut best: Option<(u32, f32)> = None;
+        let mut d2s = [0.0f32; super::BUCKET];
+        let mut stack = std::mem::take(&mut res.stack);
+        self.traverse(q, max_r2, &mut stack, |lo, hi, bound| {
+            let n = self.bucket_d2(q, lo, hi, &mut d2s);
+            for (i, &d2) in d2s[..n].iter().enumerate() {
+                let id = lo + i as u32;
+                if d2 <= *bound && best.is_none_or(|b| d2 < b.1) && accept(id, d2) {
+                    *bound = d2;
+                    best = Some((id, d2));
+                }
+            }
+        });
+        res.stack = stack;
+        best
+    }
+
     /// The single nearest point, if any: (tree index, squared distance).
     pub fn nearest(&self, q: [f32; 3], res: &mut KnnResult) -> Option<(u32, f32)> {
         let mut best: Option<(u32, f32)> = None;
