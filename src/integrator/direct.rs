@@ -29,9 +29,24 @@ pub fn estimate_direct(
     c: &mut Counters,
     strategy: DirectStrategy,
 ) -> Rgb {
-    let mat = scene.bsdf(si, wo);
+    estimate_direct_with(scene, tracer, si, wo, &scene.bsdf(si, wo), rng, c, strategy)
+}
+
+/// `estimate_direct` with a given BSDF in place of the surface's own (the radiance cache's unit-albedo
+/// Lambertian).
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_direct_with(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    si: &SurfaceHit,
+    wo: Vec3,
+    mat: &Material,
+    rng: &mut Rng,
+    c: &mut Counters,
+    strategy: DirectStrategy,
+) -> Rgb {
     let mis = strategy == DirectStrategy::Mis;
-    let Some((ls, f)) = sample_light(scene, si, wo, &mat, rng, mis) else {
+    let Some((ls, f)) = sample_light(scene, si, wo, mat, rng, mis) else {
         return Rgb::ZERO;
     };
     if !unoccluded(tracer, si, &ls, c) {

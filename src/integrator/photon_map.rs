@@ -2,7 +2,7 @@
 //! glass by sampling until a diffuse hit, where direct light (shadow rays or the direct map), caustics
 //! (caustic map) and indirect light (indirect map, or a final gather that reads the maps one bounce
 //! further) are added. Also the map views: photon splats and single-map estimates.
-use super::direct::{estimate_direct, DirectStrategy};
+use super::direct::{estimate_direct, estimate_direct_with, DirectStrategy};
 use super::Counters;
 use crate::accel::Tracer;
 use crate::color::{luminance, Rgb};
@@ -177,11 +177,18 @@ pub struct CachedRadiance {
     normal: u8,
 }
 
-/// Indirect and caustic radiance precomputed at every `stride`-th photon of the indirect map
-/// (Christensen 1999, "Faster photon map global illumination"): a final-gather ray then reads the
-/// nearest cached point facing its way (one small k-NN) instead of gathering 200 + 100 photons. Each
-/// point's exact surface normal is found by a short ray down the photon's (coarse) normal, so the
-/// estimate there uses the same filters as an eye-pass gather.
+/// Shadow rays per cached point for its direct light (when direct light is not read from the map).
+const CACHE_DIRECT_SAMPLES: u32 = 4;
+/// The random stream of the cache's direct-light samples (keyed apart from photons and pixels).
+const CACHE_STREAM: u64 = 0xCAC4_E000_0000_0001;
+
+/// Radiance per unit albedo (direct, caustic and indirect) precomputed at every `stride`-th photon of
+/// the indirect map (Christensen 1999, "Faster photon map global illumination"): a final-gather ray then
+/// reads the nearest cached point on the same surface instead of gathering 200 + 100 photons and
+/// tracing a shadow ray. Each point's exact surface normal is found by a short ray down the photon's
+/// (coarse) normal, so the estimate there uses the same filters as an eye-pass gather; its direct light
+/// is the direct map's estimate when direct light comes from the map, else the mean of
+/// `CACHE_DIRECT_SAMPLES` shadow rays.
 pub struct RadianceCache {
     tree: KdTree<CachedRadiance>,
     /// Farthest a lookup may go (squared): the indirect map's largest gather radius.
@@ -213,13 +220,37 @@ impl RadianceCache {
                 let h = tracer.intersect(&probe)?;
                 let si = scene.surface(&probe, h.shape, h.prim, h.u, h.v, h.t);
                 let wo = crate::math::face_forward(si.ng, nc);
-                let l = SCRATCH.with(|r| {
-                    let r = &mut r.borrow_mut();
-                    [INDIRECT, CAUSTIC].iter().fold(Rgb::ZERO, |acc, &m| match &maps.maps[m] {
-                        Some(map) => acc + map.radiance(&si, wo, Rgb::ONE, gather[m], r),
-                        None => acc,
+                let from_maps = |which: &[usize]| {
+                    SCRATCH.with(|r| {
+                        let r = &mut r.borrow_mut();
+                        which.iter().fold(Rgb::ZERO, |acc, &m| match &maps.maps[m] {
+                            Some(map) => acc + map.radiance(&si, wo, Rgb::ONE, gather[m], r),
+                            None => acc,
+                        })
                     })
-                });
+                };
+                let direct = match (&maps.maps[DIRECT], scene.render.direct_light) {
+                    (Some(_), DirectLight::PhotonMap) => from_maps(&[DIRECT]),
+                    _ => {
+                        let unit = crate::scene::Material::Diffuse { reflectance: Rgb::ONE };
+                        let mut rng = Rng::new(scene.render.seed, CACHE_STREAM, i as u64);
+                        let mut c = Counters::default();
+                        let sum = (0..CACHE_DIRECT_SAMPLES).fold(Rgb::ZERO, |acc, _| {
+                            acc + estimate_direct_with(
+                                scene,
+                                tracer,
+                                &si,
+                                wo,
+                                &unit,
+                                &mut rng,
+                                &mut c,
+                                DirectStrategy::LightOnly,
+                            )
+                        });
+                        sum / CACHE_DIRECT_SAMPLES as f32
+                    }
+                };
+                let l = direct + from_maps(&[INDIRECT, CAUSTIC]);
                 let normal = crate::photon::photon::oct_encode_coarse(crate::math::face_forward(si.ns, wo));
                 Some((si.p.to_array(), CachedRadiance { l: l.to_array(), normal }))
             })
@@ -313,19 +344,20 @@ impl<'a> PhotonMapper<'a> {
         if let Some(m) = self.only {
             return self.map_radiance(m, si, wo, rho);
         }
+        if in_gather {
+            // The cache holds direct light too: a gather ray that finds it traces no shadow ray.
+            if let Some(l) =
+                self.cache.as_ref().and_then(|cache| SCRATCH.with(|r| cache.lookup(si, wo, &mut r.borrow_mut())))
+            {
+                return l * rho;
+            }
+        }
         let direct = match (&self.maps.maps[DIRECT], self.scene.render.direct_light) {
             (Some(_), DirectLight::PhotonMap) => self.map_radiance(DIRECT, si, wo, rho),
             _ => estimate_direct(self.scene, self.tracer, si, wo, rng, c, DirectStrategy::LightOnly),
         };
         if fg > 0 {
             return direct + self.map_radiance(CAUSTIC, si, wo, rho) + self.final_gather(si, wo, rng, c, fg);
-        }
-        if in_gather {
-            if let Some(l) =
-                self.cache.as_ref().and_then(|cache| SCRATCH.with(|r| cache.lookup(si, wo, &mut r.borrow_mut())))
-            {
-                return direct + l * rho;
-            }
         }
         direct + self.map_radiance(CAUSTIC, si, wo, rho) + self.map_radiance(INDIRECT, si, wo, rho)
     }
