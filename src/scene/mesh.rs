@@ -80,6 +80,9 @@ impl TriMesh {
 
     /// Checks every vertex is finite and every index in range; returns the count of bad vertices.
     pub fn validate(&self, file: &str) -> Result<(), SceneError> {
+        if self.indices.is_empty() {
+            return Err(SceneError::Mesh { file: file.into(), msg: "the mesh has no faces".into() });
+        }
         let bad = self.positions.iter().filter(|p| !p.is_finite()).count();
         if bad > 0 {
             return Err(SceneError::Mesh {
@@ -157,10 +160,13 @@ fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> 
             .then(|| mm.texcoords.chunks_exact(2).map(|c| [c[0], 1.0 - c[1]]).collect());
         let mtl = mm.material_id.and_then(|i| mtls.get(i));
         let mtl_texture = mtl.and_then(|m| m.diffuse_texture.clone()).filter(|t| !t.is_empty());
-        out.push(LoadedMesh { mesh: TriMesh { positions, indices, normals, uvs }, mtl_diffuse, mtl_texture });
+        // An object with no faces (points, lines, an empty group) has nothing to render.
+        if !indices.is_empty() {
+            out.push(LoadedMesh { mesh: TriMesh { positions, indices, normals, uvs }, mtl_diffuse, mtl_texture });
+        }
     }
     if out.is_empty() {
-        return Err("OBJ file has no geometry".into());
+        return Err("OBJ file has no faces".into());
     }
     Ok(out)
 }
@@ -260,6 +266,19 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
         let fparser = Parser::<PlyFace>::new();
         let mut verts = Vec::new();
         let mut faces = Vec::new();
+        // The parser reserves room for the count the header gives: refuse a count the file cannot hold
+        // before it does (a header claiming billions of vertices would otherwise abort on allocation).
+        let body = bytes.len().saturating_sub(reader.position() as usize) as u128;
+        let mut needed = 0u128;
+        for (name, def) in &header.elements {
+            needed += def.count as u128 * min_record_bytes(def).max(1) as u128;
+            if needed > body {
+                return Err(format!(
+                    "PLY element `{name}`: the header says {} of them, more than the {body} bytes after the header can hold",
+                    def.count
+                ));
+            }
+        }
         for (name, def) in &header.elements {
             if name == "vertex" {
                 verts = vparser
@@ -291,6 +310,23 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
         }
     }
     Ok(TriMesh { positions, indices, normals, uvs })
+}
+
+/// The fewest bytes one binary record of `def` can take: its scalars, and the count of each list.
+fn min_record_bytes(def: &ply_rs_bw::ply::ElementDef) -> usize {
+    use ply_rs_bw::ply::{PropertyType, ScalarType};
+    let size = |t: &ScalarType| match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    };
+    def.properties
+        .values()
+        .map(|p| match &p.data_type {
+            PropertyType::Scalar(t) | PropertyType::List(t, _) => size(t),
+        })
+        .sum()
 }
 
 /// Fast ASCII payload reader: the file is split into lines and parsed in parallel, one allocation per
@@ -500,6 +536,32 @@ mod tests {
         let flat = parse_ply(text.as_bytes(), false).unwrap();
         assert!(flat.normals.is_none());
         assert_eq!(flat.positions, smooth.positions);
+    }
+
+    #[test]
+    fn a_binary_ply_header_counting_more_than_the_file_holds_is_an_error_not_an_abort() {
+        // Seen aborting the process (a 128 GB allocation) before the count was checked.
+        for (element, count) in [("vertex", 4_000_000_000u64), ("face", 4_000_000_000), ("junk", 1 << 40)] {
+            let mut text = "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n".to_string();
+            match element {
+                "vertex" => text = text.replace("element vertex 1", &format!("element vertex {count}")),
+                "face" => text += &format!("element face {count}\nproperty list uchar int vertex_indices\n"),
+                _ => text += &format!("element junk {count}\n"),
+            }
+            text += "end_header\n";
+            let mut bytes = text.into_bytes();
+            bytes.extend_from_slice(&[0u8; 12]);
+            let err = parse_ply(&bytes, false).err().unwrap_or_else(|| panic!("{element}: accepted"));
+            assert!(err.contains(&format!("`{element}`")) && err.contains(&count.to_string()), "{err}");
+        }
+    }
+
+    #[test]
+    fn a_mesh_without_faces_is_refused_by_name() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+        let m = parse_ply(text.as_bytes(), false).unwrap();
+        let err = m.validate("points.ply").unwrap_err().to_string();
+        assert!(err.contains("points.ply") && err.contains("no faces"), "{err}");
     }
 
     #[test]
