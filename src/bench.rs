@@ -140,6 +140,10 @@ pub fn photons(path: &Path, photons: u64, sets: &[String]) -> Result<()> {
     let rec = Recorder { inner: &accel, rays: std::sync::Mutex::new(Vec::new()) };
     pool.install(|| build_maps(&scene, &rec, &req, true))?;
     let rays = rec.rays.into_inner().map_err(|_| anyhow::anyhow!("recorder poisoned"))?;
+    // The two runs are the same deterministic work: the rays we count are the rays the baseline replays.
+    if rays.len() as u64 != segments {
+        anyhow::bail!("photon tracing counted {segments} rays but traced {} (accounting bug)", rays.len());
+    }
     let prepared = Accel::prepare_single(&rays);
     let t = Instant::now();
     let hits = accel.raw_intersect1(&prepared);

@@ -54,6 +54,7 @@ impl MapPhotons {
 #[derive(Debug, Default, Clone, Copy, serde::Serialize)]
 pub struct PassStats {
     pub shot: u64,
+    /// Rays traced, also those of batches traced past the point where the maps filled up.
     pub segments: u64,
     pub seconds: f64,
     pub budget_exhausted: bool,
@@ -410,11 +411,13 @@ pub fn run_pass(
                 (out, end, segs)
             })
             .collect();
-        for (out, end, segs) in results {
+        // Every batch was traced, also those past the point where the maps filled up (their photons
+        // are dropped so that the maps do not depend on the thread count): all their rays count.
+        stats.segments += results.iter().map(|r| r.2).sum::<u64>();
+        for (out, end, _) in results {
             if end <= next {
                 continue;
             }
-            stats.segments += segs;
             for (m, photons) in out.into_iter().enumerate() {
                 if done[m] {
                     continue;
