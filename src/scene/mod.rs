@@ -54,6 +54,11 @@ pub struct SurfacePoint {
     pub size: f32,
 }
 
+/// The longest edge of triangle abc (one square root: the root of the largest square is the largest root).
+fn max_edge(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    (b - a).length_squared().max((c - a).length_squared()).max((c - b).length_squared()).sqrt()
+}
+
 impl Geometry {
     /// The one point-on-shape sampler: a uniform point on triangle `prim` of a mesh, or on the whole
     /// sphere (`prim` ignored). Lights, caustic targets and the planner all draw through it.
@@ -63,11 +68,14 @@ impl Geometry {
                 let [a, b, c] = m.triangle(prim);
                 let bc = crate::math::sampling::uniform_triangle(u);
                 let cross = (b - a).cross(c - a);
+                // One square root for the normal and the area (normalize_or_zero's own arithmetic).
+                let len = cross.length();
+                let rcp = len.recip();
                 SurfacePoint {
                     p: a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1],
-                    n: cross.normalize_or_zero(),
-                    area: 0.5 * cross.length(),
-                    size: (b - a).length().max((c - a).length()).max((c - b).length()),
+                    n: if rcp.is_finite() && rcp > 0.0 { cross * rcp } else { Vec3::ZERO },
+                    area: 0.5 * len,
+                    size: max_edge(a, b, c),
                 }
             }
             Geometry::Sphere { center, radius } => {
@@ -334,7 +342,7 @@ impl Scene {
                     }
                     None => ng,
                 };
-                let scale = (b - a).length().max((c - a).length()).max((c - b).length());
+                let scale = max_edge(a, b, c);
                 let uv = match &m.uvs {
                     _ if !textured => glam::Vec2::ZERO,
                     Some(t) => {
