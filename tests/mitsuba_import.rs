@@ -240,6 +240,12 @@ fn what_is_not_read_is_refused_naming_the_line() {
         ),
         ("spot", &panel_scene("").replace("type=\"point\"", "type=\"spot\""), "emitter type not read"),
         ("shape", &panel_scene("").replace("type=\"rectangle\"", "type=\"cylinder\""), "shape type not read"),
+        // A width beyond u32 was reported as "must be ≥ 1".
+        (
+            "huge-width",
+            &panel_scene("").replace("name=\"width\" value=\"8\"", "name=\"width\" value=\"99999999999\""),
+            "got 99999999999",
+        ),
     ];
     for (name, text, wanted) in whole {
         let p = write(&d, &format!("{name}.xml"), text);

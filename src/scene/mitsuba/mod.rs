@@ -147,7 +147,7 @@ impl<'a> Cx<'a> {
                 self.file.render.spp = u32::try_from(n)
                     .ok()
                     .filter(|&n| n > 0)
-                    .ok_or_else(|| sampler.error("sample_count must be ≥ 1"))?;
+                    .ok_or_else(|| sampler.error(format!("sample_count must be in [1, {}], got {n}", u32::MAX)))?;
             }
             if let Some(seed) = sp.int("seed")? {
                 self.file.render.seed = seed as u64;
@@ -189,7 +189,10 @@ impl<'a> Cx<'a> {
         let p = Props::new(f);
         let dim = |v: Option<i64>, d: u32| {
             v.map_or(Ok(d), |v| {
-                u32::try_from(v).ok().filter(|&v| v > 0).ok_or_else(|| f.error("width and height must be ≥ 1"))
+                u32::try_from(v)
+                    .ok()
+                    .filter(|&v| v > 0)
+                    .ok_or_else(|| f.error(format!("width and height must be in [1, {}], got {v}", u32::MAX)))
             })
         };
         self.file.camera.resolution = [dim(p.int("width")?, 768)?, dim(p.int("height")?, 576)?];
