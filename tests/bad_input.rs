@@ -66,6 +66,7 @@ fn the_good_scene_renders() {
 fn each_malformed_scene_gets_its_own_message() {
     let d = dir();
     std::fs::write(d.join("nan.obj"), "v 0 0 0\nv 1 0 nan\nv 0 1 0\nv inf 1 1\nf 1 2 3\nf 1 3 4\n").unwrap();
+    std::fs::write(d.join("nomtl.obj"), "mtllib gone.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     std::fs::write(d.join("short.ply"), "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n").unwrap();
     let cases: Vec<(&str, String, Vec<&str>, Vec<&str>)> = vec![
         ("syntax", GOOD.replace("fov = 40", "fov = = 40"), vec![], vec!["line 5"]),
@@ -87,6 +88,16 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["nowhere.ply", "not found"],
         ),
         ("not_finite", GOOD.replace("fov = 40", "fov = nan"), vec![], vec!["camera.fov", "not finite"]),
+        (
+            // The mesh's colour was to come from an MTL file that is missing: say which.
+            "missing_mtl",
+            GOOD.replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"white\"",
+                "type = \"mesh\"\nfile = \"nomtl.obj\"",
+            ),
+            vec![],
+            vec!["shapes[0].material", "no MTL colour", "gone.mtl"],
+        ),
         (
             "vcm_does_nothing",
             format!("{GOOD}\n[render]\nmode = \"vcm\"\n[render.vcm]\nconnect = false\nmerge = false\n"),

@@ -536,7 +536,10 @@ fn build_shape(
                         out.materials.len() as u32 - 1
                     }
                     (None, None, None) => {
-                        return Err(cx.err(&format!("{key}.material"), "missing, and the mesh has no MTL colour"))
+                        let why = lm.mtl_error.as_ref().map_or(String::new(), |e| format!(" (its MTL file: {e})"));
+                        return Err(
+                            cx.err(&format!("{key}.material"), format!("missing, and the mesh has no MTL colour{why}"))
+                        );
                     }
                 };
                 let mut m = lm.mesh;

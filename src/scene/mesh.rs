@@ -114,6 +114,8 @@ pub struct LoadedMesh {
     pub mtl_diffuse: Option<[f32; 3]>,
     /// The MTL's `map_Kd` image, as written there (relative to the OBJ's folder).
     pub mtl_texture: Option<String>,
+    /// Why the OBJ's MTL file could not be read, if it names one that could not.
+    pub mtl_error: Option<String>,
 }
 
 /// Loads an OBJ or PLY (optionally gzip-compressed) file. Vertex normals are read only when `normals`
@@ -138,7 +140,7 @@ pub fn load_mesh_file(path: &Path, shown: &str, normals: bool) -> Result<Vec<Loa
             BufReader::new(f).read_to_end(&mut bytes).map_err(|e| err(e.to_string()))?;
         }
         let mesh = parse_ply(&bytes, normals).map_err(err)?;
-        Ok(vec![LoadedMesh { mesh, mtl_diffuse: None, mtl_texture: None }])
+        Ok(vec![LoadedMesh { mesh, mtl_diffuse: None, mtl_texture: None, mtl_error: None }])
     } else {
         Err(err("unknown mesh format (accepted: .obj, .ply, .ply.gz)".into()))
     }
@@ -147,7 +149,17 @@ pub fn load_mesh_file(path: &Path, shown: &str, normals: bool) -> Result<Vec<Loa
 fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> {
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let (models, mtls) = tobj::load_obj(path, &opts).map_err(|e| format!("OBJ: {e}"))?;
-    let mtls = mtls.unwrap_or_default();
+    // A missing or broken MTL is not fatal (the scene may give the material), but it is remembered.
+    let (mtls, mtl_error) = match mtls {
+        Ok(m) => (m, None),
+        Err(e) => {
+            // tobj's error does not say which file: name the `mtllib` lines.
+            let text = std::fs::read_to_string(path).unwrap_or_default();
+            let libs: Vec<&str> =
+                text.lines().filter_map(|l| l.trim().strip_prefix("mtllib ")).map(str::trim).collect();
+            (Vec::new(), Some(format!("{}: {e}", libs.join(", "))))
+        }
+    };
     let mut out = Vec::new();
     for m in models {
         let mm = &m.mesh;
@@ -162,7 +174,12 @@ fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> 
         let mtl_texture = mtl.and_then(|m| m.diffuse_texture.clone()).filter(|t| !t.is_empty());
         // An object with no faces (points, lines, an empty group) has nothing to render.
         if !indices.is_empty() {
-            out.push(LoadedMesh { mesh: TriMesh { positions, indices, normals, uvs }, mtl_diffuse, mtl_texture });
+            out.push(LoadedMesh {
+                mesh: TriMesh { positions, indices, normals, uvs },
+                mtl_diffuse,
+                mtl_texture,
+                mtl_error: mtl_error.clone(),
+            });
         }
     }
     if out.is_empty() {
