@@ -178,7 +178,7 @@ pub enum BenchCommand {
         /// Seconds split equally over the chosen sweeps among PT, PM photons, PM gather, PPM and SPPM
         /// (all five: a fifth each; `--methods sppm` alone: all of it); BDPT and VCM get the same share on
         /// top.
-        #[arg(long, default_value_t = 60.0)]
+        #[arg(long, default_value_t = 60.0, allow_negative_numbers = true, value_parser = positive_seconds)]
         budget_s: f64,
         /// Which sweeps to run, comma-separated: pt, pm (photon and gather counts), ppm, sppm, bdpt, vcm.
         #[arg(long, value_delimiter = ',', default_value = "pt,pm,ppm,sppm,bdpt,vcm",
@@ -240,7 +240,7 @@ pub enum BenchCommand {
         /// Scene file (TOML, or Mitsuba 3 XML).
         scene: PathBuf,
         /// Photons to store per map for the measurement.
-        #[arg(long, default_value_t = 100_000)]
+        #[arg(long, default_value_t = 100_000, value_parser = clap::value_parser!(u64).range(1..))]
         photons: u64,
         /// Scene overrides, e.g. --set render.max_depth=4.
         #[arg(long = "set", value_name = "KEY=VALUE")]

@@ -100,6 +100,17 @@ fn argument_errors_name_the_argument_and_exit_2() {
         assert!(!err.contains("cornell-box.toml"), "{args:?}: blamed on the scene file: {err}");
         assert!(!err.contains("-- -1"), "{args:?}: suggests `-- -1`: {err}");
     }
+    // The benchmarks too: a budget of NaN seconds used to run every sweep to its end, 0 photons to
+    // report NaN rays per second.
+    for (args, expect) in [
+        (vec!["bench", "time-vs-error", box_.as_str(), "--budget-s", "nan"], "seconds above 0"),
+        (vec!["bench", "time-vs-error", box_.as_str(), "--budget-s", "-5"], "seconds above 0"),
+        (vec!["bench", "photons", box_.as_str(), "--photons", "0"], "--photons"),
+    ] {
+        let (code, _, err) = caustica(&args, &d);
+        assert_eq!(code, 2, "{args:?}: exit {code}: {err}");
+        assert!(err.contains(expect), "{args:?}: message lacks `{expect}`: {err}");
+    }
     assert!(files(&d).is_empty());
 }
 
