@@ -230,6 +230,22 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     use std::num::NonZeroUsize;
     let dist: Distribution = a.distribution.parse().map_err(anyhow::Error::msg)?;
     let k = NonZeroUsize::new(a.k).ok_or_else(|| anyhow::anyhow!("--k must be ≥ 1"))?;
+    if a.points == 0 || a.queries == 0 {
+        anyhow::bail!("--points and --queries must be ≥ 1");
+    }
+    // Both trees, the points and the build's scratch: refuse before allocating what cannot fit.
+    const BYTES_PER_POINT: u128 = 80;
+    let need = a.points as u128 * BYTES_PER_POINT;
+    if need > 16 << 30 {
+        anyhow::bail!(
+            "--points {} needs about {} GiB (some {BYTES_PER_POINT} bytes per point for both trees); the limit is 16 GiB",
+            a.points,
+            need >> 30
+        );
+    }
+    if let Some(r) = a.radius.filter(|r| !(r.is_finite() && *r >= 0.0)) {
+        anyhow::bail!("--radius must be a finite distance ≥ 0, got {r}");
+    }
     let r2 = a.radius.map_or(f32::INFINITY, |r| r * r);
     let pts = points(dist, a.points, a.seed);
     let qs = queries(dist, a.queries, a.seed);

@@ -111,6 +111,20 @@ fn argument_errors_name_the_argument_and_exit_2() {
         assert_eq!(code, 2, "{args:?}: exit {code}: {err}");
         assert!(err.contains(expect), "{args:?}: message lacks `{expect}`: {err}");
     }
+    // knn-check (built with the oracle): 3e9 points aborted on a 36 GB allocation, a NaN radius was
+    // reported as "queries disagree with kiddo".
+    if cfg!(feature = "oracle") {
+        for (args, expect) in [
+            (vec!["knn-check", "--points", "3000000000"], "the limit is 16 GiB"),
+            (vec!["knn-check", "--radius", "nan"], "--radius"),
+            (vec!["knn-check", "--radius=-1"], "--radius"),
+            (vec!["knn-check", "--points", "0"], "--points"),
+        ] {
+            let (code, _, err) = caustica(&args, &d);
+            assert_eq!(code, 1, "{args:?}: exit {code}: {err}");
+            assert!(err.contains(expect), "{args:?}: message lacks `{expect}`: {err}");
+        }
+    }
     assert!(files(&d).is_empty());
 }
 
