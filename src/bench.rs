@@ -236,11 +236,13 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     // Both trees, the points and the build's scratch: refuse before allocating what cannot fit.
     const BYTES_PER_POINT: u128 = 80;
     let need = a.points as u128 * BYTES_PER_POINT;
-    if need > 16 << 30 {
+    let limit = crate::scene::load::MAX_BYTES;
+    if need > limit as u128 {
         anyhow::bail!(
-            "--points {} needs about {} GiB (some {BYTES_PER_POINT} bytes per point for both trees); the limit is 16 GiB",
+            "--points {} needs about {} GiB (some {BYTES_PER_POINT} bytes per point for both trees); the limit is {} GiB",
             a.points,
-            need >> 30
+            need >> 30,
+            limit >> 30
         );
     }
     if let Some(r) = a.radius.filter(|r| !(r.is_finite() && *r >= 0.0)) {

@@ -22,6 +22,14 @@ pub struct PhotonMaps {
     pub stats: MapsStats,
 }
 
+impl PhotonMaps {
+    /// Whether direct light is read from the direct map (built, and `render.direct_light` asks for it)
+    /// rather than traced with shadow rays: the eye pass and the radiance cache decide alike.
+    pub fn direct_from_map(&self, scene: &Scene) -> bool {
+        self.maps[DIRECT].is_some() && scene.render.direct_light == DirectLight::PhotonMap
+    }
+}
+
 #[derive(Debug, Default, Clone, Serialize)]
 pub struct MapsStats {
     pub global_pass: Option<PassStats>,
@@ -229,26 +237,25 @@ impl RadianceCache {
                         })
                     })
                 };
-                let direct = match (&maps.maps[DIRECT], scene.render.direct_light) {
-                    (Some(_), DirectLight::PhotonMap) => from_maps(&[DIRECT]),
-                    _ => {
-                        let unit = crate::scene::Material::Diffuse { reflectance: Rgb::ONE };
-                        let mut rng = Rng::new(scene.render.seed, CACHE_STREAM, i as u64);
-                        let mut c = Counters::default();
-                        let sum = (0..CACHE_DIRECT_SAMPLES).fold(Rgb::ZERO, |acc, _| {
-                            acc + estimate_direct_with(
-                                scene,
-                                tracer,
-                                &si,
-                                wo,
-                                &unit,
-                                &mut rng,
-                                &mut c,
-                                DirectStrategy::LightOnly,
-                            )
-                        });
-                        sum / CACHE_DIRECT_SAMPLES as f32
-                    }
+                let direct = if maps.direct_from_map(scene) {
+                    from_maps(&[DIRECT])
+                } else {
+                    let unit = crate::scene::Material::Diffuse { reflectance: Rgb::ONE };
+                    let mut rng = Rng::new(scene.render.seed, CACHE_STREAM, i as u64);
+                    let mut c = Counters::default();
+                    let sum = (0..CACHE_DIRECT_SAMPLES).fold(Rgb::ZERO, |acc, _| {
+                        acc + estimate_direct_with(
+                            scene,
+                            tracer,
+                            &si,
+                            wo,
+                            &unit,
+                            &mut rng,
+                            &mut c,
+                            DirectStrategy::LightOnly,
+                        )
+                    });
+                    sum / CACHE_DIRECT_SAMPLES as f32
                 };
                 let l = direct + from_maps(&[INDIRECT, CAUSTIC]);
                 let normal = crate::photon::photon::oct_encode_coarse(crate::math::face_forward(si.ns, wo));
@@ -352,9 +359,10 @@ impl<'a> PhotonMapper<'a> {
                 return l * rho;
             }
         }
-        let direct = match (&self.maps.maps[DIRECT], self.scene.render.direct_light) {
-            (Some(_), DirectLight::PhotonMap) => self.map_radiance(DIRECT, si, wo, rho),
-            _ => estimate_direct(self.scene, self.tracer, si, wo, rng, c, DirectStrategy::LightOnly),
+        let direct = if self.maps.direct_from_map(self.scene) {
+            self.map_radiance(DIRECT, si, wo, rho)
+        } else {
+            estimate_direct(self.scene, self.tracer, si, wo, rng, c, DirectStrategy::LightOnly)
         };
         if fg > 0 {
             return direct + self.map_radiance(CAUSTIC, si, wo, rho) + self.final_gather(si, wo, rng, c, fg);

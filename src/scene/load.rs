@@ -14,6 +14,8 @@ use std::path::{Path, PathBuf};
 
 /// Largest image we agree to allocate (pixels); beyond it the run is refused up front.
 pub const MAX_PIXELS: u64 = 64 * 1024 * 1024;
+/// The most memory a request may plan to allocate (photon maps, `knn-check`'s trees): refused above.
+pub const MAX_BYTES: u64 = 16 << 30;
 
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     load_scene_with(path, &[])
@@ -316,13 +318,16 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
     // 20 bytes per stored photon plus about as much again while tracing and building.
     let total = r.photons.direct.checked_add(r.photons.indirect).and_then(|t| t.checked_add(r.photons.caustic));
     match total.and_then(|t| t.checked_mul(48)) {
-        Some(bytes) if bytes <= 16 << 30 => {}
+        Some(bytes) if bytes <= MAX_BYTES => {}
         Some(bytes) => {
             let total = total.unwrap_or(u64::MAX);
-            let msg = format!("{total} photons need about {} GiB; the limit is 16 GiB", bytes >> 30);
+            let msg = format!("{total} photons need about {} GiB; the limit is {} GiB", bytes >> 30, MAX_BYTES >> 30);
             return Err(cx.err("render.photons", msg));
         }
-        None => return Err(cx.err("render.photons", "the photon counts add up to more than 16 GiB can hold")),
+        None => {
+            let msg = format!("the photon counts add up to more than {} GiB can hold", MAX_BYTES >> 30);
+            return Err(cx.err("render.photons", msg));
+        }
     }
     if r.photons.max_shots_factor == 0 {
         return Err(cx.err("render.photons.max_shots_factor", "must be ≥ 1"));

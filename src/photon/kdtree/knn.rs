@@ -211,19 +211,6 @@ impl<T> KdTree<T> {
 
     /// The single nearest point, if any: (tree index, squared distance).
     pub fn nearest(&self, q: [f32; 3], res: &mut KnnResult) -> Option<(u32, f32)> {
-        let mut best: Option<(u32, f32)> = None;
-        let mut d2s = [0.0f32; super::BUCKET];
-        let mut stack = std::mem::take(&mut res.stack);
-        self.traverse(q, f32::INFINITY, &mut stack, |lo, hi, bound| {
-            let n = self.bucket_d2(q, lo, hi, &mut d2s);
-            for (i, &d2) in d2s[..n].iter().enumerate() {
-                if d2 < *bound || best.is_none() {
-                    *bound = d2;
-                    best = Some((lo + i as u32, d2));
-                }
-            }
-        });
-        res.stack = stack;
-        best
+        self.nearest_where(q, f32::INFINITY, res, |_, _| true)
     }
 }
