@@ -95,6 +95,9 @@ pub fn render_layers(
         stats["plan"] = json!(plan);
         stats["passes"] = json!(r.records);
         stats["initial_radius"] = json!(progressive_r1(scene));
+        if let Some([caught, aimed]) = r.vcm_aim {
+            stats["light_subpaths"] = json!({ "emitted_towards_specular_shapes": caught, "aimed": aimed });
+        }
         stats["times_s"] = json!({ "load": scene.load_seconds, "bvh": bvh_s, "render": r.output.seconds });
         add_counters(&mut stats, &r.output.counters, r.output.seconds);
         let expected_weight = if mode == Mode::Sppm { 1.0 } else { scene.render.progressive.passes as f64 };
@@ -476,6 +479,9 @@ pub struct Progressive {
     pub sums: Sums,
     pub records: Vec<crate::integrator::ppm::PassRecord>,
     pub snapshots: Vec<(u32, f64, Image)>,
+    /// bdpt/vcm: the share of the lights' own emission that heads for the specular shapes' bounding
+    /// spheres and the share of light subpaths aimed at them (`vcm::Aim`).
+    pub vcm_aim: Option<[f32; 2]>,
 }
 
 /// `--mode ppm` or `--mode sppm` (the scene's `render.mode`): passes until `render.progressive.passes`
@@ -522,13 +528,23 @@ pub fn render_progressive_share(
     let mut counters = Counters::default();
     let (mut seconds, mut emitted) = (t_setup.elapsed().as_secs_f64(), 0u64);
     let vcm_opts = matches!(mode, Mode::Bdpt | Mode::Vcm).then(|| vcm::VcmOptions::of_scene(scene));
+    let vcm_aim = match vcm_opts {
+        Some(_) => {
+            let a = vcm::Aim::new(scene, Some(&plan.caustic_targets));
+            if !quiet && a.targets() > 0 {
+                println!("{}", a.describe());
+            }
+            a
+        }
+        None => vcm::Aim::none(),
+    };
     for &i in &passes {
         let record = match (sppm.as_mut(), vcm_opts) {
             (Some(s), _) => s.iterate(i)?,
             (None, Some(opts)) => {
                 let t0 = std::time::Instant::now();
                 let r = if opts.merge { vcm::radius_at(r1, p.alpha, i) } else { 0.0 };
-                let out = vcm::iterate(scene, tracer, opts, i, r);
+                let out = vcm::iterate(scene, tracer, opts, &vcm_aim, i, r);
                 sums.add_image(&out.image);
                 counters += out.counters;
                 crate::integrator::ppm::PassRecord {
@@ -576,7 +592,8 @@ pub fn render_progressive_share(
         sums = Sums::from_image(&s.image());
     }
     let image = sums.image();
-    Ok(Progressive { output: RenderOutput { image, counters, seconds }, sums, records, snapshots: shots })
+    let vcm_aim = vcm_opts.map(|_| [vcm_aim.caught_by_targets(), vcm_aim.aimed_share()]);
+    Ok(Progressive { output: RenderOutput { image, counters, seconds }, sums, records, snapshots: shots, vcm_aim })
 }
 
 /// The first pass's radius of a progressive mode: the gather radius of ppm/sppm, the merge radius of vcm

@@ -6,7 +6,7 @@
 mod common;
 use caustica::accel::Accel;
 use caustica::film::Image;
-use caustica::integrator::vcm::{iterate, radius_at, VcmOptions};
+use caustica::integrator::vcm::{iterate, radius_at, Aim, VcmOptions};
 use caustica::pipeline::render_path;
 use caustica::scene::{load_scene_with, Scene};
 use std::path::PathBuf;
@@ -20,8 +20,9 @@ fn mean(img: &Image) -> f64 {
 /// their means overstate the error).
 fn bidir_mean(s: &mut Scene, a: &Accel, opts: VcmOptions, passes: u32, r1: f32) -> (f64, f64) {
     let sampler = std::mem::replace(&mut s.render.sampler, caustica::math::rng::Sampler::Independent);
+    let aim = Aim::new(s, None);
     let m: Vec<f64> = (1..=passes)
-        .map(|i| mean(&iterate(s, a, opts, i, radius_at(r1, s.render.progressive.alpha, i)).image))
+        .map(|i| mean(&iterate(s, a, opts, &aim, i, radius_at(r1, s.render.progressive.alpha, i)).image))
         .collect();
     s.render.sampler = sampler;
     mean_and_error(&m)
@@ -149,7 +150,11 @@ fn every_strategy_alone_has_the_path_tracers_mean_for_its_path_length() {
 fn bdpt_and_vcm_are_bit_identical_on_1_and_2_threads() {
     let (s, a) = small("cornell-glass.toml", 24);
     let with_threads = |n: usize, opts: VcmOptions| {
-        rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap().install(|| iterate(&s, &a, opts, 3, 0.05).image)
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap()
+            .install(|| iterate(&s, &a, opts, &Aim::new(&s, None), 3, 0.05).image)
     };
     for opts in [VcmOptions::bdpt(), VcmOptions::vcm()] {
         let one = with_threads(1, opts);
@@ -201,4 +206,26 @@ fn mis_weights_sum_to_one_for_every_kind_of_light() {
         let a = Accel::new(&s).unwrap();
         means_match_pt(&format!("glass {glass}"), &mut s, &a, 256, 1024);
     }
+}
+
+/// Light subpaths aimed at a specular shape (`render.vcm.aim`): a big quad light and a sphere light
+/// right above a rough gold plate that the camera sees them in, so paths found by the camera hitting
+/// the lights (s = 0) after the gold, by next-event estimation (s = 1) and by light subpaths (most of
+/// them aimed, here 0.9) all carry weight, and every one of their weights must use the aimed emission
+/// density for the means to stay PT's.
+#[test]
+fn aimed_light_subpaths_keep_the_means() {
+    let mut s = common::scene(
+        "[camera]\norigin = [0.0, 0.9, 2.2]\ntarget = [0.0, 0.2, 0.0]\nfov = 40\nresolution = [20, 20]\n\
+         [materials]\nm = { type = \"diffuse\", reflectance = [0.6, 0.6, 0.6] }\n\
+         gold = { type = \"conductor\", preset = \"Au\", roughness = 0.15 }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.6, 0.05, 0.6]\nedge_u = [1.2, 0.0, 0.0]\nedge_v = [0.0, 0.5, -1.1]\nmaterial = \"gold\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.6, 1.0, -0.6]\nedge_u = [1.2, 0.0, 0.0]\nedge_v = [0.0, 0.0, 1.2]\n\
+         material = \"m\"\nemission = [2.0, 2.0, 2.0]\n\
+         [[lights]]\ntype = \"sphere\"\ncenter = [0.9, 0.6, -0.3]\nradius = 0.1\nradiance = [8.0, 8.0, 8.0]\n\
+         [render]\nmax_depth = 4\n[render.vcm]\naim = 0.9\n[render.progressive]\nradius = 0.02\n",
+    );
+    let a = Accel::new(&s).unwrap();
+    means_match_pt("aimed at gold", &mut s, &a, 256, 1024);
 }

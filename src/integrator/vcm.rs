@@ -21,9 +21,12 @@ use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
 use crate::film::Image;
 use crate::math::sampling::russian_roulette;
+use crate::math::sampling::{uniform_cone, uniform_sphere};
+use crate::math::Frame;
 use crate::math::{max_component, offset_ray_origin, Ray, Rng};
 use crate::photon::kdtree::{KdTree, KnnResult};
-use crate::scene::light::LightKind;
+use crate::scene::light::{visible_cone, EmittedRay, LightKind};
+use crate::scene::Geometry;
 use crate::scene::{Material, Scene, SurfaceHit, TransportMode};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -158,6 +161,219 @@ pub fn initial_radius(scene: &Scene) -> f32 {
     super::ppm::radius_for_density(scene, 4.0, light_paths(scene, VcmOptions::of_scene(scene)) as f64)
 }
 
+/// Light subpaths aimed at the specular shapes (the planner's caustic targets), where the lights' own
+/// emission seldom reaches them (a point light far from a small mirror). From a point on a light at
+/// finite distance, a subpath is aimed with probability `frac`: it leaves uniformly into the cone of
+/// one target's bounding sphere (the target drawn uniformly; any direction when the point is inside
+/// the sphere); otherwise it leaves as the light emits (`Lights::emit`: cosine lobe, or uniform for a
+/// point light). The emission density of a direction is the mixture (1 − frac) · p_light(ω) + frac ·
+/// p_cone(ω): the subpath's power is divided by the mixture over p_light, and every emission density
+/// the MIS weights use (the light subpath's own, a camera subpath hitting an emitter, next-event
+/// estimation's ratio) is multiplied by it, so each strategy's weight stays a function of the path
+/// alone. The density is positive wherever the light emits, so light that misses the targets is still
+/// carried, by the unaimed share. `frac` makes `render.vcm.aim` of all subpaths head for the spheres,
+/// counting those the lights' own emission already sends there (measured once from `AIM_PROBES`
+/// emitted rays): nothing is aimed where the targets already catch that share. Lights at infinity are
+/// not aimed.
+pub struct Aim {
+    /// Probability that a subpath is aimed.
+    frac: f32,
+    /// Share of the unaimed emission that already heads into a target's sphere.
+    caught: f32,
+    /// Specular shapes aimed at (their spheres may be merged into one).
+    shapes: usize,
+    /// Centre and radius of each target's bounding sphere.
+    spheres: Vec<(Vec3, f32)>,
+}
+
+/// Emitted rays that estimate how much of the lights' own emission heads for the targets.
+const AIM_PROBES: u64 = 4096;
+
+/// Most targets aimed at one by one; beyond this, one sphere around them all.
+const AIM_MAX_TARGETS: usize = 16;
+
+impl Aim {
+    /// Aiming at the non-diffuse shapes of the scene, or at those of `only` (the planner's caustic
+    /// targets), so that `render.vcm.aim` of the light subpaths head for them.
+    pub fn new(scene: &Scene, only: Option<&[u32]>) -> Aim {
+        let share = scene.render.vcm.aim;
+        let mut spheres: Vec<(Vec3, f32)> = Vec::new();
+        let mut boxes: Vec<(Vec3, Vec3)> = Vec::new();
+        for (i, sh) in scene.shapes.iter().enumerate() {
+            if only.is_some_and(|o| !o.contains(&(i as u32)))
+                || scene.materials[sh.material as usize].bsdf.is_diffuse()
+                || sh.area() <= 0.0
+            {
+                continue;
+            }
+            match &sh.geometry {
+                Geometry::Sphere { center, radius } => {
+                    spheres.push((*center, *radius));
+                    boxes.push((*center - Vec3::splat(*radius), *center + Vec3::splat(*radius)));
+                }
+                Geometry::Mesh(m) => {
+                    let (lo, hi) = m
+                        .positions
+                        .iter()
+                        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+                    let c = 0.5 * (lo + hi);
+                    let r = m.positions.iter().map(|p| p.distance_squared(c)).fold(0.0f32, f32::max).sqrt();
+                    spheres.push((c, r * (1.0 + 1e-4) + 1e-6 * scene.diagonal()));
+                    boxes.push((lo, hi));
+                }
+            }
+        }
+        if spheres.len() > AIM_MAX_TARGETS {
+            let (lo, hi) =
+                boxes.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), (l, h)| (a.min(*l), b.max(*h)));
+            spheres = vec![(0.5 * (lo + hi), 0.5 * (hi - lo).length() * (1.0 + 1e-4))];
+        }
+        let mut aim = Aim { frac: 0.0, shapes: spheres.len(), spheres, caught: 0.0 };
+        if aim.spheres.is_empty() {
+            return aim;
+        }
+        aim.caught = aim.caught_share(scene);
+        aim.frac = if aim.caught >= share { 0.0 } else { (share - aim.caught) / (1.0 - aim.caught) };
+        aim
+    }
+
+    /// Share of the lights' own emission (lights at finite distance, by power) that leaves towards a
+    /// target's bounding sphere, estimated from `AIM_PROBES` emitted rays (fixed random numbers).
+    fn caught_share(&self, scene: &Scene) -> f32 {
+        let lights = &scene.lights;
+        let (mut caught, mut finite) = (0u32, 0u32);
+        for k in 0..AIM_PROBES {
+            let mut rng = Rng::new(0xA1A1_0000_0000_0001, k, 0);
+            let Some(e) = lights.emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d()) else {
+                continue;
+            };
+            if lights.list[e.light].at_infinity() {
+                continue;
+            }
+            finite += 1;
+            caught += (self.cone_pdf(e.origin, e.ray.d) > 0.0) as u32;
+        }
+        if finite == 0 {
+            1.0
+        } else {
+            caught as f32 / finite as f32
+        }
+    }
+
+    /// No aiming: every light subpath leaves as the light emits.
+    pub fn none() -> Aim {
+        Aim { frac: 0.0, spheres: Vec::new(), caught: 0.0, shapes: 0 }
+    }
+
+    /// Probability that a light subpath is aimed.
+    pub fn aimed_share(&self) -> f32 {
+        self.frac
+    }
+
+    /// Share of the lights' own emission (at finite distance) that heads for a target's sphere.
+    pub fn caught_by_targets(&self) -> f32 {
+        self.caught
+    }
+
+    /// How many specular shapes subpaths are aimed at.
+    pub fn targets(&self) -> usize {
+        self.shapes
+    }
+
+    /// One line for the user: how much of the light heads for the specular shapes, how much is aimed.
+    pub fn describe(&self) -> String {
+        let sent = format!(
+            "light subpaths: the lights' own emission sends {:.1}% towards the bounding spheres of {} specular shape(s)",
+            100.0 * self.caught,
+            self.shapes
+        );
+        if self.frac > 0.0 {
+            format!("{sent}; {:.1}% are aimed there, so that render.vcm.aim of them go there", 100.0 * self.frac)
+        } else {
+            format!("{sent}; none aimed (render.vcm.aim of them already go there)")
+        }
+    }
+
+    /// Whether any subpath is aimed.
+    pub fn is_active(&self) -> bool {
+        self.frac > 0.0
+    }
+
+    /// Solid-angle density of the aimed share's direction `w` (unit) from point `x`.
+    fn cone_pdf(&self, x: Vec3, w: Vec3) -> f32 {
+        let mut p = 0.0;
+        for &(c, r) in &self.spheres {
+            let d = c - x;
+            match visible_cone(r, d.length_squared()) {
+                None => p += 1.0 / (4.0 * PI),
+                Some(one_minus) => {
+                    let t = d.dot(w);
+                    // Inside the cone: the line x + t·w passes within r of the centre, ahead of x.
+                    if t > 0.0 && (d - w * t).length_squared() <= r * r {
+                        p += 1.0 / (2.0 * PI * one_minus);
+                    }
+                }
+            }
+        }
+        p / self.spheres.len() as f32
+    }
+
+    /// A direction of the aimed share from `x`: target `u_pick` ∈ [0, 1) of the list, `u` in its cone.
+    fn sample(&self, x: Vec3, u_pick: f32, u: [f32; 2]) -> Vec3 {
+        let k = ((u_pick * self.spheres.len() as f32) as usize).min(self.spheres.len() - 1);
+        let (c, r) = self.spheres[k];
+        let d = c - x;
+        let dc2 = d.length_squared();
+        match visible_cone(r, dc2) {
+            None => uniform_sphere(u),
+            Some(one_minus) => Frame::from_normal(d / dc2.sqrt()).to_world(uniform_cone(u, one_minus)).normalize(),
+        }
+    }
+
+    /// The mixture's density of direction `w` from light point `x` over the light's own density
+    /// `base` of it: the factor aiming puts on every emission density (1 without aiming).
+    fn ratio(&self, x: Vec3, w: Vec3, base: f32) -> f32 {
+        if !self.is_active() || base <= 0.0 {
+            return 1.0;
+        }
+        (1.0 - self.frac) + self.frac * self.cone_pdf(x, w) / base
+    }
+
+    /// The light's own emission density of direction `w` leaving a point of normal `n` (zero: a point
+    /// light, uniform over the sphere; else the cosine lobe).
+    fn light_density(n: Vec3, w: Vec3) -> f32 {
+        if n == Vec3::ZERO {
+            1.0 / (4.0 * PI)
+        } else {
+            w.dot(n).max(0.0) / PI
+        }
+    }
+
+    /// Aims an emitted ray (light at finite distance) with probability `frac`, given the uniform
+    /// `u_aim` and the direction numbers `u_dir` the emission used; corrects its power and density.
+    /// None: the aimed direction leaves the emitter's back (it emits nothing there).
+    fn apply(&self, mut e: EmittedRay, u_aim: f32, u_dir: [f32; 2]) -> Option<EmittedRay> {
+        let old = Aim::light_density(e.normal, e.ray.d);
+        if u_aim < self.frac {
+            let w = self.sample(e.origin, u_aim / self.frac, u_dir);
+            if e.normal == Vec3::ZERO {
+                e.ray = Ray::new(e.origin, w);
+            } else {
+                e.cos = w.dot(e.normal);
+                if e.cos <= 0.0 {
+                    return None;
+                }
+                e.ray = Ray::new(offset_ray_origin(e.origin, e.normal, w, e.size), w);
+            }
+        }
+        let new = Aim::light_density(e.normal, e.ray.d);
+        let ratio = self.ratio(e.origin, e.ray.d, new);
+        e.phi *= 1.0 / ratio;
+        e.pdf_emit = e.pdf_emit / old * new * ratio;
+        Some(e)
+    }
+}
+
 /// Light subpaths per iteration: the setting, at least one per pixel.
 pub fn light_paths(scene: &Scene, opts: VcmOptions) -> usize {
     (scene.camera.width as usize * scene.camera.height as usize).max(opts.light_paths)
@@ -171,7 +387,7 @@ pub struct IterationOutput {
 }
 
 /// Iteration `i` (1-based) of BDPT/VCM at merge radius `r`.
-pub fn iterate(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, i: u32, r: f32) -> IterationOutput {
+pub fn iterate(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, aim: &Aim, i: u32, r: f32) -> IterationOutput {
     let cam = &scene.camera;
     let (w, h) = (cam.width as usize, cam.height as usize);
     let pixels = w * h;
@@ -187,7 +403,7 @@ pub fn iterate(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, i: u32, r: 
         r2: r * r,
         opts,
     };
-    let v = Vcm { scene, tracer, it };
+    let v = Vcm { scene, tracer, it, aim };
     let (sampler, seed) = (scene.render.sampler, scene.render.seed);
     // Light subpaths, in fixed chunks.
     let chunks: Vec<LightChunk> = (0..n.div_ceil(CHUNK))
@@ -270,6 +486,7 @@ struct Vcm<'a> {
     scene: &'a Scene,
     tracer: &'a dyn Tracer,
     it: Iteration,
+    aim: &'a Aim,
 }
 
 /// Cosine of `w` to the geometric normal (the area ↔ solid-angle conversions of the MIS pdfs).
@@ -284,14 +501,21 @@ impl Vcm<'_> {
         let scene = self.scene;
         let lights = &scene.lights;
         let it = &self.it;
-        let Some(e) = lights.emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d()) else {
+        let (u_sel, u_pos, u_dir) = (rng.next_f32(), rng.next_2d(), rng.next_2d());
+        let Some(mut e) = lights.emit(scene, u_sel, u_pos, u_dir) else {
             return;
         };
+        let kind = &lights.list[e.light];
+        let finite = !kind.at_infinity();
+        if finite && self.aim.is_active() {
+            let Some(aimed) = self.aim.apply(e, rng.next_f32(), u_dir) else {
+                return;
+            };
+            e = aimed;
+        }
         if e.pdf_emit <= 0.0 || e.phi == Rgb::ZERO {
             return;
         }
-        let kind = &lights.list[e.light];
-        let finite = !kind.at_infinity();
         let delta = matches!(kind, LightKind::Point { .. } | LightKind::Distant { .. });
         // dVCM = p_direct / p_emit [tech. rep. (31)]; for lights at finite distance the direct density
         // (per unit area of the light) depends on the first hit (cone sampling of spheres), so it is
@@ -514,7 +738,9 @@ impl Vcm<'_> {
         self.s0_weight(sp, || {
             let i = lights.index_of(self.scene, si.shape, si.prim)?;
             let direct_a = lights.direct_pdf_area(self.scene, i, prev, si.p, si.ng);
-            Some((direct_a, lights.emit_pdf(self.scene, i, wo.dot(si.ng), -wo)))
+            let cos = wo.dot(si.ng);
+            let aim = self.aim.ratio(si.p, wo, Aim::light_density(si.ng, wo));
+            Some((direct_a, lights.emit_pdf(self.scene, i, cos, -wo) * aim))
         })
     }
 
@@ -568,7 +794,12 @@ impl Vcm<'_> {
             let dir_pdf = if ls.delta { 0.0 } else { mat.pdf(wo, ls.wi, si.ns) };
             let rev_pdf = mat.pdf(ls.wi, wo, si.ns);
             let w_light = dir_pdf / ls.pdf;
-            let w_camera = ls.emit_ratio * cos_g(si, ls.wi) * (it.mis_vm + sp.d_vcm + sp.d_vc * rev_pdf);
+            let aim = if self.scene.lights.list[ls.light].at_infinity() {
+                1.0
+            } else {
+                self.aim.ratio(ls.p, -ls.wi, Aim::light_density(ls.normal, -ls.wi))
+            };
+            let w_camera = ls.emit_ratio * aim * cos_g(si, ls.wi) * (it.mis_vm + sp.d_vcm + sp.d_vc * rev_pdf);
             1.0 / (w_light + 1.0 + w_camera)
         });
         if w == 0.0 || !unoccluded(self.tracer, si, &ls, c) {
@@ -654,5 +885,75 @@ impl Vcm<'_> {
             }
         });
         sum * it.vm_norm
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::sampling::uniform_sphere;
+
+    /// The aimed share's direction density is a density: it integrates to one over the sphere of
+    /// directions, from points outside two targets, between them and inside one; and a direction the
+    /// sampler draws has positive density, even in the cone of a tiny sphere 1000 units away.
+    #[test]
+    fn the_aimed_direction_density_integrates_to_one() {
+        let aim = |spheres: Vec<(Vec3, f32)>| Aim { frac: 0.5, caught: 0.0, shapes: spheres.len(), spheres };
+        let near = aim(vec![(Vec3::new(3.0, 0.0, 0.0), 0.5), (Vec3::new(0.0, 0.0, -6.0), 0.3)]);
+        let far = aim(vec![(Vec3::new(0.0, 0.0, -1000.0), 0.01)]);
+        let n = 1_000_000;
+        for x in [Vec3::new(-1.0, 0.2, 0.0), Vec3::new(3.2, 0.1, 0.0), Vec3::new(1.5, 0.0, -3.0)] {
+            let mut rng = Rng::new(7, 0, 0);
+            let total: f64 = (0..n).map(|_| near.cone_pdf(x, uniform_sphere(rng.next_2d())) as f64).sum::<f64>();
+            let integral = total / n as f64 * 4.0 * std::f64::consts::PI;
+            assert!((integral - 1.0).abs() < 0.05, "from {x}: ∫ p = {integral}");
+            for a in [&near, &far] {
+                for k in 0..2000 {
+                    let w = a.sample(x, (k as f32 + 0.5) / 2000.0, rng.next_2d());
+                    assert!(a.cone_pdf(x, w) > 0.0, "from {x}: sampled {w} has density 0");
+                }
+            }
+        }
+    }
+
+    /// Aiming brings the share of subpaths heading for the targets to `render.vcm.aim`, counting those
+    /// the light sends there anyway, and aims none when the light already sends more.
+    #[test]
+    fn aiming_makes_the_set_share_head_for_the_targets() {
+        let text = |aim: f32| {
+            format!(
+                "[camera]\norigin = [0.0, 1.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
+                 [materials]\nm = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
+                 chrome = {{ type = \"mirror\" }}\n\
+                 [[shapes]]\ntype = \"sphere\"\ncenter = [2.0, 0.0, 0.0]\nradius = 0.5\nmaterial = \"chrome\"\n\
+                 [[shapes]]\ntype = \"quad\"\ncorner = [-3.0, -1.0, 3.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -6.0]\nmaterial = \"m\"\n\
+                 [[lights]]\ntype = \"point\"\nposition = [-2.0, 0.0, 0.0]\npower = [1.0, 1.0, 1.0]\n\
+                 [render.vcm]\naim = {aim}\n"
+            )
+        };
+        for share in [0.2f32, 0.6, 0.0] {
+            let s =
+                crate::scene::load::load_scene_str(&text(share), "aim.toml", std::path::Path::new("."), &[]).unwrap();
+            let aim = Aim::new(&s, None);
+            // A sphere of radius 0.5 seen from 4: 1 − cos θ = 1 − √(1 − 1/64), half of which is the share.
+            let caught = 0.5 * (1.0 - (1.0f32 - 1.0 / 64.0).sqrt());
+            assert!((aim.caught_by_targets() - caught).abs() < 0.003, "caught {}", aim.caught_by_targets());
+            let mut rng = Rng::new(3, 0, 0);
+            let n = 100_000;
+            let heading = (0..n)
+                .filter(|_| {
+                    let u_dir = rng.next_2d();
+                    let e = s.lights.emit(&s, 0.5, [0.5, 0.5], u_dir).unwrap();
+                    let e = if aim.is_active() { aim.apply(e, rng.next_f32(), u_dir).unwrap() } else { e };
+                    aim.cone_pdf(e.origin, e.ray.d) > 0.0
+                })
+                .count() as f32
+                / n as f32;
+            let expected = share.max(caught);
+            assert!(
+                (heading - expected).abs() < 0.01,
+                "aim {share}: {heading} head for the target, expected {expected}"
+            );
+        }
     }
 }

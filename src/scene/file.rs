@@ -495,6 +495,7 @@ pub struct RenderSettings {
 /// connect = true   # light sampling, subpath connections, light tracing (false: a progressive photon mapper)
 /// merge = true     # vertex merging (false: bdpt)
 /// light_paths = 0  # light subpaths per iteration (0 = one per pixel; never fewer than the pixels)
+/// aim = 0.2        # share of light subpaths that head for the specular shapes (aimed as needed; 0 = none)
 /// ```
 #[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
@@ -502,11 +503,15 @@ pub struct VcmSettings {
     pub connect: bool,
     pub merge: bool,
     pub light_paths: u64,
+    /// Share of the light subpaths that head for the bounding sphere of a specular shape (the
+    /// planner's caustic targets): where the lights' own emission sends fewer there, that many more
+    /// are aimed (`integrator::vcm::Aim`); every emission density the MIS weights use is the mixture.
+    pub aim: f32,
 }
 
 impl Default for VcmSettings {
     fn default() -> Self {
-        VcmSettings { connect: true, merge: true, light_paths: 0 }
+        VcmSettings { connect: true, merge: true, light_paths: 0, aim: 0.2 }
     }
 }
 

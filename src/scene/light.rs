@@ -82,6 +82,10 @@ pub struct LightSample {
     /// point (per unit area of the light; the choice alone for point and distant lights, per solid
     /// angle for the environment), divided by the cosine at the reference point.
     pub emit_ratio: f32,
+    /// The light sampled (index in `Lights::list`).
+    pub light: usize,
+    /// The emitter's unit normal at the sampled point (zero for point lights and lights at infinity).
+    pub normal: Vec3,
 }
 
 /// A photon leaving a light: origin, direction, and power Φ/(p_choice · pdf) before division by n_emitted,
@@ -101,6 +105,8 @@ pub struct EmittedRay {
     /// lights at infinity).
     pub origin: Vec3,
     pub normal: Vec3,
+    /// Scale of the emitter around `origin`, for offsetting a ray that leaves it in another direction.
+    pub size: f32,
 }
 
 impl Lights {
@@ -244,6 +250,8 @@ impl Lights {
                     pdf: p_sel,
                     delta: true,
                     emit_ratio: 1.0 / (4.0 * PI * dist2),
+                    light: i,
+                    normal: Vec3::ZERO,
                 })
             }
             LightKind::Triangle { .. } => {
@@ -259,7 +267,7 @@ impl Lights {
                 let pdf = p_sel * lp.pdf_area * dist2 / cos_l;
                 let p = offset_ray_origin(lp.p, lp.n, -wi, lp.size);
                 let emit_ratio = cos_l / (PI * dist2);
-                Some(LightSample { wi, dist, p, li: lp.le, pdf, delta: false, emit_ratio })
+                Some(LightSample { wi, dist, p, li: lp.le, pdf, delta: false, emit_ratio, light: i, normal: lp.n })
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];
@@ -283,7 +291,8 @@ impl Lights {
                 let cos_light = (-wi.dot((y - center) / radius)).max(0.0);
                 let emit_ratio = p_sel / (4.0 * PI * radius * radius) / (PI * pdf);
                 let emit_ratio = if cos_light > 0.0 { emit_ratio } else { 0.0 };
-                Some(LightSample { wi, dist, p, li: s.emission, pdf, delta: false, emit_ratio })
+                let normal = (y - center) / radius;
+                Some(LightSample { wi, dist, p, li: s.emission, pdf, delta: false, emit_ratio, light: i, normal })
             }
             LightKind::Env | LightKind::Distant { .. } => {
                 let s = self.sample_infinite(i, u)?;
@@ -297,6 +306,8 @@ impl Lights {
                     pdf: p_sel * s.pdf,
                     delta: s.delta,
                     emit_ratio: 1.0 / (PI * self.sphere.1 * self.sphere.1),
+                    light: i,
+                    normal: Vec3::ZERO,
                 })
             }
         }
@@ -368,6 +379,7 @@ impl Lights {
                 cos: 1.0,
                 origin: o,
                 normal: Vec3::ZERO,
+                size: r,
             });
         }
         let phi = self.power[i] / p_sel;
@@ -380,7 +392,7 @@ impl Lights {
             let cos = d.dot(lp.n);
             (Ray::new(offset_ray_origin(lp.p, lp.n, d, lp.size), d), p_sel * lp.pdf_area * cos / PI, cos)
         };
-        Some(EmittedRay { ray, phi, light: i, pdf_emit, cos, origin: lp.p, normal: lp.n })
+        Some(EmittedRay { ray, phi, light: i, pdf_emit, cos, origin: lp.p, normal: lp.n, size: lp.size })
     }
 
     /// Probability that a light is chosen by power (photon emission, and next-event estimation over
@@ -492,7 +504,7 @@ fn cdf_pdf(cdf: &[f32], i: usize) -> f32 {
 
 /// 1 − cos θmax of the cone a sphere of `radius` subtends from distance² `dc2`, if the point is outside
 /// the sphere (with a margin) and the cone is not empty: the cone next-event estimation samples.
-fn visible_cone(radius: f32, dc2: f32) -> Option<f32> {
+pub fn visible_cone(radius: f32, dc2: f32) -> Option<f32> {
     if dc2 <= radius * radius * 1.0001 {
         return None;
     }

@@ -283,6 +283,12 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
     if !(pr.time_s.is_finite() && pr.time_s >= 0.0) {
         return Err(cx.err("render.progressive.time_s", "must be ≥ 0 seconds (0 = no time limit)"));
     }
+    if !(r.vcm.aim >= 0.0 && r.vcm.aim < 1.0) {
+        return Err(cx.err(
+            "render.vcm.aim",
+            "must be in [0, 1): the share of light subpaths that head for specular shapes (0 = never aimed)",
+        ));
+    }
     if r.vcm.light_paths > 100_000_000 {
         return Err(cx.err("render.vcm.light_paths", "must be at most 100000000 (0 = one per pixel)"));
     }
