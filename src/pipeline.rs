@@ -528,23 +528,32 @@ pub fn render_progressive_share(
     let mut counters = Counters::default();
     let (mut seconds, mut emitted) = (t_setup.elapsed().as_secs_f64(), 0u64);
     let vcm_opts = matches!(mode, Mode::Bdpt | Mode::Vcm).then(|| vcm::VcmOptions::of_scene(scene));
-    let vcm_aim = match vcm_opts {
-        Some(_) => {
-            let a = vcm::Aim::new(scene, Some(&plan.caustic_targets));
-            if !quiet && a.targets() > 0 {
-                println!("{}", a.describe());
+    let vcm_setup = vcm_opts.map(|opts| {
+        let setup = vcm::Setup::new(scene, tracer, opts, Some(&plan.caustic_targets));
+        if !quiet {
+            if setup.aim.targets() > 0 {
+                println!("{}", setup.aim.describe());
             }
-            a
+            let (lo, hi, cells) = setup.radius.spread();
+            if cells > 0 {
+                let d = scene.diagonal().max(1e-30);
+                println!(
+                    "merge radius: {:.2e} to {:.2e} of the diagonal over {cells} regions the light reaches (elsewhere {:.2e}), shrinking with passes",
+                    lo / d,
+                    hi / d,
+                    setup.radius.r1() / d
+                );
+            }
         }
-        None => vcm::Aim::none(),
-    };
+        setup
+    });
     for &i in &passes {
-        let record = match (sppm.as_mut(), vcm_opts) {
+        let record = match (sppm.as_mut(), vcm_opts.zip(vcm_setup.as_ref())) {
             (Some(s), _) => s.iterate(i)?,
-            (None, Some(opts)) => {
+            (None, Some((opts, setup))) => {
                 let t0 = std::time::Instant::now();
-                let r = if opts.merge { vcm::radius_at(r1, p.alpha, i) } else { 0.0 };
-                let out = vcm::iterate(scene, tracer, opts, &vcm_aim, i, r);
+                let r = if opts.merge { vcm::radius_at(setup.radius.r1(), p.alpha, i) } else { 0.0 };
+                let out = vcm::iterate(scene, tracer, opts, setup, i);
                 sums.add_image(&out.image);
                 counters += out.counters;
                 crate::integrator::ppm::PassRecord {
@@ -592,7 +601,7 @@ pub fn render_progressive_share(
         sums = Sums::from_image(&s.image());
     }
     let image = sums.image();
-    let vcm_aim = vcm_opts.map(|_| [vcm_aim.caught_by_targets(), vcm_aim.aimed_share()]);
+    let vcm_aim = vcm_setup.map(|s| [s.aim.caught_by_targets(), s.aim.aimed_share()]);
     Ok(Progressive { output: RenderOutput { image, counters, seconds }, sums, records, snapshots: shots, vcm_aim })
 }
 

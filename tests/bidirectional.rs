@@ -6,7 +6,7 @@
 mod common;
 use caustica::accel::Accel;
 use caustica::film::Image;
-use caustica::integrator::vcm::{iterate, radius_at, Aim, VcmOptions};
+use caustica::integrator::vcm::{iterate, Setup, VcmOptions};
 use caustica::pipeline::render_path;
 use caustica::scene::{load_scene_with, Scene};
 use std::path::PathBuf;
@@ -15,15 +15,14 @@ fn mean(img: &Image) -> f64 {
     img.pixels.iter().map(|p| (p.x + p.y + p.z) as f64 / 3.0).sum::<f64>() / img.pixels.len() as f64
 }
 
-/// Mean of the image over `passes` iterations and the standard error of that mean. The iterations are
+/// Mean of the image over `passes` iterations and the standard error of that mean, set up as a render
+/// would (aimed light subpaths, the merge radius following the light's density). The iterations are
 /// made independent for this (the default Sobol sampler stratifies them, which would make the spread of
 /// their means overstate the error).
-fn bidir_mean(s: &mut Scene, a: &Accel, opts: VcmOptions, passes: u32, r1: f32) -> (f64, f64) {
+fn bidir_mean(s: &mut Scene, a: &Accel, opts: VcmOptions, passes: u32) -> (f64, f64) {
     let sampler = std::mem::replace(&mut s.render.sampler, caustica::math::rng::Sampler::Independent);
-    let aim = Aim::new(s, None);
-    let m: Vec<f64> = (1..=passes)
-        .map(|i| mean(&iterate(s, a, opts, &aim, i, radius_at(r1, s.render.progressive.alpha, i)).image))
-        .collect();
+    let setup = Setup::new(s, a, opts, None);
+    let m: Vec<f64> = (1..=passes).map(|i| mean(&iterate(s, a, opts, &setup, i).image)).collect();
     s.render.sampler = sampler;
     mean_and_error(&m)
 }
@@ -65,7 +64,7 @@ fn the_furnace_reads_le_over_one_minus_albedo() {
     let mut s = furnace();
     let a = Accel::new(&s).unwrap();
     for (name, opts) in [("bdpt", VcmOptions::bdpt()), ("vcm", VcmOptions::vcm())] {
-        let (m, e) = bidir_mean(&mut s, &a, opts, 64, 0.05);
+        let (m, e) = bidir_mean(&mut s, &a, opts, 64);
         eprintln!("{name} furnace: {m:.5} ± {e:.5} (expected 2)");
         assert!((m / 2.0 - 1.0).abs() < 0.01, "{name}: furnace reads {m}, expected 2");
     }
@@ -89,9 +88,8 @@ fn bdpt_and_vcm_means_equal_the_path_tracers_on_both_cornell_boxes() {
 /// BDPT's and VCM's means over `passes` iterations equal PT's (16 renders of `pt_spp`) within 3σ.
 fn means_match_pt(label: &str, s: &mut Scene, a: &Accel, pt_spp: u32, passes: u32) {
     let (pt, pt_e) = pt_mean(s, a, pt_spp, 16);
-    let r1 = caustica::integrator::vcm::initial_radius(s);
     for (name, opts) in [("bdpt", VcmOptions::bdpt()), ("vcm", VcmOptions::vcm())] {
-        let (m, e) = bidir_mean(s, a, opts, passes, r1);
+        let (m, e) = bidir_mean(s, a, opts, passes);
         let sigma = (e * e + pt_e * pt_e).sqrt();
         eprintln!("{label} {name}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ", (m - pt) / sigma);
         assert!((m - pt).abs() < 3.0 * sigma, "{label} {name}: mean {m} vs PT {pt} (σ {sigma})");
@@ -138,7 +136,7 @@ fn every_strategy_alone_has_the_path_tracers_mean_for_its_path_length() {
         for sv in 0..=k {
             let t = k + 1 - sv;
             let opts = VcmOptions { strategy: Some((sv, t)), ..VcmOptions::bdpt() };
-            let (m, e) = bidir_mean(&mut s, &a, opts, 1500, 0.0);
+            let (m, e) = bidir_mean(&mut s, &a, opts, 1500);
             let sigma = (e * e + pt_e * pt_e).sqrt();
             eprintln!("k={k} (s,t)=({sv},{t}): {m:.5} ± {e:.5}; PT {pt:.5} ± {pt_e:.5}: {:+.2}σ", (m - pt) / sigma);
             assert!((m - pt).abs() < 4.0 * sigma + 2e-3 * pt, "k={k} (s,t)=({sv},{t}): {m} vs PT {pt} (σ {sigma})");
@@ -154,7 +152,7 @@ fn bdpt_and_vcm_are_bit_identical_on_1_and_2_threads() {
             .num_threads(n)
             .build()
             .unwrap()
-            .install(|| iterate(&s, &a, opts, &Aim::new(&s, None), 3, 0.05).image)
+            .install(|| iterate(&s, &a, opts, &Setup::new(&s, &a, opts, None), 3).image)
     };
     for opts in [VcmOptions::bdpt(), VcmOptions::vcm()] {
         let one = with_threads(1, opts);

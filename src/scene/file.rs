@@ -496,6 +496,7 @@ pub struct RenderSettings {
 /// merge = true     # vertex merging (false: bdpt)
 /// light_paths = 0  # light subpaths per iteration (0 = one per pixel; never fewer than the pixels)
 /// aim = 0.2        # share of light subpaths that head for the specular shapes (aimed as needed; 0 = none)
+/// local_radius = true  # merge radius set per region from a pilot's light vertices (false: one radius)
 /// ```
 #[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
@@ -507,11 +508,14 @@ pub struct VcmSettings {
     /// planner's caustic targets): where the lights' own emission sends fewer there, that many more
     /// are aimed (`integrator::vcm::Aim`); every emission density the MIS weights use is the mixture.
     pub aim: f32,
+    /// The merge radius follows the light's density over the scene (`integrator::vcm::RadiusField`),
+    /// unless `render.progressive.radius` sets one radius.
+    pub local_radius: bool,
 }
 
 impl Default for VcmSettings {
     fn default() -> Self {
-        VcmSettings { connect: true, merge: true, light_paths: 0, aim: 0.2 }
+        VcmSettings { connect: true, merge: true, light_paths: 0, aim: 0.2, local_radius: true }
     }
 }
 
