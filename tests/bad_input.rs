@@ -198,6 +198,8 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["--set", "render.photons.caustic=100000000000"],
             vec!["render.photons", "GiB"],
         ),
+        ("vcm_aim", GOOD.to_string(), vec!["--set", "render.vcm.aim=1.0"], vec!["render.vcm.aim", "[0, 1)"]),
+        ("vcm_aim_nan", GOOD.to_string(), vec!["--set", "render.vcm.aim=nan"], vec!["render.vcm.aim"]),
     ];
     assert!(cases.len() >= 12);
     for (name, text, extra, expect) in &cases {
