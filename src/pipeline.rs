@@ -515,7 +515,8 @@ pub fn render_progressive_share(
     let sppm_mode = mode == Mode::Sppm;
     let r1 = progressive_r1(scene);
     let mut sums = Sums::new(scene.camera.width, scene.camera.height);
-    // Set-up (the caustic targets probed once, SPPM's pixel table) counts towards the render's time.
+    // Set-up (the caustic targets probed once, SPPM's pixel table, VCM's aim and pilot) counts towards
+    // the render's time.
     let t_setup = std::time::Instant::now();
     let photon_passes = matches!(mode, Mode::Ppm | Mode::Sppm);
     let aim = if photon_passes { crate::integrator::photon_map::aim_targets(scene, tracer, plan) } else { None };
@@ -526,7 +527,6 @@ pub fn render_progressive_share(
     let pb = crate::progress::progress(passes.len() as u64, mode.layer_name(), quiet);
     let (mut records, mut shots) = (Vec::new(), Vec::new());
     let mut counters = Counters::default();
-    let (mut seconds, mut emitted) = (t_setup.elapsed().as_secs_f64(), 0u64);
     let vcm_opts = matches!(mode, Mode::Bdpt | Mode::Vcm).then(|| vcm::VcmOptions::of_scene(scene));
     let vcm_setup = vcm_opts.map(|opts| {
         let setup = vcm::Setup::new(scene, tracer, opts, Some(&plan.caustic_targets));
@@ -547,6 +547,7 @@ pub fn render_progressive_share(
         }
         setup
     });
+    let (mut seconds, mut emitted) = (t_setup.elapsed().as_secs_f64(), 0u64);
     for &i in &passes {
         let record = match (sppm.as_mut(), vcm_opts.zip(vcm_setup.as_ref())) {
             (Some(s), _) => s.iterate(i)?,
