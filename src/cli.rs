@@ -121,8 +121,10 @@ pub struct RenderArgs {
     /// mapping (independent passes with a shrinking radius, averaged); sppm: stochastic progressive
     /// photon mapping (per-pixel radius and flux); bdpt: bidirectional path tracing (every light/camera
     /// subpath pairing, MIS-weighted; light tracing reaches point-light caustics); vcm: bdpt plus photon
-    /// merging under one MIS (render.vcm.connect / render.vcm.merge switch either half off). All four
-    /// converge to the right image as passes accumulate.
+    /// merging under one MIS (render.vcm.connect / render.vcm.merge switch either half off; its merge
+    /// radius follows the light's density, render.vcm.local_radius). bdpt and vcm aim a share of their
+    /// light subpaths at mirrors and glass the lights seldom reach (render.vcm.aim). All four converge
+    /// to the right image as passes accumulate.
     #[arg(long, value_parser = ["path", "photon_map", "both", "ppm", "sppm", "bdpt", "vcm"])]
     pub mode: Option<String>,
     /// Progressive modes: stop after this many passes (overrides render.progressive.passes).
