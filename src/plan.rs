@@ -44,12 +44,7 @@ fn planar(scene: &Scene, s: usize) -> bool {
 
 /// Corners of the bounding box of shape `s`.
 fn box_corners(scene: &Scene, s: usize) -> [Vec3; 8] {
-    let (lo, hi) = match &scene.shapes[s].geometry {
-        Geometry::Mesh(m) => {
-            m.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
-        }
-        Geometry::Sphere { center, radius } => (*center - Vec3::splat(*radius), *center + Vec3::splat(*radius)),
-    };
+    let (lo, hi) = scene.shapes[s].geometry.bounds();
     std::array::from_fn(|k| {
         Vec3::new(
             if k & 1 == 0 { lo.x } else { hi.x },

@@ -141,7 +141,20 @@ struct Iteration<'a> {
     opts: VcmOptions,
 }
 
-impl Iteration<'_> {
+impl<'a> Iteration<'a> {
+    /// An iteration of `opts` with merge radius `radius` × `shrink`.
+    fn new(scene: &Scene, opts: VcmOptions, radius: &'a RadiusField, shrink: f32) -> Iteration<'a> {
+        Iteration {
+            max_len: scene.render.max_depth.saturating_add(1),
+            n_paths: light_paths(scene, opts) as f32,
+            vc: if opts.connect { 1.0 } else { 0.0 },
+            merge: opts.merge,
+            radius,
+            shrink,
+            opts,
+        }
+    }
+
     /// This iteration's merge radius at `p`.
     fn r(&self, p: Vec3) -> f32 {
         (self.radius.at(p) * self.shrink).max(1e-7)
@@ -224,38 +237,35 @@ impl Aim {
     /// targets), so that `render.vcm.aim` of the light subpaths head for them.
     pub fn new(scene: &Scene, only: Option<&[u32]>) -> Aim {
         let share = scene.render.vcm.aim;
-        let mut spheres: Vec<(Vec3, f32)> = Vec::new();
-        let mut boxes: Vec<(Vec3, Vec3)> = Vec::new();
-        for (i, sh) in scene.shapes.iter().enumerate() {
-            if only.is_some_and(|o| !o.contains(&(i as u32)))
-                || scene.materials[sh.material as usize].bsdf.is_diffuse()
-                || sh.area() <= 0.0
-            {
-                continue;
-            }
-            match &sh.geometry {
-                Geometry::Sphere { center, radius } => {
-                    spheres.push((*center, *radius));
-                    boxes.push((*center - Vec3::splat(*radius), *center + Vec3::splat(*radius)));
-                }
-                Geometry::Mesh(m) => {
-                    let (lo, hi) = m
-                        .positions
-                        .iter()
-                        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
-                    let c = 0.5 * (lo + hi);
-                    let r = m.positions.iter().map(|p| p.distance_squared(c)).fold(0.0f32, f32::max).sqrt();
-                    spheres.push((c, r * (1.0 + 1e-4) + 1e-6 * scene.diagonal()));
-                    boxes.push((lo, hi));
-                }
-            }
-        }
-        if spheres.len() > AIM_MAX_TARGETS {
-            let (lo, hi) =
-                boxes.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), (l, h)| (a.min(*l), b.max(*h)));
-            spheres = vec![(0.5 * (lo + hi), 0.5 * (hi - lo).length() * (1.0 + 1e-4))];
-        }
-        let mut aim = Aim { frac: 0.0, shapes: spheres.len(), spheres, caught: 0.0 };
+        let targets: Vec<&crate::scene::Shape> = (scene.shapes.iter().enumerate())
+            .filter(|&(i, sh)| {
+                only.is_none_or(|o| o.contains(&(i as u32)))
+                    && !scene.materials[sh.material as usize].bsdf.is_diffuse()
+                    && sh.area() > 0.0
+            })
+            .map(|(_, sh)| sh)
+            .collect();
+        let spheres = if targets.len() > AIM_MAX_TARGETS {
+            let (lo, hi) = targets
+                .iter()
+                .map(|sh| sh.geometry.bounds())
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), (l, h)| (a.min(l), b.max(h)));
+            vec![(0.5 * (lo + hi), 0.5 * (hi - lo).length() * (1.0 + 1e-4))]
+        } else {
+            targets
+                .iter()
+                .map(|sh| match &sh.geometry {
+                    Geometry::Sphere { center, radius } => (*center, *radius),
+                    Geometry::Mesh(m) => {
+                        let (lo, hi) = sh.geometry.bounds();
+                        let c = 0.5 * (lo + hi);
+                        let r = m.positions.iter().map(|p| p.distance_squared(c)).fold(0.0f32, f32::max).sqrt();
+                        (c, r * (1.0 + 1e-4) + 1e-6 * scene.diagonal())
+                    }
+                })
+                .collect()
+        };
+        let mut aim = Aim { frac: 0.0, shapes: targets.len(), spheres, caught: 0.0 };
         if aim.spheres.is_empty() {
             return aim;
         }
@@ -285,11 +295,6 @@ impl Aim {
         } else {
             caught as f32 / finite as f32
         }
-    }
-
-    /// No aiming: every light subpath leaves as the light emits.
-    pub fn none() -> Aim {
-        Aim { frac: 0.0, spheres: Vec::new(), caught: 0.0, shapes: 0 }
     }
 
     /// Probability that a light subpath is aimed.
@@ -443,9 +448,10 @@ impl Setup {
 /// there holds about `MERGE_COUNT` of an iteration's light vertices, as a pilot iteration's light
 /// vertices fall (their `PILOT_K`-th nearest neighbour distance, averaged per cell as r²), never above
 /// the scene-wide radius `initial_radius` nor below 1/16 of it. Where light is dense (a caustic) the
-/// radius shrinks and blurs less; cells the pilot did not reach keep the scene-wide radius. The MIS weights take η = π r² n at each vertex
-/// (merging at that vertex), so they stay exact for a radius that varies over the scene: the dVM
-/// quantity is carried as η·dVM and divided by the merge vertex's own η.
+/// radius shrinks and blurs less; cells the pilot did not reach keep the scene-wide radius. The MIS
+/// weights take η = π r² n at each vertex (merging at that vertex), so they stay exact for a radius
+/// that varies over the scene: the dVM quantity is carried as η·dVM and divided by the merge vertex's
+/// own η.
 pub struct RadiusField {
     r1: f32,
     /// Base radius per cell, x fastest (empty: `r1` everywhere).
@@ -491,30 +497,15 @@ impl RadiusField {
 
     /// From a pilot iteration's light subpaths (its own random numbers, not part of the image).
     fn local(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, aim: &Aim, r1: f32) -> RadiusField {
-        let n = light_paths(scene, opts);
         let uniform = RadiusField::uniform(r1);
-        let it = Iteration {
-            max_len: scene.render.max_depth.saturating_add(1),
-            n_paths: n as f32,
-            vc: 0.0,
-            merge: true,
-            radius: &uniform,
-            shrink: 1.0,
-            opts: VcmOptions { connect: false, merge: true, light_paths: opts.light_paths, strategy: None },
-        };
-        let v = Vcm { scene, tracer, it, aim };
+        let pilot = VcmOptions { connect: false, merge: true, light_paths: opts.light_paths, strategy: None };
+        let v = Vcm { scene, tracer, it: Iteration::new(scene, pilot, &uniform, 1.0), aim };
         let seed = scene.render.seed ^ 0x9170_7000_0000_0000;
-        let pts: Vec<([f32; 3], ())> = (0..n.div_ceil(CHUNK))
-            .into_par_iter()
-            .map(|ci| {
-                let (mut verts, mut splats, mut c) = (Vec::new(), Vec::new(), Counters::default());
-                for k in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
-                    v.light_path(&mut Rng::new(seed, k as u64, 0), &mut verts, &mut splats, &mut c);
-                }
-                verts.iter().map(|lv| (lv.si.p.to_array(), ())).collect::<Vec<_>>()
-            })
-            .collect::<Vec<_>>()
-            .concat();
+        let pts: Vec<([f32; 3], ())> = v
+            .light_chunks(light_paths(scene, pilot), |k| Rng::new(seed, k as u64, 0))
+            .iter()
+            .flat_map(|chunk| chunk.0.iter().map(|lv| (lv.si.p.to_array(), ())))
+            .collect();
         if pts.len() <= PILOT_K {
             return uniform;
         }
@@ -587,30 +578,10 @@ pub fn iterate(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, setup: &Set
     let (w, h) = (cam.width as usize, cam.height as usize);
     let pixels = w * h;
     let n = light_paths(scene, opts);
-    let it = Iteration {
-        max_len: scene.render.max_depth.saturating_add(1),
-        n_paths: n as f32,
-        vc: if opts.connect { 1.0 } else { 0.0 },
-        merge: opts.merge,
-        radius: &setup.radius,
-        shrink: radius_at(1.0, scene.render.progressive.alpha, i),
-        opts,
-    };
-    let v = Vcm { scene, tracer, it, aim: &setup.aim };
+    let shrink = radius_at(1.0, scene.render.progressive.alpha, i);
+    let v = Vcm { scene, tracer, it: Iteration::new(scene, opts, &setup.radius, shrink), aim: &setup.aim };
     let (sampler, seed) = (scene.render.sampler, scene.render.seed);
-    // Light subpaths, in fixed chunks.
-    let chunks: Vec<LightChunk> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|ci| {
-            let (mut verts, mut ends, mut splats, mut c) = (Vec::new(), Vec::new(), Vec::new(), Counters::default());
-            for k in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
-                let mut rng = Rng::camera(sampler, seed ^ 0x7C3A_0000_0000_0000, k as u64, (i - 1) as u64);
-                v.light_path(&mut rng, &mut verts, &mut splats, &mut c);
-                ends.push(verts.len() as u32);
-            }
-            (verts, ends, splats, c)
-        })
-        .collect();
+    let chunks = v.light_chunks(n, |k| Rng::camera(sampler, seed ^ 0x7C3A_0000_0000_0000, k as u64, (i - 1) as u64));
     let mut verts = Vec::new();
     let mut ends = Vec::with_capacity(n + 1);
     ends.push(0u32);
@@ -688,6 +659,23 @@ fn cos_g(si: &SurfaceHit, w: Vec3) -> f32 {
 }
 
 impl Vcm<'_> {
+    /// `n` light subpaths in fixed chunks (the same chunks on any thread count), subpath k drawing
+    /// from `rng(k)`.
+    fn light_chunks(&self, n: usize, rng: impl Fn(usize) -> Rng + Sync) -> Vec<LightChunk> {
+        (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|ci| {
+                let (mut verts, mut ends, mut splats, mut c) =
+                    (Vec::new(), Vec::new(), Vec::new(), Counters::default());
+                for k in ci * CHUNK..((ci + 1) * CHUNK).min(n) {
+                    self.light_path(&mut rng(k), &mut verts, &mut splats, &mut c);
+                    ends.push(verts.len() as u32);
+                }
+                (verts, ends, splats, c)
+            })
+            .collect()
+    }
+
     /// Traces one light subpath: stores its non-delta vertices (when connecting or merging) and
     /// connects each to the camera (light tracing).
     fn light_path(&self, rng: &mut Rng, verts: &mut Vec<LightVertex>, splats: &mut Vec<(u32, Rgb)>, c: &mut Counters) {

@@ -60,6 +60,16 @@ fn max_edge(a: Vec3, b: Vec3, c: Vec3) -> f32 {
 }
 
 impl Geometry {
+    /// Axis-aligned bounding box (lo, hi).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match self {
+            Geometry::Mesh(m) => {
+                m.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+            }
+            Geometry::Sphere { center, radius } => (*center - Vec3::splat(*radius), *center + Vec3::splat(*radius)),
+        }
+    }
+
     /// The one point-on-shape sampler: a uniform point on triangle `prim` of a mesh, or on the whole
     /// sphere (`prim` ignored). Lights, caustic targets and the planner all draw through it.
     pub fn point(&self, prim: usize, u: [f32; 2]) -> SurfacePoint {
