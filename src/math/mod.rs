@@ -64,10 +64,17 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, w: Vec3, scale: f32) -> Vec3 {
     let na = n.to_array();
     let mut out = [0.0f32; 3];
     for k in 0..3 {
-        out[k] = if pa[k].abs() < origin {
-            pa[k] + float_scale * na[k]
+        let (x, ulps) = (pa[k], (INT_SCALE * na[k]) as i32);
+        out[k] = if x.abs() < origin {
+            x + float_scale * na[k]
+        } else if (1e-30..1e37).contains(&x.abs()) {
+            // At most 256 ulps from a float this far from zero and from f32::MAX: the step cannot
+            // cross zero or overflow, so it is the raw bits moved towards the side asked for (the
+            // same float `step_ulps` gives, without its ordered-integer detour).
+            let step = if x < 0.0 { -ulps } else { ulps };
+            f32::from_bits((x.to_bits() as i32).wrapping_add(step) as u32)
         } else {
-            step_ulps(pa[k], (INT_SCALE * na[k]) as i32)
+            step_ulps(x, ulps)
         };
     }
     Vec3::from_array(out)
@@ -181,6 +188,43 @@ mod tests {
                         assert!(step >= 0.0, "p {p:?} n {n:?} k {k}: {} -> {}", p[k], q[k]);
                     }
                 }
+            }
+        }
+    }
+
+    /// The fast integer step in `offset_ray_origin` is exactly the ordered-integer `step_ulps`
+    /// (the definition) for every coordinate it takes: magnitudes from 1e-38 to f32::MAX, both signs,
+    /// normals of every direction, primitive sizes from 0 to 1e6.
+    #[test]
+    fn offset_ray_origin_matches_its_definition() {
+        let definition = |p: Vec3, ng: Vec3, w: Vec3, scale: f32| {
+            let n = face_forward(ng, w);
+            Vec3::from_array(std::array::from_fn(|k| {
+                if p[k].abs() < scale / 32.0 {
+                    p[k] + scale / 65536.0 * n[k]
+                } else {
+                    step_ulps(p[k], (256.0 * n[k]) as i32)
+                }
+            }))
+        };
+        let mut rng = crate::math::rng::Rng::new(7, 0, 0);
+        let coordinate = |rng: &mut crate::math::rng::Rng| {
+            let sign = if rng.next_f32() < 0.5 { -1.0 } else { 1.0 };
+            match (rng.next_f32() * 8.0) as u32 {
+                0 => 0.0,
+                1 => sign * f32::MAX,
+                2 => sign * f32::from_bits(1 + (rng.next_u32() >> 9)),
+                _ => sign * 10f32.powf(rng.next_f32() * 76.0 - 38.0),
+            }
+        };
+        for _ in 0..200_000 {
+            let p = Vec3::new(coordinate(&mut rng), coordinate(&mut rng), coordinate(&mut rng));
+            let n = crate::math::sampling::uniform_sphere(rng.next_2d());
+            let w = crate::math::sampling::uniform_sphere(rng.next_2d());
+            let scale = [0.0, 1e-6, 1.0, 1e6][(rng.next_f32() * 4.0) as usize];
+            let (a, b) = (offset_ray_origin(p, n, w, scale), definition(p, n, w, scale));
+            for k in 0..3 {
+                assert_eq!(a[k].to_bits(), b[k].to_bits(), "p {p:?} n {n:?} w {w:?} scale {scale}: {a:?} vs {b:?}");
             }
         }
     }
