@@ -4,6 +4,7 @@
 
 pub mod accel;
 pub mod color;
+pub mod cpu;
 pub mod film;
 pub mod integrator;
 pub mod math;

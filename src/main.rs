@@ -2,6 +2,7 @@
 use clap::Parser;
 
 fn main() {
+    refuse_a_cpu_it_was_not_built_for();
     quiet_on_broken_pipe();
     let cli = caustica::cli::Cli::parse();
     if let Err(e) = caustica::app::run(cli) {
@@ -28,4 +29,15 @@ fn quiet_on_broken_pipe() {
         }
         default(info);
     }));
+}
+
+/// First thing: a binary compiled for another CPU (`.cargo/config.toml` builds for the host's) says
+/// which extensions this CPU lacks and how to rebuild, instead of dying on an illegal instruction.
+/// Kept out of line so that nothing compiled for those extensions runs before it.
+#[inline(never)]
+fn refuse_a_cpu_it_was_not_built_for() {
+    if let Err(msg) = caustica::cpu::check(&caustica::cpu::features()) {
+        eprintln!("error: {msg}");
+        std::process::exit(1);
+    }
 }
