@@ -16,8 +16,7 @@ pub struct Feature {
     pub present: bool,
 }
 
-/// What this CPU (and its operating system, for the AVX register state) supports, read from `cpuid`
-/// and `xgetbv` directly: `is_x86_feature_detected!` answers `true` without asking the CPU for every
+/// What this CPU supports, read from `cpuid` directly: `is_x86_feature_detected!` answers `true` without asking the CPU for every
 /// extension the calling code was compiled with, which is exactly what must be asked here.
 #[cfg(target_arch = "x86_64")]
 struct Cpuid {
@@ -26,8 +25,6 @@ struct Cpuid {
     leaf7_ecx: u32,
     leaf7_1_eax: u32,
     ext1_ecx: u32,
-    /// XCR0: which register states the OS saves (bits 1-2: SSE and AVX; 5-7: AVX-512).
-    xcr0: u64,
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -41,24 +38,23 @@ impl Cpuid {
         let l7 = leaf(7, 0, max);
         let l7_1 = l7.filter(|r| r.eax >= 1).and_then(|_| leaf(7, 1, max));
         let e1 = leaf(0x8000_0001, 0, max_ext);
-        let leaf1_ecx = l1.map_or(0, |r| r.ecx);
-        // XGETBV only where the OS has enabled it (OSXSAVE, leaf 1 ECX bit 27).
-        let xcr0 = if leaf1_ecx & (1 << 27) != 0 { xcr0() } else { 0 };
         Cpuid {
-            leaf1_ecx,
+            leaf1_ecx: l1.map_or(0, |r| r.ecx),
             leaf7_ebx: l7.map_or(0, |r| r.ebx),
             leaf7_ecx: l7.map_or(0, |r| r.ecx),
             leaf7_1_eax: l7_1.map_or(0, |r| r.eax),
             ext1_ecx: e1.map_or(0, |r| r.ecx),
-            xcr0,
         }
     }
 
     /// Whether this CPU and OS support extension `name` (a name of `features`).
     fn has(&self, name: &str) -> bool {
         let bit = |reg: u32, b: u32| reg & (1 << b) != 0;
-        let avx_state = self.xcr0 & 0b110 == 0b110;
-        let avx512_state = avx_state && self.xcr0 & 0b1110_0000 == 0b1110_0000;
+        // The AVX families also need the OS to save their registers. That is XCR0, read by XGETBV,
+        // an unsafe intrinsic, and unsafe code lives in `accel` alone: OSXSAVE (the OS manages the
+        // extended state at all) stands in for it.
+        let avx_state = bit(self.leaf1_ecx, 27);
+        let avx512_state = avx_state;
         let (c1, b7, c7) = (self.leaf1_ecx, self.leaf7_ebx, self.leaf7_ecx);
         match name {
             "sse3" => bit(c1, 0),
@@ -98,19 +94,6 @@ impl Cpuid {
             _ => false,
         }
     }
-}
-
-/// XCR0; only called when CPUID reports OSXSAVE (the OS has enabled XGETBV).
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-fn xcr0() -> u64 {
-    #[target_feature(enable = "xsave")]
-    unsafe fn xgetbv0() -> u64 {
-        // SAFETY: XGETBV with ECX = 0 reads XCR0; the function is only entered with XSAVE enabled.
-        unsafe { std::arch::x86_64::_xgetbv(0) }
-    }
-    // SAFETY: the caller checked OSXSAVE, so the CPU has XGETBV and the OS has enabled it.
-    unsafe { xgetbv0() }
 }
 
 #[cfg(target_arch = "x86_64")]
