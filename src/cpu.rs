@@ -99,8 +99,8 @@ impl Cpuid {
 #[cfg(target_arch = "x86_64")]
 macro_rules! feature_table {
     ($($f:tt),* $(,)?) => {
-        /// Every x86-64 extension a `target-cpu` setting can switch on beyond the baseline (SSE2),
-        /// with whether this build may use it and whether this CPU has it.
+        /// Each extension of `with_extensions!`, with whether this build may use it and whether
+        /// this CPU has it.
         pub fn features() -> Vec<Feature> {
             let cpu = Cpuid::read();
             vec![$(Feature { name: $f, compiled: cfg!(target_feature = $f), present: cpu.has($f) }),*]
@@ -108,43 +108,52 @@ macro_rules! feature_table {
     };
 }
 
+/// The extensions checked, once: every x86-64 extension a `target-cpu` setting can switch on beyond
+/// the baseline (SSE2). `with_extensions!(m)` expands to `m!("sse3", …)`.
 #[cfg(target_arch = "x86_64")]
-feature_table!(
-    "sse3",
-    "ssse3",
-    "sse4.1",
-    "sse4.2",
-    "sse4a",
-    "popcnt",
-    "cmpxchg16b",
-    "avx",
-    "avx2",
-    "fma",
-    "f16c",
-    "bmi1",
-    "bmi2",
-    "lzcnt",
-    "movbe",
-    "adx",
-    "aes",
-    "pclmulqdq",
-    "sha",
-    "gfni",
-    "vaes",
-    "vpclmulqdq",
-    "avx512f",
-    "avx512cd",
-    "avx512bw",
-    "avx512dq",
-    "avx512vl",
-    "avx512ifma",
-    "avx512vbmi",
-    "avx512vbmi2",
-    "avx512vnni",
-    "avx512bitalg",
-    "avx512vpopcntdq",
-    "avx512bf16",
-);
+macro_rules! with_extensions {
+    ($m:ident) => {
+        $m! {
+            "sse3",
+            "ssse3",
+            "sse4.1",
+            "sse4.2",
+            "sse4a",
+            "popcnt",
+            "cmpxchg16b",
+            "avx",
+            "avx2",
+            "fma",
+            "f16c",
+            "bmi1",
+            "bmi2",
+            "lzcnt",
+            "movbe",
+            "adx",
+            "aes",
+            "pclmulqdq",
+            "sha",
+            "gfni",
+            "vaes",
+            "vpclmulqdq",
+            "avx512f",
+            "avx512cd",
+            "avx512bw",
+            "avx512dq",
+            "avx512vl",
+            "avx512ifma",
+            "avx512vbmi",
+            "avx512vbmi2",
+            "avx512vnni",
+            "avx512bitalg",
+            "avx512vpopcntdq",
+            "avx512bf16"
+        }
+    };
+}
+
+#[cfg(target_arch = "x86_64")]
+with_extensions!(feature_table);
 
 /// Other architectures: nothing checked (a build there keeps its target's baseline unless told).
 #[cfg(not(target_arch = "x86_64"))]
@@ -195,42 +204,7 @@ mod tests {
                 }
             )*};
         }
-        agree!(
-            "sse3",
-            "ssse3",
-            "sse4.1",
-            "sse4.2",
-            "sse4a",
-            "popcnt",
-            "cmpxchg16b",
-            "avx",
-            "avx2",
-            "fma",
-            "f16c",
-            "bmi1",
-            "bmi2",
-            "lzcnt",
-            "movbe",
-            "adx",
-            "aes",
-            "pclmulqdq",
-            "sha",
-            "gfni",
-            "vaes",
-            "vpclmulqdq",
-            "avx512f",
-            "avx512cd",
-            "avx512bw",
-            "avx512dq",
-            "avx512vl",
-            "avx512ifma",
-            "avx512vbmi",
-            "avx512vbmi2",
-            "avx512vnni",
-            "avx512bitalg",
-            "avx512vpopcntdq",
-            "avx512bf16"
-        );
+        with_extensions!(agree);
         assert!(!Cpuid::read().has("no-such-extension"));
     }
 
