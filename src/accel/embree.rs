@@ -206,13 +206,13 @@ impl Accel {
     /// The baseline for `caustica bench rays`: a bare `rtcIntersect16` loop over rays already laid out
     /// in Embree's SoA packets (a copy of the prepared packet, the call, nothing decoded). Returns hits.
     pub fn raw_intersect16(&self, packets: &RawPackets) -> usize {
-        let valid = [-1i32; 16];
+        let valid = ValidMask([-1i32; 16]);
         let mut hits = 0;
         for p in &packets.0 {
             let mut q = Packet16(p.0);
             let mut ctx = context();
-            // SAFETY: committed scene, 64-byte aligned packet, 16-lane valid mask.
-            unsafe { rtcIntersect16(valid.as_ptr(), self.scene, &mut ctx, &mut q.0) };
+            // SAFETY: committed scene, 64-byte aligned packet and 16-lane valid mask.
+            unsafe { rtcIntersect16(valid.0.as_ptr(), self.scene, &mut ctx, &mut q.0) };
             hits += q.0.hit.geomID.iter().filter(|&&g| g != INVALID).count();
         }
         hits
@@ -277,17 +277,26 @@ fn to_packet(rays: &[Ray]) -> RTCRayHit16 {
 #[repr(C, align(32))]
 struct Packet8(RTCRayHit8);
 
+/// Embree's valid masks must be aligned like their packets (32 bytes for 8 lanes, 64 for 16): its
+/// AVX-512 kernels load them with aligned loads. A plain `[i32; N]` is only 4-byte aligned; it was
+/// aligned by luck until a change of compiler flags moved it and `rtcIntersect16` crashed.
+#[repr(C, align(64))]
+struct ValidMask<const N: usize>([i32; N]);
+const _: () = assert!(std::mem::align_of::<ValidMask<16>>() >= 64 && std::mem::align_of::<Packet16>() >= 64);
+
 /// Traces up to `W` rays as one Embree packet of width W and decodes the hits.
 macro_rules! trace_packet {
     ($self:expr, $rays:expr, $out:expr, $wrap:ident, $ty:ty, $call:ident, $w:expr) => {{
         let mut p = $wrap(to_packet!($ty, $rays));
-        let mut mask = [0i32; $w];
-        for (m, r) in mask.iter_mut().zip($rays) {
+        let mut mask = ValidMask([0i32; $w]);
+        for (m, r) in mask.0.iter_mut().zip($rays) {
             *m = if valid(r) { -1 } else { 0 };
         }
         let mut ctx = context();
-        // SAFETY: committed scene, packet aligned to its width, valid mask covers only filled lanes.
-        unsafe { $call(mask.as_ptr(), $self.scene, &mut ctx, &mut p.0) };
+        // SAFETY: committed scene, packet and valid mask aligned to 64 bytes (at least their width),
+        // the mask covering only filled lanes.
+        unsafe { $call(mask.0.as_ptr(), $self.scene, &mut ctx, &mut p.0) };
+        let mask = mask.0;
         let h = &p.0.hit;
         for (i, o) in $out.iter_mut().enumerate() {
             *o = (mask[i] != 0 && h.geomID[i] != INVALID).then_some(Hit {
