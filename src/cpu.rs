@@ -16,8 +16,9 @@ pub struct Feature {
     pub present: bool,
 }
 
-/// What this CPU supports, read from `cpuid` directly: `is_x86_feature_detected!` answers `true` without asking the CPU for every
-/// extension the calling code was compiled with, which is exactly what must be asked here.
+/// What this CPU supports, read from `cpuid` directly: `is_x86_feature_detected!` answers `true`
+/// without asking the CPU for every extension the calling code was compiled with, which is exactly
+/// what must be asked here.
 #[cfg(target_arch = "x86_64")]
 struct Cpuid {
     leaf1_ecx: u32,
@@ -47,107 +48,73 @@ impl Cpuid {
         }
     }
 
-    /// Whether this CPU and OS support extension `name` (a name of `features`).
-    fn has(&self, name: &str) -> bool {
-        let bit = |reg: u32, b: u32| reg & (1 << b) != 0;
-        // The AVX families also need the OS to save their registers. That is XCR0, read by XGETBV,
-        // an unsafe intrinsic, and unsafe code lives in `accel` alone: OSXSAVE (the OS manages the
-        // extended state at all) stands in for it.
-        let avx_state = bit(self.leaf1_ecx, 27);
-        let avx512_state = avx_state;
-        let (c1, b7, c7) = (self.leaf1_ecx, self.leaf7_ebx, self.leaf7_ecx);
-        match name {
-            "sse3" => bit(c1, 0),
-            "pclmulqdq" => bit(c1, 1),
-            "ssse3" => bit(c1, 9),
-            "cmpxchg16b" => bit(c1, 13),
-            "sse4.1" => bit(c1, 19),
-            "sse4.2" => bit(c1, 20),
-            "movbe" => bit(c1, 22),
-            "popcnt" => bit(c1, 23),
-            "aes" => bit(c1, 25),
-            "fma" => bit(c1, 12) && avx_state,
-            "avx" => bit(c1, 28) && avx_state,
-            "f16c" => bit(c1, 29) && avx_state,
-            "bmi1" => bit(b7, 3),
-            "avx2" => bit(b7, 5) && avx_state,
-            "bmi2" => bit(b7, 8),
-            "adx" => bit(b7, 19),
-            "sha" => bit(b7, 29),
-            "avx512f" => bit(b7, 16) && avx512_state,
-            "avx512dq" => bit(b7, 17) && avx512_state,
-            "avx512ifma" => bit(b7, 21) && avx512_state,
-            "avx512cd" => bit(b7, 28) && avx512_state,
-            "avx512bw" => bit(b7, 30) && avx512_state,
-            "avx512vl" => bit(b7, 31) && avx512_state,
-            "avx512vbmi" => bit(c7, 1) && avx512_state,
-            "avx512vbmi2" => bit(c7, 6) && avx512_state,
-            "gfni" => bit(c7, 8),
-            "vaes" => bit(c7, 9) && avx_state,
-            "vpclmulqdq" => bit(c7, 10) && avx_state,
-            "avx512vnni" => bit(c7, 11) && avx512_state,
-            "avx512bitalg" => bit(c7, 12) && avx512_state,
-            "avx512vpopcntdq" => bit(c7, 14) && avx512_state,
-            "avx512bf16" => bit(self.leaf7_1_eax, 5) && avx512_state,
-            "lzcnt" => bit(self.ext1_ecx, 5),
-            "sse4a" => bit(self.ext1_ecx, 6),
-            _ => false,
-        }
+    /// Bit `b` of a `cpuid` register; for an extension of the AVX family (`avx`), also whether the
+    /// OS saves the extended registers. That is XCR0, read by XGETBV, an unsafe intrinsic, and unsafe
+    /// code lives in `accel` alone: OSXSAVE (leaf 1 ECX bit 27, the OS manages the extended state at
+    /// all) stands in for it.
+    fn bit(&self, reg: u32, b: u32, avx: bool) -> bool {
+        reg & (1 << b) != 0 && (!avx || self.leaf1_ecx & (1 << 27) != 0)
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-macro_rules! feature_table {
-    ($($f:tt),* $(,)?) => {
-        /// Each extension of `with_extensions!`, with whether this build may use it and whether
-        /// this CPU has it.
-        pub fn features() -> Vec<Feature> {
-            let cpu = Cpuid::read();
-            vec![$(Feature { name: $f, compiled: cfg!(target_feature = $f), present: cpu.has($f) }),*]
-        }
-    };
-}
-
-/// The extensions checked, once: every x86-64 extension a `target-cpu` setting can switch on beyond
-/// the baseline (SSE2). `with_extensions!(m)` expands to `m!("sse3", …)`.
+/// The extensions checked, written once: every x86-64 extension a `target-cpu` setting can switch on
+/// beyond the baseline (SSE2), each with the `cpuid` register and bit that report it and whether it
+/// uses the AVX register state. `with_extensions!(m)` expands to `m! { "sse3" => (leaf1_ecx, 0,
+/// false), … }`.
 #[cfg(target_arch = "x86_64")]
 macro_rules! with_extensions {
     ($m:ident) => {
         $m! {
-            "sse3",
-            "ssse3",
-            "sse4.1",
-            "sse4.2",
-            "sse4a",
-            "popcnt",
-            "cmpxchg16b",
-            "avx",
-            "avx2",
-            "fma",
-            "f16c",
-            "bmi1",
-            "bmi2",
-            "lzcnt",
-            "movbe",
-            "adx",
-            "aes",
-            "pclmulqdq",
-            "sha",
-            "gfni",
-            "vaes",
-            "vpclmulqdq",
-            "avx512f",
-            "avx512cd",
-            "avx512bw",
-            "avx512dq",
-            "avx512vl",
-            "avx512ifma",
-            "avx512vbmi",
-            "avx512vbmi2",
-            "avx512vnni",
-            "avx512bitalg",
-            "avx512vpopcntdq",
-            "avx512bf16"
+            "sse3" => (leaf1_ecx, 0, false),
+            "pclmulqdq" => (leaf1_ecx, 1, false),
+            "ssse3" => (leaf1_ecx, 9, false),
+            "fma" => (leaf1_ecx, 12, true),
+            "cmpxchg16b" => (leaf1_ecx, 13, false),
+            "sse4.1" => (leaf1_ecx, 19, false),
+            "sse4.2" => (leaf1_ecx, 20, false),
+            "movbe" => (leaf1_ecx, 22, false),
+            "popcnt" => (leaf1_ecx, 23, false),
+            "aes" => (leaf1_ecx, 25, false),
+            "avx" => (leaf1_ecx, 28, true),
+            "f16c" => (leaf1_ecx, 29, true),
+            "bmi1" => (leaf7_ebx, 3, false),
+            "avx2" => (leaf7_ebx, 5, true),
+            "bmi2" => (leaf7_ebx, 8, false),
+            "avx512f" => (leaf7_ebx, 16, true),
+            "avx512dq" => (leaf7_ebx, 17, true),
+            "adx" => (leaf7_ebx, 19, false),
+            "avx512ifma" => (leaf7_ebx, 21, true),
+            "avx512cd" => (leaf7_ebx, 28, true),
+            "sha" => (leaf7_ebx, 29, false),
+            "avx512bw" => (leaf7_ebx, 30, true),
+            "avx512vl" => (leaf7_ebx, 31, true),
+            "avx512vbmi" => (leaf7_ecx, 1, true),
+            "avx512vbmi2" => (leaf7_ecx, 6, true),
+            "gfni" => (leaf7_ecx, 8, false),
+            "vaes" => (leaf7_ecx, 9, true),
+            "vpclmulqdq" => (leaf7_ecx, 10, true),
+            "avx512vnni" => (leaf7_ecx, 11, true),
+            "avx512bitalg" => (leaf7_ecx, 12, true),
+            "avx512vpopcntdq" => (leaf7_ecx, 14, true),
+            "avx512bf16" => (leaf7_1_eax, 5, true),
+            "lzcnt" => (ext1_ecx, 5, false),
+            "sse4a" => (ext1_ecx, 6, false),
+        }
+    };
+}
+
+#[cfg(target_arch = "x86_64")]
+macro_rules! feature_table {
+    ($($f:tt => ($reg:ident, $b:tt, $avx:tt)),* $(,)?) => {
+        /// Each extension of `with_extensions!`, with whether this build may use it and whether
+        /// this CPU has it.
+        pub fn features() -> Vec<Feature> {
+            let cpu = Cpuid::read();
+            vec![$(Feature {
+                name: $f,
+                compiled: cfg!(target_feature = $f),
+                present: cpu.bit(cpu.$reg, $b, $avx),
+            }),*]
         }
     };
 }
@@ -197,15 +164,16 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_cpuid_reading_agrees_with_std_detect() {
+        let table = features();
+        let present = |name: &str| table.iter().find(|f| f.name == name).map(|f| f.present);
         macro_rules! agree {
-            ($($f:tt),*) => {$(
+            ($($f:tt => $bits:tt),* $(,)?) => {$(
                 if !cfg!(target_feature = $f) {
-                    assert_eq!(Cpuid::read().has($f), std::arch::is_x86_feature_detected!($f), $f);
+                    assert_eq!(present($f), Some(std::arch::is_x86_feature_detected!($f)), $f);
                 }
             )*};
         }
         with_extensions!(agree);
-        assert!(!Cpuid::read().has("no-such-extension"));
     }
 
     /// On a CPU without an extension the build uses, that extension (and only such ones) is named.

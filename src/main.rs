@@ -31,9 +31,9 @@ fn quiet_on_broken_pipe() {
     }));
 }
 
-/// First thing: a binary compiled for another CPU (`.cargo/config.toml` builds for the host's) says
-/// which extensions this CPU lacks and how to rebuild, instead of dying on an illegal instruction.
-/// Kept out of line so that nothing compiled for those extensions runs before it.
+/// First thing: on a CPU without the extensions the build may use (x86-64-v2 by `.cargo/config.toml`,
+/// or what RUSTFLAGS asked for), say which are missing and how to rebuild, instead of dying on an
+/// illegal instruction later. Kept out of line, apart from what `main` does next.
 #[inline(never)]
 fn refuse_a_cpu_it_was_not_built_for() {
     if let Err(msg) = caustica::cpu::check(&caustica::cpu::features()) {
