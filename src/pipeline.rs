@@ -527,8 +527,8 @@ pub fn render_progressive_share(
     let pb = crate::progress::progress(passes.len() as u64, mode.layer_name(), quiet);
     let (mut records, mut shots) = (Vec::new(), Vec::new());
     let mut counters = Counters::default();
-    let vcm_opts = matches!(mode, Mode::Bdpt | Mode::Vcm).then(|| vcm::VcmOptions::of_scene(scene));
-    let vcm_setup = vcm_opts.map(|opts| {
+    let vcm_setup = matches!(mode, Mode::Bdpt | Mode::Vcm).then(|| {
+        let opts = vcm::VcmOptions::of_scene(scene);
         let setup = vcm::Setup::new(scene, tracer, opts, Some(&plan.caustic_targets));
         if !quiet {
             if setup.aim.targets() > 0 {
@@ -549,12 +549,13 @@ pub fn render_progressive_share(
     });
     let (mut seconds, mut emitted) = (t_setup.elapsed().as_secs_f64(), 0u64);
     for &i in &passes {
-        let record = match (sppm.as_mut(), vcm_opts.zip(vcm_setup.as_ref())) {
+        let record = match (sppm.as_mut(), vcm_setup.as_ref()) {
             (Some(s), _) => s.iterate(i)?,
-            (None, Some((opts, setup))) => {
+            (None, Some(setup)) => {
+                let opts = setup.opts;
                 let t0 = std::time::Instant::now();
                 let r = if opts.merge { vcm::radius_at(setup.radius.r1(), p.alpha, i) } else { 0.0 };
-                let out = vcm::iterate(scene, tracer, opts, setup, i);
+                let out = vcm::iterate(scene, tracer, setup, i);
                 sums.add_image(&out.image);
                 counters += out.counters;
                 crate::integrator::ppm::PassRecord {

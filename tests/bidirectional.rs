@@ -22,7 +22,7 @@ fn mean(img: &Image) -> f64 {
 fn bidir_mean(s: &mut Scene, a: &Accel, opts: VcmOptions, passes: u32) -> (f64, f64) {
     let sampler = std::mem::replace(&mut s.render.sampler, caustica::math::rng::Sampler::Independent);
     let setup = Setup::new(s, a, opts, None);
-    let m: Vec<f64> = (1..=passes).map(|i| mean(&iterate(s, a, opts, &setup, i).image)).collect();
+    let m: Vec<f64> = (1..=passes).map(|i| mean(&iterate(s, a, &setup, i).image)).collect();
     s.render.sampler = sampler;
     mean_and_error(&m)
 }
@@ -152,7 +152,7 @@ fn bdpt_and_vcm_are_bit_identical_on_1_and_2_threads() {
             .num_threads(n)
             .build()
             .unwrap()
-            .install(|| iterate(&s, &a, opts, &Setup::new(&s, &a, opts, None), 3).image)
+            .install(|| iterate(&s, &a, &Setup::new(&s, &a, opts, None), 3).image)
     };
     for opts in [VcmOptions::bdpt(), VcmOptions::vcm()] {
         let one = with_threads(1, opts);

@@ -418,9 +418,10 @@ pub struct IterationOutput {
     pub light_vertices: u64,
 }
 
-/// What a render sets up once for all its iterations: the aimed emission of light subpaths and the
-/// first iteration's merge radius over the scene.
+/// What a render sets up once for all its iterations: the options it was made for, the aimed emission
+/// of light subpaths and the first iteration's merge radius over the scene.
 pub struct Setup {
+    pub opts: VcmOptions,
     pub aim: Aim,
     pub radius: RadiusField,
 }
@@ -434,12 +435,7 @@ impl Setup {
         let r1 = initial_radius(scene);
         let local = opts.merge && scene.render.vcm.local_radius && scene.render.progressive.radius <= 0.0;
         let radius = if local { RadiusField::local(scene, tracer, opts, &aim, r1) } else { RadiusField::uniform(r1) };
-        Setup { aim, radius }
-    }
-
-    /// Aiming as set, the merge radius `r1` everywhere (tests).
-    pub fn uniform(scene: &Scene, r1: f32) -> Setup {
-        Setup { aim: Aim::new(scene, None), radius: RadiusField::uniform(r1) }
+        Setup { opts, aim, radius }
     }
 }
 
@@ -573,7 +569,8 @@ impl RadiusField {
 }
 
 /// Iteration `i` (1-based) of BDPT/VCM: merge radius `setup.radius` × i^((α−1)/2).
-pub fn iterate(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, setup: &Setup, i: u32) -> IterationOutput {
+pub fn iterate(scene: &Scene, tracer: &dyn Tracer, setup: &Setup, i: u32) -> IterationOutput {
+    let opts = setup.opts;
     let cam = &scene.camera;
     let (w, h) = (cam.width as usize, cam.height as usize);
     let pixels = w * h;
