@@ -200,13 +200,6 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         ("vcm_aim", GOOD.to_string(), vec!["--set", "render.vcm.aim=1.0"], vec!["render.vcm.aim", "[0, 1)"]),
         ("vcm_aim_nan", GOOD.to_string(), vec!["--set", "render.vcm.aim=nan"], vec!["render.vcm.aim"]),
-        (
-            "vcm_connections",
-            GOOD.to_string(),
-            vec!["--set", "render.vcm.connections=5000"],
-            vec!["render.vcm.connections", "at most 1024"],
-        ),
-        ("vcm_connections_negative", GOOD.to_string(), vec!["--set", "render.vcm.connections=-1"], vec!["connections"]),
     ];
     assert!(cases.len() >= 12);
     for (name, text, extra, expect) in &cases {

@@ -88,14 +88,7 @@ fn bdpt_and_vcm_means_equal_the_path_tracers_on_both_cornell_boxes() {
 /// BDPT's and VCM's means over `passes` iterations equal PT's (16 renders of `pt_spp`) within 3σ.
 fn means_match_pt(label: &str, s: &mut Scene, a: &Accel, pt_spp: u32, passes: u32) {
     let (pt, pt_e) = pt_mean(s, a, pt_spp, 16);
-    let lvc = |o: VcmOptions| VcmOptions { connections: 1, ..o };
-    let variants = [
-        ("bdpt", VcmOptions::bdpt()),
-        ("vcm", VcmOptions::vcm()),
-        ("bdpt, light vertex cache", lvc(VcmOptions::bdpt())),
-        ("vcm, light vertex cache", lvc(VcmOptions::vcm())),
-    ];
-    for (name, opts) in variants {
+    for (name, opts) in [("bdpt", VcmOptions::bdpt()), ("vcm", VcmOptions::vcm())] {
         let (m, e) = bidir_mean(s, a, opts, passes);
         let sigma = (e * e + pt_e * pt_e).sqrt();
         eprintln!("{label} {name}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ", (m - pt) / sigma);
@@ -151,41 +144,6 @@ fn every_strategy_alone_has_the_path_tracers_mean_for_its_path_length() {
     }
 }
 
-/// Connections to vertices drawn from all of the iteration's light subpaths (`render.vcm.connections`
-/// = M), each weighted by vertices / (subpaths · M), must keep every connection strategy's mean: the
-/// strategies with s ≥ 2 and t ≥ 2 alone, unweighted, for paths of 3 and 4 edges, against PT.
-#[test]
-fn light_vertex_cache_connections_keep_each_strategys_mean() {
-    let base = strategy_room();
-    let a = Accel::new(&base).unwrap();
-    let pt_upto = |depth: u32, seed: u64| {
-        let mut s = strategy_room();
-        s.render.max_depth = depth;
-        s.render.seed = seed;
-        mean(&render_path(&s, &a, 4096, true).image)
-    };
-    for k in 3..=4u32 {
-        let diffs: Vec<f64> = (0..8).map(|seed| pt_upto(k - 1, seed) - pt_upto(k - 2, seed)).collect();
-        let (pt, pt_e) = mean_and_error(&diffs);
-        let mut s = strategy_room();
-        s.render.max_depth = k - 1;
-        for sv in 2..=k - 1 {
-            let t = k + 1 - sv;
-            let opts = VcmOptions { strategy: Some((sv, t)), connections: 2, ..VcmOptions::bdpt() };
-            let (m, e) = bidir_mean(&mut s, &a, opts, 1500);
-            let sigma = (e * e + pt_e * pt_e).sqrt();
-            eprintln!(
-                "cache, k={k} (s,t)=({sv},{t}): {m:.5} ± {e:.5}; PT {pt:.5} ± {pt_e:.5}: {:+.2}σ",
-                (m - pt) / sigma
-            );
-            assert!(
-                (m - pt).abs() < 4.0 * sigma + 2e-3 * pt,
-                "cache k={k} (s,t)=({sv},{t}): {m} vs PT {pt} (σ {sigma})"
-            );
-        }
-    }
-}
-
 #[test]
 fn bdpt_and_vcm_are_bit_identical_on_1_and_2_threads() {
     let (s, a) = small("cornell-glass.toml", 24);
@@ -196,7 +154,7 @@ fn bdpt_and_vcm_are_bit_identical_on_1_and_2_threads() {
             .unwrap()
             .install(|| iterate(&s, &a, &Setup::new(&s, &a, opts, None), 3).image)
     };
-    for opts in [VcmOptions::bdpt(), VcmOptions::vcm(), VcmOptions { connections: 2, ..VcmOptions::vcm() }] {
+    for opts in [VcmOptions::bdpt(), VcmOptions::vcm()] {
         let one = with_threads(1, opts);
         let two = with_threads(2, opts);
         assert!(mean(&one) > 0.0);

@@ -51,9 +51,6 @@ pub struct VcmOptions {
     pub merge: bool,
     /// Light subpaths per iteration (raised to one per pixel: each camera subpath connects to its own).
     pub light_paths: usize,
-    /// Light vertices per camera vertex: 0, every vertex of the paired light subpath; M ≥ 1, M drawn
-    /// uniformly from all of the iteration's light vertices.
-    pub connections: u32,
     /// Debugging and tests: only the (s, t) strategy (s light vertices, t camera vertices, the camera
     /// itself counted) contributes, with weight 1.
     pub strategy: Option<(u32, u32)>,
@@ -61,10 +58,10 @@ pub struct VcmOptions {
 
 impl VcmOptions {
     pub fn bdpt() -> VcmOptions {
-        VcmOptions { connect: true, merge: false, light_paths: 0, connections: 0, strategy: None }
+        VcmOptions { connect: true, merge: false, light_paths: 0, strategy: None }
     }
     pub fn vcm() -> VcmOptions {
-        VcmOptions { connect: true, merge: true, light_paths: 0, connections: 0, strategy: None }
+        VcmOptions { connect: true, merge: true, light_paths: 0, strategy: None }
     }
     /// The scene's `render.vcm` settings (`merge` forced off for `bdpt`).
     pub fn of_scene(scene: &Scene) -> VcmOptions {
@@ -74,7 +71,6 @@ impl VcmOptions {
             connect: v.connect || bdpt,
             merge: v.merge && !bdpt,
             light_paths: v.light_paths as usize,
-            connections: v.connections,
             strategy: None,
         }
     }
@@ -498,8 +494,7 @@ impl RadiusField {
     /// From a pilot iteration's light subpaths (its own random numbers, not part of the image).
     fn local(scene: &Scene, tracer: &dyn Tracer, opts: VcmOptions, aim: &Aim, r1: f32) -> RadiusField {
         let uniform = RadiusField::uniform(r1);
-        let pilot =
-            VcmOptions { connect: false, merge: true, light_paths: opts.light_paths, connections: 0, strategy: None };
+        let pilot = VcmOptions { connect: false, merge: true, light_paths: opts.light_paths, strategy: None };
         let v = Vcm { scene, tracer, it: Iteration::new(scene, pilot, &uniform, 1.0), aim };
         let seed = scene.render.seed ^ 0x9170_7000_0000_0000;
         let pts: Vec<([f32; 3], ())> = v
@@ -905,7 +900,12 @@ impl Vcm<'_> {
             if !mat.is_delta() {
                 if it.opts.connect || it.opts.strategy.is_some() {
                     l += sp.beta * self.light_sample(&sp, &si, wo, &mat, vm, rng, c);
-                    self.connect_all(&mut l, &sp, &si, wo, &mat, vm, light, lv_range.clone(), rng, c);
+                    for lv in &light.verts[lv_range.clone()] {
+                        if lv.len + 1 + sp.len > it.max_len {
+                            break;
+                        }
+                        l += sp.beta * lv.beta * self.connect(&sp, &si, wo, &mat, vm, lv, c);
+                    }
                 }
                 if let Some(tree) = light.tree {
                     l += sp.beta * self.merge(&sp, &si, wo, &mat, eta, tree);
@@ -998,50 +998,6 @@ impl Vcm<'_> {
             return Rgb::ZERO;
         }
         f * ls.li * (w / ls.pdf)
-    }
-
-    /// Adds to `l` the connections (s ≥ 2) of a camera vertex, times its throughput: to every vertex
-    /// of its own light subpath `own`, or (`connections` = M ≥ 1) to M vertices drawn uniformly from
-    /// all of the iteration's V light vertices of N subpaths, each weighted by V / (N M). Both have the
-    /// same expectation, the mean over light subpaths of the sum over one subpath's vertices (the
-    /// subpaths are independent and alike), so the MIS weights stay those of the paired subpath.
-    #[allow(clippy::too_many_arguments)]
-    fn connect_all(
-        &self,
-        l: &mut Rgb,
-        sp: &SubPath,
-        si: &SurfaceHit,
-        wo: Vec3,
-        mat: &Material,
-        vm: f32,
-        light: &LightPaths,
-        own: std::ops::Range<usize>,
-        rng: &mut Rng,
-        c: &mut Counters,
-    ) {
-        let it = &self.it;
-        let m = it.opts.connections;
-        if m == 0 {
-            for lv in &light.verts[own] {
-                if lv.len + 1 + sp.len > it.max_len {
-                    break;
-                }
-                *l += sp.beta * lv.beta * self.connect(sp, si, wo, mat, vm, lv, c);
-            }
-            return;
-        }
-        let v = light.verts.len();
-        if v == 0 {
-            return;
-        }
-        let share = v as f32 / (it.n_paths * m as f32);
-        for _ in 0..m {
-            let j = ((rng.next_f32() * v as f32) as usize).min(v - 1);
-            let lv = &light.verts[j];
-            if lv.len + 1 + sp.len <= it.max_len {
-                *l += sp.beta * lv.beta * self.connect(sp, si, wo, mat, vm, lv, c) * share;
-            }
-        }
     }
 
     /// Connects a camera vertex to a light vertex (s ≥ 2, t ≥ 2) [tech. rep. (40)-(41)]; the result is

@@ -511,15 +511,11 @@ pub struct VcmSettings {
     /// The merge radius follows the light's density over the scene (`integrator::vcm::RadiusField`),
     /// unless `render.progressive.radius` sets one radius.
     pub local_radius: bool,
-    /// Light vertices each camera vertex connects to: 0, every vertex of its own light subpath (BDPT's
-    /// pairing); M ≥ 1, M vertices drawn uniformly from all of the iteration's light vertices (a light
-    /// vertex cache, Davidovič et al. 2014), each weighted by (vertices / subpaths) / M.
-    pub connections: u32,
 }
 
 impl Default for VcmSettings {
     fn default() -> Self {
-        VcmSettings { connect: true, merge: true, light_paths: 0, aim: 0.2, local_radius: true, connections: 0 }
+        VcmSettings { connect: true, merge: true, light_paths: 0, aim: 0.2, local_radius: true }
     }
 }
 

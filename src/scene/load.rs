@@ -289,11 +289,6 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
             "must be in [0, 1): the share of light subpaths that head for specular shapes (0 = never aimed)",
         ));
     }
-    if r.vcm.connections > 1024 {
-        return Err(
-            cx.err("render.vcm.connections", "must be at most 1024 (0 = every vertex of the paired light subpath)")
-        );
-    }
     if r.vcm.light_paths > 100_000_000 {
         return Err(cx.err("render.vcm.light_paths", "must be at most 100000000 (0 = one per pixel)"));
     }
