@@ -141,8 +141,9 @@ pub fn check(table: &[Feature]) -> Result<(), String> {
     }
     Err(format!(
         "this caustica binary was compiled for a CPU with {}, which this CPU lacks (it would stop with \
-         \"Illegal instruction\"). Rebuild it on this machine (`cargo build --release`), or build for \
-         any x86-64 CPU: RUSTFLAGS='-C target-cpu=x86-64' cargo build --release",
+         \"Illegal instruction\"). Build it for this CPU: RUSTFLAGS='-C target-cpu=native' cargo build \
+         --release, or for any x86-64 CPU: RUSTFLAGS='-C target-cpu=x86-64' cargo build --release \
+         (RUSTFLAGS overrides the x86-64-v2 of .cargo/config.toml)",
         missing.join(", ")
     ))
 }
