@@ -316,7 +316,20 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
         ),
         Err(e) => println!("vs kiddo MutableKdTree: its bulk build refused these points ({e})"),
     }
-    println!("memory: {:.1} bytes per photon in our tree (positions, item, split planes)", ours.bytes_per_point());
+    let paths = res.paths();
+    let pct = |n: u64| 100.0 * n as f64 / qs.len().max(1) as f64;
+    println!(
+        "our search paths: {:.1}% no guessed radius (k ≤ a bucket, or the guess reached the cap), {:.1}% within the \
+         guessed radius, {:.1}% widened once, {:.1}% searched again from an open bound",
+        pct(paths[0]),
+        pct(paths[1]),
+        pct(paths[2]),
+        pct(paths[3])
+    );
+    println!(
+        "memory: {:.1} bytes per photon in our tree (positions, item, split planes, node boxes)",
+        ours.bytes_per_point()
+    );
     if bad > 0 {
         anyhow::bail!("{bad} queries disagree with kiddo");
     }

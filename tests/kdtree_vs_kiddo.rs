@@ -193,3 +193,25 @@ fn non_finite_positions_are_refused_with_their_count() {
     let err = KdTree::build(pts).err().expect("must refuse");
     assert!(err.to_string().contains("2 of 100"), "{err}");
 }
+
+/// Past a bucket's worth of neighbours the search starts from a radius guessed from the local density,
+/// widens it once when it falls short, and searches from an open bound when the guess says little.
+/// Every path must give the exact k nearest; the point set is chosen so that each path is taken.
+#[test]
+fn guessed_radius_paths_all_give_the_exact_k_nearest() {
+    use caustica::photon::distributions::{points, queries, Distribution};
+    let pts = points(Distribution::Clustered, 50_000, 7);
+    let tree = KdTree::build(pts.iter().enumerate().map(|(i, p)| (*p, i as u32)).collect()).unwrap();
+    let mut qs = queries(Distribution::Clustered, 3000, 8);
+    // Far outside every cluster: the guessed ball there holds nothing.
+    qs.extend([[5.0, 5.0, 5.0], [-3.0, 0.5, 0.5], [0.5, 0.5, 40.0]]);
+    let mut res = KnnResult::new();
+    for (k, r2) in [(10, f32::INFINITY), (50, f32::INFINITY), (120, f32::INFINITY), (50, 4e-4)] {
+        for &q in &qs {
+            tree.knn(q, k, r2, &mut res);
+            assert_eq!(res.sorted_d2(), brute_knn(&pts, q, k, r2), "k = {k}, r2 = {r2}, q = {q:?}");
+        }
+    }
+    let paths = res.paths();
+    assert!(paths.iter().all(|&n| n > 0), "every path taken at least once: {paths:?}");
+}

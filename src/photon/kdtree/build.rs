@@ -9,6 +9,8 @@ struct Work<'a, T> {
     pts: &'a mut [([f32; 3], T)],
     splits: &'a [std::sync::atomic::AtomicU32],
     axes: &'a [std::sync::atomic::AtomicU8],
+    /// Bounding boxes of the points under the nodes that have one (min x, y, z, max x, y, z).
+    boxes: &'a [[std::sync::atomic::AtomicU32; 6]],
 }
 
 impl<T: Copy + Default + Send + Sync> KdTree<T> {
@@ -28,7 +30,9 @@ impl<T: Copy + Default + Send + Sync> KdTree<T> {
         let splits: Vec<std::sync::atomic::AtomicU32> = (0..inner).map(|_| Default::default()).collect();
         let axes: Vec<std::sync::atomic::AtomicU8> = (0..inner).map(|_| Default::default()).collect();
         let mut pts = points;
-        split_node(Work { pts: &mut pts, splits: &splits, axes: &axes }, 0, 0, depth);
+        let boxes: Vec<[std::sync::atomic::AtomicU32; 6]> =
+            (0..super::boxed_nodes(depth)).map(|_| Default::default()).collect();
+        split_node(Work { pts: &mut pts, splits: &splits, axes: &axes, boxes: &boxes }, 0, 0, depth);
         // Into structure-of-arrays form from the back, a block at a time, shrinking the source as it
         // empties: the points are held about once, not twice, at the peak (the positions' zeroed
         // allocation is only backed by memory where it is written).
@@ -51,6 +55,7 @@ impl<T: Copy + Default + Send + Sync> KdTree<T> {
             splits: splits.into_iter().map(|a| f32::from_bits(a.into_inner())).collect(),
             axes: axes.into_iter().map(|a| a.into_inner()).collect(),
             depth,
+            boxes: boxes.into_iter().map(|b| b.map(|c| f32::from_bits(c.into_inner()))).collect(),
         })
     }
 }
@@ -85,6 +90,11 @@ fn split_node<T: Copy + Send + Sync>(w: Work<'_, T>, node: usize, d: u32, depth:
             hi[k] = hi[k].max(p[k]);
         }
     }
+    if let Some(b) = w.boxes.get(node) {
+        for (c, v) in b.iter().zip(lo.iter().chain(&hi)) {
+            c.store(v.to_bits(), std::sync::atomic::Ordering::Relaxed);
+        }
+    }
     let mid = n / 2;
     let pts = w.pts;
     let mut last = usize::MAX;
@@ -101,8 +111,10 @@ fn split_node<T: Copy + Send + Sync>(w: Work<'_, T>, node: usize, d: u32, depth:
     w.splits[node].store(split.to_bits(), std::sync::atomic::Ordering::Relaxed);
     w.axes[node].store(axis as u8, std::sync::atomic::Ordering::Relaxed);
     let (left, right) = pts.split_at_mut(mid);
-    let (lw, rw) =
-        (Work { pts: left, splits: w.splits, axes: w.axes }, Work { pts: right, splits: w.splits, axes: w.axes });
+    let (lw, rw) = (
+        Work { pts: left, splits: w.splits, axes: w.axes, boxes: w.boxes },
+        Work { pts: right, splits: w.splits, axes: w.axes, boxes: w.boxes },
+    );
     if n >= PARALLEL_MIN {
         rayon::join(|| split_node(lw, 2 * node + 1, d + 1, depth), || split_node(rw, 2 * node + 2, d + 1, depth));
     } else {

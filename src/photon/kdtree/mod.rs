@@ -31,6 +31,19 @@ pub struct KdTree<T> {
     axes: Vec<u8>,
     /// Depth of the leaves (all leaves are at this depth; 0 = a single leaf).
     depth: u32,
+    /// Bounding box of the points under each node with 32 leaves or more (heap order; min x, y, z,
+    /// max x, y, z): the local density that starts a k-nearest search. A guess reads a cell of at least
+    /// 24 × (BUCKET + 1) points, so smaller nodes would never be read.
+    boxes: Vec<[f32; 6]>,
+}
+
+/// How many nodes keep a bounding box in a tree whose leaves are at `depth`: those at depth ≤ depth − 5.
+fn boxed_nodes(depth: u32) -> usize {
+    if depth >= 5 {
+        (1usize << (depth - 4)) - 1
+    } else {
+        0
+    }
 }
 
 impl<T> KdTree<T> {
@@ -55,7 +68,7 @@ impl<T> KdTree<T> {
     /// Bytes held per point (coordinates, item, split planes), the figure the photon map reports.
     pub fn bytes_per_point(&self) -> f64 {
         let n = self.len().max(1) as f64;
-        let total = self.len() * (12 + std::mem::size_of::<T>()) + self.splits.len() * 5;
+        let total = self.len() * (12 + std::mem::size_of::<T>()) + self.splits.len() * 5 + self.boxes.len() * 24;
         total as f64 / n
     }
 
