@@ -80,5 +80,11 @@ fn knn(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, build, knn);
+// No plots: criterion's plotting back end (without gnuplot) needs a system font to label its charts and
+// panics without one (a fresh Debian has none); the figures are read from the console.
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots();
+    targets = build, knn
+}
 criterion_main!(benches);
