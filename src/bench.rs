@@ -319,7 +319,7 @@ pub fn knn_check(a: &KnnArgs) -> Result<()> {
     let paths = res.paths();
     let pct = |n: u64| 100.0 * n as f64 / qs.len().max(1) as f64;
     println!(
-        "our search paths: {:.1}% no guessed radius (k ≤ a bucket, or the guess reached the cap), {:.1}% within the \
+        "our search paths: {:.1}% no guessed radius (k ≤ a bucket or ≥ the points, or the guess reached the cap), {:.1}% within the \
          guessed radius, {:.1}% widened once, {:.1}% searched again from an open bound",
         pct(paths[0]),
         pct(paths[1]),

@@ -51,8 +51,9 @@ impl KnnResult {
         self.found.is_empty()
     }
 
-    /// Queries answered with this buffer so far, by path: [no guess (k ≤ a bucket, or the guess
-    /// reached the cap), within the guessed ball, within the ball widened once, by a full search].
+    /// Queries answered with this buffer so far, by path: [no guess (k ≤ a bucket, k ≥ the tree's
+    /// size, or the guess reached the cap), within the guessed ball, within the ball widened once,
+    /// by a full search].
     pub fn paths(&self) -> [u64; 4] {
         self.paths
     }
@@ -224,7 +225,9 @@ impl<T> KdTree<T> {
         // which lie around the query unevenly, and scans about 40% more buckets than the final ball
         // touches (1M uniform points, k = 50). Past a bucket's worth of points it guesses the radius
         // instead and gathers what lies inside: if that holds k, the k nearest are among them.
-        let guess = (k > super::BUCKET).then(|| self.density_r2(q, k as f32 * GUESS_MARGIN)).flatten();
+        // (With k at least the tree's size every point is in the answer: nothing to guess.)
+        let guess =
+            (k > super::BUCKET && k < self.len()).then(|| self.density_r2(q, k as f32 * GUESS_MARGIN)).flatten();
         self.knn_from(q, k, max_r2, guess, res)
     }
 
@@ -337,6 +340,10 @@ mod tests {
             want[path] = 1;
             assert_eq!(paths, want, "guess {guess:?}");
         }
+        // k as large as the tree: every point, found without a guess (which could only fall short).
+        let mut res = KnnResult::new();
+        assert_eq!(t.knn([0.0; 3], 1000, inf, &mut res), 1e6);
+        assert_eq!((res.sorted_d2(), res.paths), (squares(1000), [1, 0, 0, 0]));
         // A cap below the k-th distance: all within the cap, whatever the guess; a guess beyond the cap
         // is not used.
         for guess in [None, Some(10.0f32), Some(30.0), Some(1000.0)] {
