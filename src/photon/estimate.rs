@@ -134,14 +134,18 @@ impl PhotonFilter {
     /// tracer integrates the cosine about the shading normal: the last factor of the shading-normal
     /// adjoint), zero for light arriving from below the shading normal.
     fn weight(&self, item: &PhotonPayload, pos: [f32; 3]) -> Option<f32> {
-        let wi = item.wi();
-        // Arrived from the viewer's side (travelled against the normal), on a surface facing the same
-        // way (not the other side of a thin wall, not the next wall round a corner).
-        if wi.dot(self.n_side) >= 0.0 || item.n().dot(self.n_side) < 0.6 {
+        // Cheapest test first (the position is at hand): on this surface's tangent disc, not on a
+        // nearby surface facing elsewhere.
+        if (Vec3::from_array(pos) - self.p).dot(self.n_side).abs() > 0.25 * self.r {
             return None;
         }
-        // On this surface's tangent disc, not on a nearby surface facing elsewhere.
-        if (Vec3::from_array(pos) - self.p).dot(self.n_side).abs() > 0.25 * self.r {
+        // Landed on a surface facing the same way (not the other side of a thin wall, not the next wall
+        // round a corner), and arrived from the viewer's side (travelled against the normal).
+        if item.n().dot(self.n_side) < 0.6 {
+            return None;
+        }
+        let wi = item.wi();
+        if wi.dot(self.n_side) >= 0.0 {
             return None;
         }
         Some(if self.smooth { (-wi).dot(self.ns_side).max(0.0) / wi.dot(self.n).abs().max(1e-6) } else { 1.0 })

@@ -59,23 +59,34 @@ pub fn rgbe_decode(e: [u8; 4]) -> Rgb {
     if e[3] == 0 {
         return Rgb::ZERO;
     }
-    let f = 2f32.powi(e[3] as i32 - (128 + 8));
+    let f = pow2(e[3] as i32 - (128 + 8));
     Rgb::new((e[0] as f32 + 0.5) * f, (e[1] as f32 + 0.5) * f, (e[2] as f32 + 0.5) * f)
 }
 
-/// x = mant · 2^exp with mant in [0.5, 1).
-fn frexp(x: f32) -> (f32, i32) {
-    let exp = x.log2().floor() as i32 + 1;
-    let mut mant = x / 2f32.powi(exp);
-    let mut exp = exp;
-    if mant >= 1.0 {
-        mant /= 2.0;
-        exp += 1;
-    } else if mant < 0.5 {
-        mant *= 2.0;
-        exp -= 1;
+/// 2^x exactly: built from the exponent bits where 2^x is a normal float (`powi` is a library call,
+/// a measurable share of a photon gather), by `powi` below that.
+fn pow2(x: i32) -> f32 {
+    if (-126..=127).contains(&x) {
+        f32::from_bits(((x + 127) as u32) << 23)
+    } else {
+        2f32.powi(x)
     }
-    (mant, exp)
+}
+
+/// x = mant · 2^exp with mant in [0.5, 1), for finite x > 0, exactly: split by the float's bits (no
+/// `log2` call), a subnormal one first scaled by 2^64. (The `log2` and `powi` it replaced returned a
+/// zero or infinite mantissa above 2^127 and below 2^-126.) Zero, NaN and infinities come back as
+/// (x, 0).
+fn frexp(x: f32) -> (f32, i32) {
+    if !x.is_normal() {
+        if x == 0.0 || !x.is_finite() {
+            return (x, 0);
+        }
+        let (m, e) = frexp(x * pow2(64));
+        return (m, e - 64);
+    }
+    let b = x.to_bits();
+    (f32::from_bits((b & 0x807f_ffff) | (126 << 23)), ((b >> 23) & 0xff) as i32 - 126)
 }
 
 /// Octahedral encoding in one byte (4 bits per coordinate): enough to tell surfaces apart.
@@ -86,7 +97,14 @@ pub fn oct_encode_coarse(v: Vec3) -> u8 {
     q(x) << 4 | q(y)
 }
 
+/// The unit normal of a one-byte code: read from a table of all 256, made once.
 pub fn oct_decode_coarse(e: u8) -> Vec3 {
+    static TABLE: std::sync::LazyLock<[Vec3; 256]> =
+        std::sync::LazyLock::new(|| std::array::from_fn(|e| oct_decode_coarse_direct(e as u8)));
+    TABLE[e as usize]
+}
+
+fn oct_decode_coarse_direct(e: u8) -> Vec3 {
     oct_unsquare((e >> 4) as f32 / 14.0 * 2.0 - 1.0, (e & 15) as f32 / 14.0 * 2.0 - 1.0)
 }
 
@@ -153,6 +171,35 @@ mod tests {
         }
         for v in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z] {
             assert!(oct_decode_coarse(oct_encode_coarse(v)).dot(v) > 0.999);
+        }
+    }
+
+    #[test]
+    fn frexp_splits_exactly() {
+        let mut r = Rng::new(5, 0, 0);
+        for _ in 0..100_000 {
+            let x = f32::from_bits(r.next_u32() & 0x7fff_ffff);
+            if !(x.is_finite() && x > 0.0) {
+                continue;
+            }
+            let (m, e) = frexp(x);
+            assert!((0.5..1.0).contains(&m), "{x}: mantissa {m}");
+            assert_eq!((m as f64) * 2f64.powi(e), x as f64, "{x} = {m} · 2^{e}");
+        }
+    }
+
+    #[test]
+    fn fast_decodes_equal_the_direct_ones_bit_for_bit() {
+        for x in -200..200 {
+            assert_eq!(pow2(x).to_bits(), 2f32.powi(x).to_bits(), "2^{x}");
+        }
+        for e in 1..=255u8 {
+            let c = rgbe_decode([255, 128, 1, e]);
+            let f = 2f32.powi(e as i32 - 136);
+            assert_eq!(c, Rgb::new(255.5 * f, 128.5 * f, 1.5 * f), "exponent byte {e}");
+        }
+        for e in 0..=255u8 {
+            assert_eq!(oct_decode_coarse(e), oct_decode_coarse_direct(e), "code {e}");
         }
     }
 
