@@ -1,7 +1,8 @@
 //! The stored photon: position (f32×3, kept by the k-d tree in structure-of-arrays form), power in
 //! shared-exponent RGBE (4 bytes), incoming direction octahedral-encoded (2 bytes), and the normal of
 //! the surface it landed on, facing where it came from, in one byte (4+4-bit octahedral, within 20°).
-//! 19 bytes per photon plus the tree's split planes (≈ 0.3 byte per photon), no per-node pointers.
+//! 19 bytes per photon plus the tree's split planes (≈ 0.3 byte per photon) and the boxes of its upper
+//! nodes (≈ 0.1 byte), no per-node pointers.
 use crate::color::Rgb;
 use glam::Vec3;
 

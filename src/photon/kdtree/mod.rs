@@ -65,7 +65,7 @@ impl<T> KdTree<T> {
         &self.items[i as usize]
     }
 
-    /// Bytes held per point (coordinates, item, split planes), the figure the photon map reports.
+    /// Bytes held per point (coordinates, item, split planes, node boxes), the figure the photon map reports.
     pub fn bytes_per_point(&self) -> f64 {
         let n = self.len().max(1) as f64;
         let total = self.len() * (12 + std::mem::size_of::<T>()) + self.splits.len() * 5 + self.boxes.len() * 24;
