@@ -239,10 +239,13 @@ impl<T> KdTree<T> {
                 let mut path = 1;
                 // Too few: widen the ball once by the shortfall (in volume, with the same margin),
                 // unless it held under a quarter of k (then the guess says little) or would pass the cap.
-                let wide = r2 * (GUESS_MARGIN * k as f32 / (len as f32 + 1.0)).powf(2.0 / 3.0);
-                if len < k && len * 4 >= k && wide < max_r2 {
-                    len = self.gather(q, k, wide, false, res);
-                    path = 2;
+                // (The widened radius is only worked out here: `powf` is a library call.)
+                if len < k && len * 4 >= k {
+                    let wide = r2 * (GUESS_MARGIN * k as f32 / (len as f32 + 1.0)).powf(2.0 / 3.0);
+                    if wide < max_r2 {
+                        len = self.gather(q, k, wide, false, res);
+                        path = 2;
+                    }
                 }
                 if len < k {
                     len = self.gather(q, k, max_r2, true, res);
