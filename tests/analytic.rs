@@ -4,7 +4,7 @@
 mod common;
 use caustica::accel::{Accel, Tracer};
 use caustica::integrator::path::PathTracer;
-use caustica::integrator::{specular_chain, Counters};
+use caustica::integrator::{specular_chain, ChainLight, Counters};
 use caustica::math::{Ray, Rng};
 use caustica::pipeline::render_path;
 use caustica::scene::material::{fresnel_dielectric, Material};
@@ -244,13 +244,27 @@ fn a_split_first_glass_hit_sees_both_lights_in_their_fresnel_shares_on_every_sam
     let (mut unsplit, mut reflected) = (0.0f64, 0);
     for k in 0..n {
         let mut rng = Rng::new(3, k, 0);
-        let (e, end) =
-            specular_chain(&scene, &accel, Ray::new(o, d), Vec3::ONE, &mut rng, &mut Counters::default(), true);
+        let (e, end) = specular_chain(
+            &scene,
+            &accel,
+            Ray::new(o, d),
+            Vec3::ONE,
+            &mut rng,
+            &mut Counters::default(),
+            ChainLight::CountSplitFirst,
+        );
         assert!(end.is_some(), "the chain ends on a light");
         assert!((e.x as f64 - expect).abs() < 1e-4 * expect, "sample {k}: {} vs {expect}", e.x);
         let mut rng = Rng::new(3, k, 0);
-        let (e, _) =
-            specular_chain(&scene, &accel, Ray::new(o, d), Vec3::ONE, &mut rng, &mut Counters::default(), false);
+        let (e, _) = specular_chain(
+            &scene,
+            &accel,
+            Ray::new(o, d),
+            Vec3::ONE,
+            &mut rng,
+            &mut Counters::default(),
+            ChainLight::Count,
+        );
         unsplit += e.x as f64;
         reflected += ((e.x as f64 - l_up).abs() < 1e-3 * l_up) as u32;
     }

@@ -40,15 +40,31 @@ pub fn first_hit_specular(
     tracer.intersect(ray).is_some_and(|h| !scene.material_of(h.shape).bsdf.is_diffuse())
 }
 
+/// What a chain of non-diffuse bounces counts on its way, besides the diffuse hit it ends at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChainLight {
+    /// Nothing (final-gather rays: emission they meet is direct light or a caustic, counted elsewhere).
+    Skip,
+    /// Emission it sees, and direct light at every rough (non-delta) hit: a light sample with a shadow
+    /// ray, MIS-weighted against the BSDF samples that find the same lights, as the path tracer does.
+    /// A sampled direction never finds a point or distant light, so without the light sample their
+    /// glints on rough metal would be missing.
+    Count,
+    /// As `Count`, and a first hit on smooth glass or water follows both of its lobes (below).
+    CountSplitFirst,
+}
+
 /// Follows `ray` (throughput `beta`) through non-diffuse surfaces, at most `render.max_depth + 1`
-/// hits, to the first diffuse one. Returns the emission seen on the way, weighted by the throughput
-/// (the diffuse hit's own included), and the diffuse hit, if the chain reached one.
+/// hits, to the first diffuse one. Returns the light seen on the way as `light` asks (emission, the
+/// diffuse hit's own included, and direct light at rough hits), weighted by the throughput, and the
+/// diffuse hit, if the chain reached one.
 ///
-/// With `split_first`, a first hit on smooth glass or water follows both of its lobes for the emission:
-/// the lobe sampled (which alone leads to the diffuse hit returned) and the other one, each weighted by
-/// its Fresnel share instead of being picked with that probability. A light mirrored in a water surface
-/// is then seen by every sample that points at its reflection rather than by one in twenty-five of them;
-/// the expected emission is unchanged (both lobes' shares add up to the whole), its variance falls.
+/// With `ChainLight::CountSplitFirst`, a first hit on smooth glass or water follows both of its lobes
+/// for the light seen on the way: the lobe sampled (which alone leads to the diffuse hit returned) and
+/// the other one, each weighted by its Fresnel share instead of being picked with that probability. A
+/// light mirrored in a water surface is then seen by every sample that points at its reflection rather
+/// than by one in twenty-five of them; the expectation is unchanged (both lobes' shares add up to the
+/// whole), its variance falls.
 pub fn specular_chain(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
@@ -56,23 +72,44 @@ pub fn specular_chain(
     mut beta: crate::color::Rgb,
     rng: &mut crate::math::Rng,
     c: &mut Counters,
-    split_first: bool,
+    light: ChainLight,
 ) -> (crate::color::Rgb, Option<ChainEnd>) {
     use crate::color::Rgb;
+    use crate::math::sampling::power_heuristic;
+    let count = light != ChainLight::Skip;
     let mut emitted = Rgb::ZERO;
-    // Emission along the sampled lobe after a split is weighted by its share, not divided by its
+    // Light along the sampled lobe after a split is weighted by its share, not divided by its
     // probability: `beta * emit_scale` (the returned hit keeps `beta`).
     let mut emit_scale = 1.0f32;
+    // The last bounce: delta (emission found after it counts in full) or rough, with its BSDF density
+    // and origin for the MIS weight against the light sample taken there.
+    let (mut specular, mut prev_pdf, mut prev_p) = (true, 0.0f32, ray.o);
     for depth in 0..=scene.render.max_depth {
         c.rays += 1;
-        let Some(crate::accel::Interaction { si, wo, .. }) = crate::accel::interact(scene, tracer, &ray) else {
-            emitted += beta * emit_scale * scene.lights.env_radiance(ray.d);
+        let Some(crate::accel::Interaction { hit, si, wo }) = crate::accel::interact(scene, tracer, &ray) else {
+            let le = if count { scene.lights.env_radiance(ray.d) } else { Rgb::ZERO };
+            if le != Rgb::ZERO {
+                let w = if specular { 1.0 } else { power_heuristic(prev_pdf, scene.lights.env_pdf(ray.d)) };
+                emitted += beta * emit_scale * le * w;
+            }
             break;
         };
-        emitted += beta * emit_scale * scene.emitted(&si, wo);
+        let le = if count { scene.emitted(&si, wo) } else { Rgb::ZERO };
+        if le != Rgb::ZERO {
+            let w = if specular {
+                1.0
+            } else {
+                power_heuristic(prev_pdf, scene.lights.pdf(scene, hit.shape, hit.prim, prev_p, si.p, si.ng))
+            };
+            emitted += beta * emit_scale * le * w;
+        }
         let mat = scene.bsdf(&si, wo);
         if mat.is_diffuse() {
             return (emitted, Some(ChainEnd { si, wo, beta }));
+        }
+        if count && !mat.is_delta() && depth < scene.render.max_depth {
+            let mis = direct::DirectStrategy::Mis;
+            emitted += beta * emit_scale * direct::estimate_direct_with(scene, tracer, &si, wo, &mat, rng, c, mis);
         }
         let (u, uc) = (rng.next_2d(), rng.next_f32());
         let Some((bs, next)) = si.scatter_with(&mat, wo, u, uc, crate::scene::TransportMode::Radiance) else {
@@ -85,14 +122,14 @@ pub fn specular_chain(
                     | crate::scene::material::Material::ThinDielectric { .. }
             )
         };
-        if split_first && depth == 0 && bs.pdf < 1.0 && two_lobes() {
+        if light == ChainLight::CountSplitFirst && depth == 0 && bs.pdf < 1.0 && two_lobes() {
             // The other lobe: reflection is chosen for uc < F, so uc = 0 forces it and uc = 1 refraction.
             let other_uc = if bs.transmitted { 0.0 } else { 1.0 };
             if let Some((other, other_ray)) =
                 si.scatter_with(&mat, wo, u, other_uc, crate::scene::TransportMode::Radiance)
             {
                 let share = other.weight * other.pdf;
-                emitted += specular_chain(scene, tracer, other_ray, beta * share, rng, c, false).0;
+                emitted += specular_chain(scene, tracer, other_ray, beta * share, rng, c, ChainLight::Count).0;
             }
             emit_scale = bs.pdf;
         }
@@ -100,6 +137,7 @@ pub fn specular_chain(
         if beta == Rgb::ZERO {
             break;
         }
+        (specular, prev_pdf, prev_p) = (bs.delta, bs.pdf, si.p);
         ray = next;
     }
     (emitted, None)

@@ -3,7 +3,7 @@
 //! (caustic map) and indirect light (indirect map, or a final gather that reads the maps one bounce
 //! further) are added. Also the map views: photon splats and single-map estimates.
 use super::direct::{estimate_direct, estimate_direct_with, DirectStrategy};
-use super::Counters;
+use super::{ChainLight, Counters};
 use crate::accel::Tracer;
 use crate::color::{luminance, Rgb};
 use crate::film::Image;
@@ -388,8 +388,8 @@ impl<'a> PhotonMapper<'a> {
     /// Follows a ray through specular surfaces to a diffuse one; `emission` adds lights seen on the way.
     fn follow(&self, ray: Ray, beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32) -> Rgb {
         let count_emission = emission && self.only.is_none();
-        let (emitted, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, count_emission);
-        let mut l = if count_emission { emitted } else { Rgb::ZERO };
+        let light = if count_emission { ChainLight::CountSplitFirst } else { ChainLight::Skip };
+        let (mut l, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, light);
         if let Some(e) = end {
             // Final-gather rays are the ones that do not count emission.
             l += e.beta * self.diffuse_radiance(&e.si, e.wo, rng, c, fg, !emission);

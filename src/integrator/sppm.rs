@@ -20,7 +20,7 @@
 use super::direct::{estimate_direct, DirectStrategy};
 use super::photon_map::build_maps;
 use super::ppm::{initial_radius, pass_request, PassRecord};
-use super::{specular_chain, ChainEnd, Counters};
+use super::{specular_chain, ChainEnd, ChainLight, Counters};
 use crate::accel::Tracer;
 use crate::color::Rgb;
 use crate::film::Image;
@@ -215,7 +215,7 @@ impl<'a> Sppm<'a> {
         let scene = self.scene;
         let [u, v] = rng.next_2d();
         let ray = scene.camera.ray(x + u, y + v);
-        let (mut l, end) = specular_chain(scene, self.tracer, ray, Rgb::ONE, rng, c, true);
+        let (mut l, end) = specular_chain(scene, self.tracer, ray, Rgb::ONE, rng, c, ChainLight::CountSplitFirst);
         if let (Some(e), DirectLight::ShadowRays) = (&end, scene.render.direct_light) {
             l += e.beta * estimate_direct(scene, self.tracer, &e.si, e.wo, rng, c, DirectStrategy::LightOnly);
         }
