@@ -3,7 +3,9 @@
 //! made by `scripts/mitsuba-refs`). The showcase scene has what the import reads: one-sided and twosided
 //! diffuse, checkerboard and bitmap textures (on a rectangle and on an OBJ with texture coordinates),
 //! named IORs, a rough gold (GGX, named conductor), a mirror, a thin pane, an area and a point light;
-//! the envmap scene a rotated, scaled lat-long EXR sky over glass, Beckmann-rough copper and a checkerboard.
+//! the envmap scene a rotated, scaled lat-long EXR sky over glass, Beckmann-rough copper and a checkerboard;
+//! the mixed scene a sphere emitter, a disk, a smooth PLY ball in glass and in eta/k rough metal, a
+//! GGX silver cube, a point light, a directional sun and a constant sky.
 //! Then: `convert` round trip, `<include>` and `$name`, 0.6 names, and refusals that name the line.
 mod common;
 
@@ -77,6 +79,11 @@ fn showcase_xml_matches_mitsuba() {
 #[test]
 fn envmap_xml_matches_mitsuba() {
     matches_mitsuba("envmap", 1024, 0.003);
+}
+
+#[test]
+fn mixed_lights_and_shapes_xml_matches_mitsuba() {
+    matches_mitsuba("mixed", 1024, 0.003);
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
