@@ -65,9 +65,9 @@ fn no_light_leaks_through_a_thin_wall() {
         for j in 0..=20 {
             for k in 0..=20 {
                 let p = Vec3::new(0.0, -1.0 + j as f32 * 0.1, -1.0 + k as f32 * 0.1);
-                let b = map.radiance(&common::surface_at(p, Vec3::X), Vec3::X, Rgb::splat(0.7), g, &mut res);
+                let b = map.radiance(&common::surface_at(p, Vec3::X), Vec3::X, Rgb::splat(0.7), g, u32::MAX, &mut res);
                 dark += (b.max_element() > 0.0) as usize;
-                let a = map.radiance(&common::surface_at(p, Vec3::X), -Vec3::X, Rgb::splat(0.7), g, &mut res);
+                let a = map.radiance(&common::surface_at(p, Vec3::X), -Vec3::X, Rgb::splat(0.7), g, u32::MAX, &mut res);
                 bright += (a.max_element() > 0.0) as usize;
             }
         }
@@ -92,7 +92,7 @@ fn axis_caustic(depth: f32, n: f32, r: f32) -> f32 {
     let map = m.maps[CAUSTIC].as_ref().unwrap();
     let mut res = KnnResult::new();
     let g = caustica::photon::estimate::Gather { k: 400, max_r2: f32::INFINITY, cone_k: 0.0 };
-    map.radiance(&common::surface_at(Vec3::new(0.0, -depth, 0.0), Vec3::Y), Vec3::Y, Rgb::ONE, g, &mut res).x
+    map.radiance(&common::surface_at(Vec3::new(0.0, -depth, 0.0), Vec3::Y), Vec3::Y, Rgb::ONE, g, u32::MAX, &mut res).x
 }
 
 #[test]
@@ -402,8 +402,9 @@ fn uniform_photon_density_gives_the_lambertian_radiance_with_and_without_the_con
         let mut mean = 0.0f64;
         for q in 0..40 {
             let x = Vec3::new(-0.6 + 0.03 * q as f32, 0.0, 0.5 - 0.025 * q as f32);
-            mean +=
-                map.radiance(&common::surface_at(x, Vec3::Y), Vec3::Y, Rgb::splat(rho), g, &mut res).x as f64 / 40.0;
+            mean += map.radiance(&common::surface_at(x, Vec3::Y), Vec3::Y, Rgb::splat(rho), g, u32::MAX, &mut res).x
+                as f64
+                / 40.0;
         }
         eprintln!("cone_k {cone_k}: L = {mean:.5}, ρE/π = {expect:.5}");
         assert!((mean / expect as f64 - 1.0).abs() < 0.01, "cone_k {cone_k}: L = {mean}, expected {expect}");
@@ -590,5 +591,46 @@ fn photon_mappers_see_delta_lights_in_rough_metal() {
         let ratio = [0, 1, 2].map(|k| mean[k] / pt[k]);
         eprintln!("{name}: mean / PT's {ratio:.4?} (PT {pt:.4?})");
         assert!(ratio.iter().all(|r| (r - 1.0).abs() < 0.03), "{name}: means {mean:?} against PT's {pt:?}");
+    }
+}
+
+/// `render.max_depth` limits the whole path in the path tracer: the camera's bounces through glass
+/// plus what the light did before. Photon maps must cut the same paths: a photon gathered where the
+/// camera ray arrived after k bounces counts only if its own path (the gather included) has at most
+/// max_depth − k scattering events. A room seen through a glass slab that fills the view (every camera
+/// ray is refracted twice before it meets the back wall): at max_depth 3 the path tracer has only the
+/// wall's direct light (no photon fits), at 4 also one diffuse bounce; fixed PM, PPM and SPPM must have
+/// its mean at both. (Before the photon paths' depths were recorded, the photon mappers added every
+/// photon there, whatever its path.)
+#[test]
+fn photon_mappers_cut_paths_at_the_path_tracers_depth() {
+    let text = format!(
+        "[camera]\norigin = [0.0, 0.0, 0.9]\ntarget = [0.0, 0.0, -1.0]\nfov = 30\nresolution = [16, 16]\n\
+         [materials]\nwall = {{ type = \"diffuse\", reflectance = [0.7, 0.7, 0.7] }}\n\
+         glass = {{ type = \"dielectric\", ior = 1.5 }}\n\
+         [[shapes]]\ntype = \"box\"\nmin = [-0.99, -0.99, 0.5]\nmax = [0.99, 0.99, 0.7]\nmaterial = \"glass\"\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [-0.3, 0.99, -0.5]\nedge_u = [0.6, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.6]\npower = [10.0, 10.0, 10.0]\n\
+         {}",
+        common::inward_box(-1.0, 1.0, "wall", None)
+    );
+    for depth in [3u32, 4] {
+        let mut s = common::scene(&text);
+        s.render.max_depth = depth;
+        let a = Accel::new(&s).unwrap();
+        let pt = channel_means(&render_path(&s, &a, 1024, true).image)[1];
+        let plan = plan_for(&s, &a);
+        let m = build_maps(&s, &a, &MapRequest::planned(&s, &plan), true).unwrap();
+        let mut got = vec![("photon_map", channel_means(&render_photon_map(&s, &a, &m, &plan, None, true).image)[1])];
+        for (name, mode) in [("ppm", caustica::scene::file::Mode::Ppm), ("sppm", caustica::scene::file::Mode::Sppm)] {
+            s.render.mode = mode;
+            s.render.progressive.passes = 16;
+            s.render.progressive.photons_per_pass = 50_000;
+            let img = caustica::pipeline::render_progressive(&s, &a, &plan, true, &[]).unwrap().output.image;
+            got.push((name, channel_means(&img)[1]));
+        }
+        for (name, mean) in got {
+            eprintln!("max_depth {depth}, {name}: mean / PT's {:.4} (PT {pt:.4})", mean / pt);
+            assert!((mean / pt - 1.0).abs() < 0.03, "max_depth {depth}, {name}: mean {mean} against PT's {pt}");
+        }
     }
 }

@@ -28,6 +28,17 @@ pub struct ChainEnd {
     pub si: crate::scene::SurfaceHit,
     pub wo: glam::Vec3,
     pub beta: crate::color::Rgb,
+    /// Bounces before this hit along the chain (0: the ray's first hit).
+    pub depth: u32,
+}
+
+impl ChainEnd {
+    /// Scattering events `render.max_depth` leaves for light gathered here, if the chain began `first`
+    /// bounces into its path (0 for a camera ray): this hit's own scattering and the photon's path, or
+    /// the light sample. 0 when the path tracer would count only emission here.
+    pub fn budget(&self, scene: &crate::scene::Scene, first: u32) -> u32 {
+        scene.render.max_depth.saturating_sub(first + self.depth)
+    }
 }
 
 /// Whether `ray` first meets a non-diffuse surface (mirror, glass, metal): where the photon-mapping eye
@@ -105,7 +116,7 @@ pub fn specular_chain(
         }
         let mat = scene.bsdf(&si, wo);
         if mat.is_diffuse() {
-            return (emitted, Some(ChainEnd { si, wo, beta }));
+            return (emitted, Some(ChainEnd { si, wo, beta, depth }));
         }
         if count && !mat.is_delta() && depth < scene.render.max_depth {
             let mis = direct::DirectStrategy::Mis;

@@ -10,6 +10,7 @@ use crate::film::Image;
 use crate::math::{Ray, Rng};
 use crate::photon::estimate::{Gather, PhotonMap};
 use crate::photon::kdtree::{KdTree, KnnResult};
+use crate::photon::photon::EVENTS_CAP;
 use crate::photon::trace::{run_pass, PassSettings, PassStats, Targets, CAUSTIC, DIRECT, INDIRECT, MAP_NAMES};
 use crate::scene::file::DirectLight;
 use crate::scene::{Scene, SurfaceHit, TransportMode};
@@ -217,6 +218,9 @@ impl RadianceCache {
             return None;
         }
         let delta = 1e-4 * scene.diagonal().max(1e-30);
+        // Gather rays land one bounce into the path (their ends at two or more bounces, after glass,
+        // read the cache only where the depth left is past what photons record: `diffuse_radiance`).
+        let budget = scene.render.max_depth.saturating_sub(1);
         let ids: Vec<u32> = (0..ind.len() as u32).step_by(stride as usize).collect();
         let points: Vec<([f32; 3], CachedRadiance)> = ids
             .par_iter()
@@ -232,7 +236,7 @@ impl RadianceCache {
                     SCRATCH.with(|r| {
                         let r = &mut r.borrow_mut();
                         which.iter().fold(Rgb::ZERO, |acc, &m| match &maps.maps[m] {
-                            Some(map) => acc + map.radiance(&si, wo, Rgb::ONE, gather[m], r),
+                            Some(map) => acc + map.radiance(&si, wo, Rgb::ONE, gather[m], budget, r),
                             None => acc,
                         })
                     })
@@ -324,20 +328,22 @@ impl<'a> PhotonMapper<'a> {
         }
     }
 
-    fn map_radiance(&self, m: usize, si: &SurfaceHit, wo: glam::Vec3, rho: Rgb) -> Rgb {
+    fn map_radiance(&self, m: usize, si: &SurfaceHit, wo: glam::Vec3, rho: Rgb, budget: u32) -> Rgb {
         let Some(map) = &self.maps.maps[m] else {
             return Rgb::ZERO;
         };
         SCRATCH.with(|s| match self.radius {
             Some(r) => {
-                let (flux, _) = map.flux_within(si, wo, r, &mut s.borrow_mut());
+                let (flux, _) = map.flux_within(si, wo, r, budget, &mut s.borrow_mut());
                 flux * rho / (std::f32::consts::PI * std::f32::consts::PI * r * r)
             }
-            None => map.radiance(si, wo, rho, self.gather[m], &mut s.borrow_mut()),
+            None => map.radiance(si, wo, rho, self.gather[m], budget, &mut s.borrow_mut()),
         })
     }
 
-    /// Radiance leaving a diffuse point: direct + caustic + indirect (`fg` final-gather rays, 0 = map).
+    /// Radiance leaving a diffuse point: direct + caustic + indirect (`fg` final-gather rays, 0 = map),
+    /// from light paths of at most `budget` scattering events from here on (`ChainEnd::budget`).
+    #[allow(clippy::too_many_arguments)]
     fn diffuse_radiance(
         &self,
         si: &SurfaceHit,
@@ -346,13 +352,21 @@ impl<'a> PhotonMapper<'a> {
         c: &mut Counters,
         fg: u32,
         in_gather: bool,
+        budget: u32,
     ) -> Rgb {
+        if budget == 0 {
+            // The path tracer counts only emission here (the chain did).
+            return Rgb::ZERO;
+        }
         let rho = self.scene.bsdf(si, wo).albedo();
         if let Some(m) = self.only {
-            return self.map_radiance(m, si, wo, rho);
+            return self.map_radiance(m, si, wo, rho, budget);
         }
-        if in_gather {
-            // The cache holds direct light too: a gather ray that finds it traces no shadow ray.
+        // The cache holds direct light too: a gather ray that finds it traces no shadow ray. It was
+        // filled for a gather ray's end one bounce into the path; past glass, where less depth is left,
+        // it is read only when the photons' records could not tell the difference anyway.
+        let cache_fits = budget + 1 >= self.scene.render.max_depth || budget >= EVENTS_CAP;
+        if in_gather && cache_fits {
             if let Some(l) =
                 self.cache.as_ref().and_then(|cache| SCRATCH.with(|r| cache.lookup(si, wo, &mut r.borrow_mut())))
             {
@@ -360,39 +374,56 @@ impl<'a> PhotonMapper<'a> {
             }
         }
         let direct = if self.maps.direct_from_map(self.scene) {
-            self.map_radiance(DIRECT, si, wo, rho)
+            self.map_radiance(DIRECT, si, wo, rho, budget)
         } else {
             estimate_direct(self.scene, self.tracer, si, wo, rng, c, DirectStrategy::LightOnly)
         };
+        let caustic = self.map_radiance(CAUSTIC, si, wo, rho, budget);
         if fg > 0 {
-            return direct + self.map_radiance(CAUSTIC, si, wo, rho) + self.final_gather(si, wo, rng, c, fg);
+            return direct + caustic + self.final_gather(si, wo, rng, c, fg, budget);
         }
-        direct + self.map_radiance(CAUSTIC, si, wo, rho) + self.map_radiance(INDIRECT, si, wo, rho)
+        direct + caustic + self.map_radiance(INDIRECT, si, wo, rho, budget)
     }
 
     /// Indirect light by `n` rays sampled from the surface's BSDF (cosine about the shading normal, as
-    /// direct light and the path tracer use it) that read the maps where they land.
-    fn final_gather(&self, si: &SurfaceHit, wo: glam::Vec3, rng: &mut Rng, c: &mut Counters, n: u32) -> Rgb {
+    /// direct light and the path tracer use it) that read the maps where they land, `budget` scattering
+    /// events left here (this one's included).
+    fn final_gather(
+        &self,
+        si: &SurfaceHit,
+        wo: glam::Vec3,
+        rng: &mut Rng,
+        c: &mut Counters,
+        n: u32,
+        budget: u32,
+    ) -> Rgb {
+        if budget <= 1 {
+            return Rgb::ZERO;
+        }
         let mat = self.scene.bsdf(si, wo);
+        // The gather rays' first hits are one bounce further into the path than this point.
+        let first = self.scene.render.max_depth - budget + 1;
         let mut sum = Rgb::ZERO;
         for _ in 0..n {
             let Some((bs, ray)) = si.scatter(&mat, wo, rng, TransportMode::Radiance) else {
                 continue;
             };
             // Emission seen by gather rays is direct light or a caustic, already counted: skip it.
-            sum += self.follow(ray, bs.weight, rng, c, false, 0);
+            sum += self.follow(ray, bs.weight, rng, c, false, 0, first);
         }
         sum / n as f32
     }
 
-    /// Follows a ray through specular surfaces to a diffuse one; `emission` adds lights seen on the way.
-    fn follow(&self, ray: Ray, beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32) -> Rgb {
+    /// Follows a ray whose first hit is `first` bounces into its path through specular surfaces to a
+    /// diffuse one; `emission` adds lights seen on the way.
+    #[allow(clippy::too_many_arguments)]
+    fn follow(&self, ray: Ray, beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32, first: u32) -> Rgb {
         let count_emission = emission && self.only.is_none();
         let light = if count_emission { ChainLight::CountSplitFirst } else { ChainLight::Skip };
         let (mut l, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, light);
         if let Some(e) = end {
             // Final-gather rays are the ones that do not count emission.
-            l += e.beta * self.diffuse_radiance(&e.si, e.wo, rng, c, fg, !emission);
+            l += e.beta * self.diffuse_radiance(&e.si, e.wo, rng, c, fg, !emission, e.budget(self.scene, first));
         }
         l
     }
@@ -403,7 +434,7 @@ impl<'a> PhotonMapper<'a> {
         let extra = if super::first_hit_specular(self.scene, self.tracer, &ray) { self.specular_spp } else { 0 };
         let mut sum = Rgb::ZERO;
         for _ in 0..=extra {
-            sum += self.follow(ray, Rgb::ONE, rng, c, true, fg);
+            sum += self.follow(ray, Rgb::ONE, rng, c, true, fg, 0);
         }
         sum / (extra + 1) as f32
     }

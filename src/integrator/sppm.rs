@@ -168,7 +168,8 @@ impl<'a> Sppm<'a> {
                 let (mut flux, mut m) = (Rgb::ZERO, 0u32);
                 SCRATCH.with(|s| {
                     for map in maps.maps.iter().flatten() {
-                        let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, &mut s.borrow_mut());
+                        let budget = vp.budget(scene, 0);
+                        let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, budget, &mut s.borrow_mut());
                         flux += f;
                         m += c;
                     }
@@ -217,6 +218,10 @@ impl<'a> Sppm<'a> {
         let ray = scene.camera.ray(x + u, y + v);
         let (mut l, end) = specular_chain(scene, self.tracer, ray, Rgb::ONE, rng, c, ChainLight::CountSplitFirst);
         if let (Some(e), DirectLight::ShadowRays) = (&end, scene.render.direct_light) {
+            // No light sample where the path tracer's depth leaves none (`ChainEnd::budget`).
+            if e.budget(scene, 0) == 0 {
+                return (l, end);
+            }
             l += e.beta * estimate_direct(scene, self.tracer, &e.si, e.wo, rng, c, DirectStrategy::LightOnly);
         }
         (l, end)

@@ -1,11 +1,12 @@
 //! Photon maps and the radiance estimate: k nearest photons within a maximum radius,
 //! L ≈ C/(π r²) Σ f_r ΔΦ_p w_p with the cone filter w_p = max(0, 1 − d_p/(k r)), C = 1/(1 − 2/(3k))
 //! (k < 1 disables it), counting only photons that arrived from the viewer's side of the surface, landed
-//! on a surface facing the same way and lie on its tangent disc (so light does not leak through thin walls or around corners).
+//! on a surface facing the same way and lie on its tangent disc (so light does not leak through thin walls or around corners),
+//! and whose paths fit in the scattering events `render.max_depth` leaves after the eye side's bounces.
 use crate::color::Rgb;
 use crate::math::face_forward;
 use crate::photon::kdtree::{KdError, KdTree, KnnResult};
-use crate::photon::photon::PhotonPayload;
+use crate::photon::photon::{events, within_depth, PhotonPayload};
 use crate::photon::trace::MapPhotons;
 use crate::scene::SurfaceHit;
 use glam::Vec3;
@@ -53,8 +54,10 @@ impl PhotonMap {
     }
 
     /// Reflected radiance towards `wo` at the surface point `si` of a Lambertian surface with reflectance
-    /// `rho`, estimated from the k nearest photons (cone filter if `g.cone_k` ≥ 1).
-    pub fn radiance(&self, si: &SurfaceHit, wo: Vec3, rho: Rgb, g: Gather, res: &mut KnnResult) -> Rgb {
+    /// `rho`, estimated from the k nearest photons (cone filter if `g.cone_k` ≥ 1), counting the photons
+    /// whose paths fit in `budget` scattering events (`within_depth`; `render.max_depth` less the eye
+    /// side's bounces before `si`).
+    pub fn radiance(&self, si: &SurfaceHit, wo: Vec3, rho: Rgb, g: Gather, budget: u32, res: &mut KnnResult) -> Rgb {
         if self.is_empty() || g.k == 0 {
             return Rgb::ZERO;
         }
@@ -63,7 +66,7 @@ impl PhotonMap {
             return Rgb::ZERO;
         }
         let r = r2.sqrt();
-        let f = PhotonFilter::new(si, wo, r);
+        let f = PhotonFilter::new(si, wo, r, budget);
         let cone = g.cone_k >= 1.0;
         // When k photons were found, r is the k-th one's distance and that photon sits on the boundary:
         // given r, the other k − 1 are spread over the disc, so (k − 1)/(π r²) is the unbiased density,
@@ -87,14 +90,14 @@ impl PhotonMap {
     }
 
     /// Flux-weighted sum Σ w_p ΔΦ_p over the photons within radius `r` of `si` that pass the surface
-    /// tests (box kernel): divided by π r² it is the irradiance the progressive estimators accumulate.
-    /// Returns (sum, photons counted).
-    pub fn flux_within(&self, si: &SurfaceHit, wo: Vec3, r: f32, res: &mut KnnResult) -> (Rgb, u32) {
+    /// tests (box kernel) and whose paths fit in `budget` scattering events (as in `radiance`): divided
+    /// by π r² it is the irradiance the progressive estimators accumulate. Returns (sum, photons counted).
+    pub fn flux_within(&self, si: &SurfaceHit, wo: Vec3, r: f32, budget: u32, res: &mut KnnResult) -> (Rgb, u32) {
         if self.is_empty() || r.is_nan() || r <= 0.0 {
             return (Rgb::ZERO, 0);
         }
         self.tree.within_res(si.p.to_array(), r * r, res);
-        let f = PhotonFilter::new(si, wo, r);
+        let f = PhotonFilter::new(si, wo, r, budget);
         let mut sum = Rgb::ZERO;
         let mut count = 0u32;
         for &(_, i) in res.items() {
@@ -115,10 +118,11 @@ struct PhotonFilter {
     ns_side: Vec3,
     smooth: bool,
     r: f32,
+    budget: u32,
 }
 
 impl PhotonFilter {
-    fn new(si: &SurfaceHit, wo: Vec3, r: f32) -> PhotonFilter {
+    fn new(si: &SurfaceHit, wo: Vec3, r: f32, budget: u32) -> PhotonFilter {
         PhotonFilter {
             p: si.p,
             n: si.ng,
@@ -126,10 +130,12 @@ impl PhotonFilter {
             ns_side: face_forward(si.ns, wo),
             smooth: si.ns != si.ng,
             r,
+            budget,
         }
     }
 
-    /// None when the photon does not belong to this surface point; else its weight: 1, or on
+    /// None when the photon does not belong to this surface point or its path is longer than the
+    /// remaining depth allows; else its weight: 1, or on
     /// smooth-shaded surfaces |wi·ns| / |wi·ng| (photons carry flux per unit of geometric area, the path
     /// tracer integrates the cosine about the shading normal: the last factor of the shading-normal
     /// adjoint), zero for light arriving from below the shading normal.
@@ -140,6 +146,9 @@ impl PhotonFilter {
         // Cheapest test first (the position is at hand): on this surface's tangent disc, not on a
         // nearby surface facing elsewhere.
         if (Vec3::from_array(pos) - self.p).dot(self.n_side).abs() > 0.25 * self.r {
+            return None;
+        }
+        if !within_depth(events(pos), self.budget) {
             return None;
         }
         // Landed on a surface facing the same way (not the other side of a thin wall, not the next wall

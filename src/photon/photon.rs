@@ -44,6 +44,34 @@ impl PhotonPayload {
     }
 }
 
+/// Largest path length a stored photon position records exactly; longer paths are stored as this.
+pub const EVENTS_CAP: u32 = 7;
+
+/// `p` with a photon path's scattering events (those before it landed plus the gather at its landing
+/// point: 1 for a photon straight from a light) recorded in the lowest mantissa bit of each coordinate,
+/// capped at `EVENTS_CAP`; 0 records nothing (photons built by hand). Moves the point by at most one
+/// unit in the last place per coordinate, and costs the 20-byte photon nothing.
+pub fn with_events(p: [f32; 3], events: u32) -> [f32; 3] {
+    let v = events.min(EVENTS_CAP);
+    [0, 1, 2].map(|a| f32::from_bits((p[a].to_bits() & !1) | ((v >> a) & 1)))
+}
+
+/// The scattering events `with_events` recorded in a stored position (0: none recorded).
+#[inline(always)]
+pub fn events(p: [f32; 3]) -> u32 {
+    (p[0].to_bits() & 1) | (p[1].to_bits() & 1) << 1 | (p[2].to_bits() & 1) << 2
+}
+
+/// Whether a photon whose position records `events` may be gathered at a point where `budget`
+/// scattering events remain of `render.max_depth` (the path tracer's limit on the whole path: the eye
+/// side's bounces to the gather point and the photon's own). Exact below `EVENTS_CAP`; a capped record
+/// (7 or more) is accepted when 7 remain, which overcounts only photons of more than `budget` ≥ 7
+/// events.
+#[inline(always)]
+pub fn within_depth(events: u32, budget: u32) -> bool {
+    events == 0 || events.min(EVENTS_CAP) <= budget
+}
+
 /// Ward's RGBE: three 8-bit mantissas sharing one exponent (relative error below 1% of the largest channel).
 pub fn rgbe_encode(c: Rgb) -> [u8; 4] {
     let m = c.max_element();
@@ -149,6 +177,31 @@ pub fn oct_decode(e: [u8; 2]) -> Vec3 {
 mod tests {
     use super::*;
     use crate::math::{sampling::uniform_sphere, Rng};
+
+    #[test]
+    fn events_ride_in_the_lowest_mantissa_bits() {
+        let mut r = Rng::new(9, 0, 0);
+        for _ in 0..10_000 {
+            let p = [r.next_f32() * 8.0 - 4.0, -r.next_f32() * 1e6, r.next_f32() * 1e-30];
+            for e in 0..12u32 {
+                let q = with_events(p, e);
+                assert_eq!(events(q), e.min(EVENTS_CAP));
+                for a in 0..3 {
+                    let ulp = (p[a].to_bits() as i64 - q[a].to_bits() as i64).abs();
+                    assert!(ulp <= 1 && q[a].signum() == p[a].signum(), "{p:?} -> {q:?}");
+                }
+            }
+        }
+        assert_eq!(events(with_events([0.0, -0.0, 1.0], 5)), 5);
+        // A path of e events fits a budget of b iff e <= b (exact below the cap; none recorded: always).
+        for b in 0..20 {
+            for e in 1..EVENTS_CAP {
+                assert_eq!(within_depth(e, b), e <= b);
+            }
+            assert_eq!(within_depth(EVENTS_CAP, b), b >= EVENTS_CAP);
+            assert!(within_depth(0, b));
+        }
+    }
 
     #[test]
     fn payload_is_seven_bytes() {

@@ -10,7 +10,7 @@
 use crate::accel::Tracer;
 use crate::color::Rgb;
 use crate::math::{face_forward, max_component, offset_ray_origin, sampling, Ray, Rng};
-use crate::photon::photon::Photon;
+use crate::photon::photon::{with_events, Photon};
 use crate::scene::{Geometry, Scene, TransportMode};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -26,8 +26,9 @@ const BATCH: u64 = 4096;
 /// Photons gathered for one map, before the tree is built.
 #[derive(Debug, Default, Clone)]
 pub struct MapPhotons {
-    /// Positions and compact payloads (20 bytes a photon), power not yet divided by `n_emitted`
-    /// (`PhotonMap` applies 1/n_emitted when it reads a photon).
+    /// Positions (recording the path's scattering events: `with_events`) and compact payloads (20
+    /// bytes a photon), power not yet divided by `n_emitted` (`PhotonMap` applies 1/n_emitted when it
+    /// reads a photon).
     pub photons: Vec<Stored>,
     /// Photons shot (stored or not) that this map's estimate is normalised by.
     pub n_emitted: u64,
@@ -43,7 +44,7 @@ impl MapPhotons {
     /// keeps it so), e.g. photons built by hand in tests.
     pub fn from_photons(photons: &[Photon], n_emitted: u64) -> MapPhotons {
         MapPhotons {
-            photons: photons.iter().map(|p| (p.p.to_array(), p.payload())).collect(),
+            photons: photons.iter().map(|p| (with_events(p.p.to_array(), 0), p.payload())).collect(),
             n_emitted,
             complete: true,
         }
@@ -285,8 +286,10 @@ fn trace_one(
                 DIRECT
             };
             if s.want[map] > 0 {
-                out[map]
-                    .push((si.p.to_array(), Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
+                // The position records the path's scattering events, this gather included (`with_events`),
+                // so a gather seen through glass can leave out paths the path tracer's depth would cut.
+                let p = with_events(si.p.to_array(), depth + 1);
+                out[map].push((p, Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
             }
             // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
             if s.want[INDIRECT] == 0 || last {
