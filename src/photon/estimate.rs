@@ -6,7 +6,7 @@
 use crate::color::Rgb;
 use crate::math::face_forward;
 use crate::photon::kdtree::{KdError, KdTree, KnnResult};
-use crate::photon::photon::{events, within_depth, PhotonPayload};
+use crate::photon::photon::{events, within_depth, PhotonPayload, EVENTS_CAP};
 use crate::photon::trace::MapPhotons;
 use crate::scene::SurfaceHit;
 use glam::Vec3;
@@ -148,7 +148,8 @@ impl PhotonFilter {
         if (Vec3::from_array(pos) - self.p).dot(self.n_side).abs() > 0.25 * self.r {
             return None;
         }
-        if !within_depth(events(pos), self.budget) {
+        // (With 7 or more events left every record fits: no test.)
+        if self.budget < EVENTS_CAP && !within_depth(events(pos), self.budget) {
             return None;
         }
         // Landed on a surface facing the same way (not the other side of a thin wall, not the next wall
