@@ -242,29 +242,16 @@ fn a_split_first_glass_hit_sees_both_lights_in_their_fresnel_shares_on_every_sam
     let expect = f * l_up + (1.0 - f) * l_down / (eta * eta);
     let n = 4000;
     let (mut unsplit, mut reflected) = (0.0f64, 0);
-    for k in 0..n {
+    // One camera sample's chain through the glass from the same random numbers, split or not.
+    let chain = |k: u64, light: ChainLight| {
         let mut rng = Rng::new(3, k, 0);
-        let (e, end) = specular_chain(
-            &scene,
-            &accel,
-            Ray::new(o, d),
-            Vec3::ONE,
-            &mut rng,
-            &mut Counters::default(),
-            ChainLight::CountSplitFirst,
-        );
+        specular_chain(&scene, &accel, Ray::new(o, d), Vec3::ONE, &mut rng, &mut Counters::default(), light)
+    };
+    for k in 0..n {
+        let (e, end) = chain(k, ChainLight::CountSplitFirst);
         assert!(end.is_some(), "the chain ends on a light");
         assert!((e.x as f64 - expect).abs() < 1e-4 * expect, "sample {k}: {} vs {expect}", e.x);
-        let mut rng = Rng::new(3, k, 0);
-        let (e, _) = specular_chain(
-            &scene,
-            &accel,
-            Ray::new(o, d),
-            Vec3::ONE,
-            &mut rng,
-            &mut Counters::default(),
-            ChainLight::Count,
-        );
+        let (e, _) = chain(k, ChainLight::Count);
         unsplit += e.x as f64;
         reflected += ((e.x as f64 - l_up).abs() < 1e-3 * l_up) as u32;
     }
