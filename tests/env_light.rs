@@ -147,3 +147,51 @@ fn a_distant_light_follows_lamberts_law_and_its_photons_carry_e_cos_area() {
     assert!(direct + caustic > 0.97 * 6.0 && direct + caustic < 1.02 * 6.0, "{direct} + {caustic}");
     assert!((aimed / caustic - 1.0).abs() < 0.03, "aimed {aimed} vs uniform {caustic}");
 }
+
+/// The photon mappers' direct light under a sky (`estimate_direct_both`: a light sample and a BSDF
+/// sample, MIS-weighted) against a light sample alone (`LightOnly`, what they used before), at one
+/// point of a floor under tests/mitsuba/sky.exr (a small bright sun over a smooth sky) and a quad
+/// light: the same mean (within 4σ) and under half the variance. A BSDF half left unweighted (or
+/// weighted twice) moves the mean; one that never finds the sky leaves the variance where it was.
+#[test]
+fn direct_light_under_a_sky_takes_a_bsdf_sample_too() {
+    use caustica::integrator::direct::{estimate_direct, estimate_direct_both, DirectStrategy};
+    use caustica::integrator::Counters;
+    use caustica::math::Rng;
+    use glam::Vec3;
+    let scene = common::scene(
+        "[camera]\norigin = [0.0, 2.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\n\
+         [materials]\nm = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-20.0, 0.0, 20.0]\nedge_u = [40.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -40.0]\nmaterial = \"m\"\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [0.5, 1.5, -0.5]\nedge_u = [0.5, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.5]\npower = [4.0, 4.0, 4.0]\n\
+         [[lights]]\ntype = \"envmap\"\nfile = \"tests/mitsuba/sky.exr\"\n",
+    );
+    let accel = Accel::new(&scene).unwrap();
+    let si = common::surface_at(Vec3::ZERO, Vec3::Y);
+    let n = 400_000u64;
+    let stats = |both: bool| {
+        let (mut s, mut s2) = (0.0f64, 0.0f64);
+        for i in 0..n {
+            let mut rng = Rng::new(5, both as u64, i);
+            let mut c = Counters::default();
+            let l = if both {
+                estimate_direct_both(&scene, &accel, &si, Vec3::Y, &mut rng, &mut c)
+            } else {
+                estimate_direct(&scene, &accel, &si, Vec3::Y, &mut rng, &mut c, DirectStrategy::LightOnly)
+            };
+            let v = caustica::color::luminance(l) as f64;
+            s += v;
+            s2 += v * v;
+        }
+        let mean = s / n as f64;
+        (mean, s2 / n as f64 - mean * mean)
+    };
+    let (m_light, v_light) = stats(false);
+    let (m_both, v_both) = stats(true);
+    let sigma = ((v_light + v_both) / n as f64).sqrt();
+    eprintln!(
+        "light sample alone: mean {m_light:.5}, variance {v_light:.5}; with a BSDF sample: {m_both:.5}, {v_both:.5}"
+    );
+    assert!((m_both - m_light).abs() < 4.0 * sigma, "means {m_both} vs {m_light} (σ {sigma})");
+    assert!(v_both < 0.5 * v_light, "variance {v_both} against {v_light}");
+}

@@ -87,3 +87,44 @@ pub fn unoccluded(tracer: &dyn Tracer, si: &SurfaceHit, ls: &LightSample, c: &mu
     c.rays += 1;
     !tracer.occluded(&si.spawn_to(ls.p))
 }
+
+/// Direct light at a diffuse point for estimators that follow no path past it (the photon mappers' eye
+/// passes): a light sample and a BSDF sample, each MIS-weighted against the other as in the path tracer,
+/// the BSDF sample counting only a light it meets first (or the sky it escapes to). One ray more than
+/// `LightOnly`; worth it under a sky, whose smooth part a BSDF sample finds at low variance where a
+/// light sample drawn by the sky's brightness mostly heads for its sun.
+pub fn estimate_direct_both(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    si: &SurfaceHit,
+    wo: Vec3,
+    rng: &mut Rng,
+    c: &mut Counters,
+) -> Rgb {
+    let mat = scene.bsdf(si, wo);
+    let light = estimate_direct_with(scene, tracer, si, wo, &mat, rng, c, DirectStrategy::Mis);
+    let Some((bs, ray)) = si.scatter(&mat, wo, rng, crate::scene::TransportMode::Radiance) else {
+        return light;
+    };
+    if bs.delta {
+        return light;
+    }
+    c.rays += 1;
+    let found = match crate::accel::interact(scene, tracer, &ray) {
+        None => {
+            let le = scene.lights.env_radiance(ray.d);
+            if le == Rgb::ZERO {
+                return light;
+            }
+            le * power_heuristic(bs.pdf, scene.lights.env_pdf(ray.d))
+        }
+        Some(crate::accel::Interaction { hit, si: at, wo: back }) => {
+            let le = scene.emitted(&at, back);
+            if le == Rgb::ZERO {
+                return light;
+            }
+            le * power_heuristic(bs.pdf, scene.lights.pdf(scene, hit.shape, hit.prim, si.p, at.p, at.ng))
+        }
+    };
+    light + bs.weight * found
+}
