@@ -148,14 +148,14 @@ fn a_distant_light_follows_lamberts_law_and_its_photons_carry_e_cos_area() {
     assert!((aimed / caustic - 1.0).abs() < 0.03, "aimed {aimed} vs uniform {caustic}");
 }
 
-/// The photon mappers' direct light under a sky (`estimate_direct_both`: a light sample and a BSDF
+/// The photon mappers' direct light under a sky (`DirectStrategy::LightAndBsdf`: a light sample and a BSDF
 /// sample, MIS-weighted) against a light sample alone (`LightOnly`, what they used before), at one
 /// point of a floor under tests/mitsuba/sky.exr (a small bright sun over a smooth sky) and a quad
 /// light: the same mean (within 4σ) and under half the variance. A BSDF half left unweighted (or
 /// weighted twice) moves the mean; one that never finds the sky leaves the variance where it was.
 #[test]
 fn direct_light_under_a_sky_takes_a_bsdf_sample_too() {
-    use caustica::integrator::direct::{estimate_direct, estimate_direct_both, DirectStrategy};
+    use caustica::integrator::direct::{estimate_direct, DirectStrategy};
     use caustica::integrator::Counters;
     use caustica::math::Rng;
     use glam::Vec3;
@@ -174,11 +174,8 @@ fn direct_light_under_a_sky_takes_a_bsdf_sample_too() {
         for i in 0..n {
             let mut rng = Rng::new(5, both as u64, i);
             let mut c = Counters::default();
-            let l = if both {
-                estimate_direct_both(&scene, &accel, &si, Vec3::Y, &mut rng, &mut c)
-            } else {
-                estimate_direct(&scene, &accel, &si, Vec3::Y, &mut rng, &mut c, DirectStrategy::LightOnly)
-            };
+            let strategy = if both { DirectStrategy::LightAndBsdf } else { DirectStrategy::LightOnly };
+            let l = estimate_direct(&scene, &accel, &si, Vec3::Y, &mut rng, &mut c, strategy);
             let v = caustica::color::luminance(l) as f64;
             s += v;
             s2 += v * v;

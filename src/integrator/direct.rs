@@ -17,6 +17,12 @@ pub enum DirectStrategy {
     /// Estimators that never count emission found by BSDF sampling (the photon-map eye pass): every
     /// light by power, unweighted.
     LightOnly,
+    /// Estimators that follow no path past the point (the photon mappers' eye passes under a sky): a
+    /// light sample as in `Mis` and a BSDF sample, each MIS-weighted against the other, the BSDF sample
+    /// counting only a light it meets first (or the sky it escapes to). One ray more than `LightOnly`;
+    /// worth it under a sky, whose smooth part a BSDF sample finds at low variance where a light sample
+    /// drawn by the sky's brightness mostly heads for its sun.
+    LightAndBsdf,
 }
 
 /// Direct light reflected towards `wo` at a non-delta surface.
@@ -45,15 +51,38 @@ pub fn estimate_direct_with(
     c: &mut Counters,
     strategy: DirectStrategy,
 ) -> Rgb {
-    let mis = strategy == DirectStrategy::Mis;
-    let Some((ls, f)) = sample_light(scene, si, wo, mat, rng, mis) else {
-        return Rgb::ZERO;
+    let mis = strategy != DirectStrategy::LightOnly;
+    let light = match sample_light(scene, si, wo, mat, rng, mis) {
+        Some((ls, f)) if unoccluded(tracer, si, &ls, c) => {
+            let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns)) };
+            f * ls.li * (w / ls.pdf)
+        }
+        _ => Rgb::ZERO,
     };
-    if !unoccluded(tracer, si, &ls, c) {
-        return Rgb::ZERO;
+    if strategy != DirectStrategy::LightAndBsdf {
+        return light;
     }
-    let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns)) };
-    f * ls.li * (w / ls.pdf)
+    // A BSDF sample: the emission of the light it meets first, or of the sky it escapes to, weighted
+    // against the light sample.
+    let Some((bs, ray)) = si.scatter(mat, wo, rng, crate::scene::TransportMode::Radiance) else {
+        return light;
+    };
+    if bs.delta {
+        return light;
+    }
+    c.rays += 1;
+    let found = match crate::accel::interact(scene, tracer, &ray) {
+        None => {
+            let le = scene.lights.env_radiance(ray.d);
+            le * if le == Rgb::ZERO { 0.0 } else { power_heuristic(bs.pdf, scene.lights.env_pdf(ray.d)) }
+        }
+        Some(crate::accel::Interaction { hit, si: at, wo: back }) => {
+            let le = scene.emitted(&at, back);
+            let pdf_light = || scene.lights.pdf(scene, hit.shape, hit.prim, si.p, at.p, at.ng);
+            le * if le == Rgb::ZERO { 0.0 } else { power_heuristic(bs.pdf, pdf_light()) }
+        }
+    };
+    light + bs.weight * found
 }
 
 /// A light point for direct light at `si` (seen along `wo`, BSDF `mat`), drawn from the next-event
@@ -86,45 +115,4 @@ pub fn sample_light(
 pub fn unoccluded(tracer: &dyn Tracer, si: &SurfaceHit, ls: &LightSample, c: &mut Counters) -> bool {
     c.rays += 1;
     !tracer.occluded(&si.spawn_to(ls.p))
-}
-
-/// Direct light at a diffuse point for estimators that follow no path past it (the photon mappers' eye
-/// passes): a light sample and a BSDF sample, each MIS-weighted against the other as in the path tracer,
-/// the BSDF sample counting only a light it meets first (or the sky it escapes to). One ray more than
-/// `LightOnly`; worth it under a sky, whose smooth part a BSDF sample finds at low variance where a
-/// light sample drawn by the sky's brightness mostly heads for its sun.
-pub fn estimate_direct_both(
-    scene: &Scene,
-    tracer: &dyn Tracer,
-    si: &SurfaceHit,
-    wo: Vec3,
-    rng: &mut Rng,
-    c: &mut Counters,
-) -> Rgb {
-    let mat = scene.bsdf(si, wo);
-    let light = estimate_direct_with(scene, tracer, si, wo, &mat, rng, c, DirectStrategy::Mis);
-    let Some((bs, ray)) = si.scatter(&mat, wo, rng, crate::scene::TransportMode::Radiance) else {
-        return light;
-    };
-    if bs.delta {
-        return light;
-    }
-    c.rays += 1;
-    let found = match crate::accel::interact(scene, tracer, &ray) {
-        None => {
-            let le = scene.lights.env_radiance(ray.d);
-            if le == Rgb::ZERO {
-                return light;
-            }
-            le * power_heuristic(bs.pdf, scene.lights.env_pdf(ray.d))
-        }
-        Some(crate::accel::Interaction { hit, si: at, wo: back }) => {
-            let le = scene.emitted(&at, back);
-            if le == Rgb::ZERO {
-                return light;
-            }
-            le * power_heuristic(bs.pdf, scene.lights.pdf(scene, hit.shape, hit.prim, si.p, at.p, at.ng))
-        }
-    };
-    light + bs.weight * found
 }

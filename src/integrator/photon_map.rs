@@ -2,7 +2,7 @@
 //! glass by sampling until a diffuse hit, where direct light (shadow rays or the direct map), caustics
 //! (caustic map) and indirect light (indirect map, or a final gather that reads the maps one bounce
 //! further) are added. Also the map views: photon splats and single-map estimates.
-use super::direct::{estimate_direct, estimate_direct_both, estimate_direct_with, DirectStrategy};
+use super::direct::{estimate_direct, estimate_direct_with, DirectStrategy};
 use super::{ChainLight, Counters};
 use crate::accel::Tracer;
 use crate::color::{luminance, Rgb};
@@ -376,7 +376,7 @@ impl<'a> PhotonMapper<'a> {
         let direct = if self.maps.direct_from_map(self.scene) {
             self.map_radiance(DIRECT, si, wo, rho, budget)
         } else if !in_gather && self.scene.lights.env.is_some() {
-            estimate_direct_both(self.scene, self.tracer, si, wo, rng, c)
+            estimate_direct(self.scene, self.tracer, si, wo, rng, c, DirectStrategy::LightAndBsdf)
         } else {
             estimate_direct(self.scene, self.tracer, si, wo, rng, c, DirectStrategy::LightOnly)
         };

@@ -17,7 +17,7 @@
 //! n discs (a ratio of sums: consistent, and exact where the disc is whole).
 //! Every pixel updates only its own state, in parallel: no shared sums, the same bits on any thread
 //! count.
-use super::direct::{estimate_direct, estimate_direct_both, DirectStrategy};
+use super::direct::{estimate_direct, DirectStrategy};
 use super::photon_map::build_maps;
 use super::ppm::{initial_radius, pass_request, PassRecord};
 use super::{specular_chain, ChainEnd, ChainLight, Counters};
@@ -222,13 +222,10 @@ impl<'a> Sppm<'a> {
             if e.budget(scene, 0) == 0 {
                 return (l, end);
             }
-            // Under a sky, a BSDF sample as well (`estimate_direct_both`).
-            l += e.beta
-                * if scene.lights.env.is_some() {
-                    estimate_direct_both(scene, self.tracer, &e.si, e.wo, rng, c)
-                } else {
-                    estimate_direct(scene, self.tracer, &e.si, e.wo, rng, c, DirectStrategy::LightOnly)
-                };
+            // Under a sky, a BSDF sample as well (`DirectStrategy::LightAndBsdf`).
+            let strategy =
+                if scene.lights.env.is_some() { DirectStrategy::LightAndBsdf } else { DirectStrategy::LightOnly };
+            l += e.beta * estimate_direct(scene, self.tracer, &e.si, e.wo, rng, c, strategy);
         }
         (l, end)
     }
