@@ -71,18 +71,40 @@ pub fn estimate_direct_with(
         return light;
     }
     c.rays += 1;
-    let found = match crate::accel::interact(scene, tracer, &ray) {
-        None => {
-            let le = scene.lights.env_radiance(ray.d);
-            le * if le == Rgb::ZERO { 0.0 } else { power_heuristic(bs.pdf, scene.lights.env_pdf(ray.d)) }
-        }
-        Some(crate::accel::Interaction { hit, si: at, wo: back }) => {
-            let le = scene.emitted(&at, back);
-            let pdf_light = || scene.lights.pdf(scene, hit.shape, hit.prim, si.p, at.p, at.ng);
-            le * if le == Rgb::ZERO { 0.0 } else { power_heuristic(bs.pdf, pdf_light()) }
-        }
+    let found = crate::accel::interact(scene, tracer, &ray);
+    let (le, w) = emission_seen(scene, found.as_ref(), ray.d, Some((bs.pdf, si.p)));
+    if le == Rgb::ZERO {
+        return light;
+    }
+    light + bs.weight * (le * w)
+}
+
+/// The light a ray meets, with its MIS weight: the emission of the surface it hits (`found`), or of
+/// the sky it escapes to along `dir`; weighted against the light sample taken where the ray left if it
+/// was BSDF-sampled there (`sampled`: its density and that point), in full after a delta bounce or from
+/// the camera (`sampled` None). (ZERO, 0) when it meets no light. The path tracer, the photon mappers'
+/// specular chains and `LightAndBsdf` all count emission through this.
+pub fn emission_seen(
+    scene: &Scene,
+    found: Option<&crate::accel::Interaction>,
+    dir: Vec3,
+    sampled: Option<(f32, Vec3)>,
+) -> (Rgb, f32) {
+    let le = match found {
+        None => scene.lights.env_radiance(dir),
+        Some(i) => scene.emitted(&i.si, i.wo),
     };
-    light + bs.weight * found
+    if le == Rgb::ZERO {
+        return (le, 0.0);
+    }
+    let Some((pdf, from)) = sampled else {
+        return (le, 1.0);
+    };
+    let pdf_light = match found {
+        None => scene.lights.env_pdf(dir),
+        Some(i) => scene.lights.pdf(scene, i.hit.shape, i.hit.prim, from, i.si.p, i.si.ng),
+    };
+    (le, power_heuristic(pdf, pdf_light))
 }
 
 /// A light point for direct light at `si` (seen along `wo`, BSDF `mat`), drawn from the next-event

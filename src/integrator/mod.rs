@@ -86,7 +86,6 @@ pub fn specular_chain(
     light: ChainLight,
 ) -> (crate::color::Rgb, Option<ChainEnd>) {
     use crate::color::Rgb;
-    use crate::math::sampling::power_heuristic;
     let count = light != ChainLight::Skip;
     let mut emitted = Rgb::ZERO;
     // Light along the sampled lobe after a split is weighted by its share, not divided by its
@@ -97,23 +96,17 @@ pub fn specular_chain(
     let (mut specular, mut prev_pdf, mut prev_p) = (true, 0.0f32, ray.o);
     for depth in 0..=scene.render.max_depth {
         c.rays += 1;
-        let Some(crate::accel::Interaction { hit, si, wo }) = crate::accel::interact(scene, tracer, &ray) else {
-            let le = if count { scene.lights.env_radiance(ray.d) } else { Rgb::ZERO };
+        let found = crate::accel::interact(scene, tracer, &ray);
+        if count {
+            let sampled = (!specular).then_some((prev_pdf, prev_p));
+            let (le, w) = direct::emission_seen(scene, found.as_ref(), ray.d, sampled);
             if le != Rgb::ZERO {
-                let w = if specular { 1.0 } else { power_heuristic(prev_pdf, scene.lights.env_pdf(ray.d)) };
                 emitted += beta * emit_scale * le * w;
             }
+        }
+        let Some(crate::accel::Interaction { si, wo, .. }) = found else {
             break;
         };
-        let le = if count { scene.emitted(&si, wo) } else { Rgb::ZERO };
-        if le != Rgb::ZERO {
-            let w = if specular {
-                1.0
-            } else {
-                power_heuristic(prev_pdf, scene.lights.pdf(scene, hit.shape, hit.prim, prev_p, si.p, si.ng))
-            };
-            emitted += beta * emit_scale * le * w;
-        }
         let mat = scene.bsdf(&si, wo);
         if mat.is_diffuse() {
             return (emitted, Some(ChainEnd { si, wo, beta, depth }));

@@ -1,11 +1,11 @@
 //! Unidirectional path tracer: next-event estimation with MIS (area and sphere lights), shadow rays for
 //! point lights, delta BSDFs sampled exactly, Russian roulette after `rr_depth` bounces on the
 //! throughput without refraction's 1/η² radiance scale.
-use super::direct::{estimate_direct, DirectStrategy};
+use super::direct::{emission_seen, estimate_direct, DirectStrategy};
 use super::Counters;
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
-use crate::math::sampling::{power_heuristic, russian_roulette};
+use crate::math::sampling::russian_roulette;
 use crate::math::{max_component, Ray, Rng};
 use crate::scene::{Scene, TransportMode};
 
@@ -29,23 +29,14 @@ impl PathTracer<'_> {
         let mut prev_p = ray.o;
         for depth in 0.. {
             c.rays += 1;
-            let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
-                let le = scene.lights.env_radiance(ray.d);
-                if le != Rgb::ZERO {
-                    let w = if specular { 1.0 } else { power_heuristic(prev_pdf, scene.lights.env_pdf(ray.d)) };
-                    l += beta * le * w;
-                }
-                break;
-            };
-            let le = scene.emitted(&si, wo);
+            let found = interact(scene, self.tracer, &ray);
+            let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
             if le != Rgb::ZERO {
-                let w = if specular {
-                    1.0
-                } else {
-                    power_heuristic(prev_pdf, scene.lights.pdf(scene, hit.shape, hit.prim, prev_p, si.p, si.ng))
-                };
                 l += beta * le * w;
             }
+            let Some(Interaction { si, wo, .. }) = found else {
+                break;
+            };
             if depth >= self.max_depth {
                 break;
             }
