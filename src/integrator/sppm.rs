@@ -166,9 +166,9 @@ impl<'a> Sppm<'a> {
                     });
                 }
                 let (mut flux, mut m) = (Rgb::ZERO, 0u32);
+                let budget = vp.budget(scene, 0);
                 SCRATCH.with(|s| {
                     for map in maps.maps.iter().flatten() {
-                        let budget = vp.budget(scene, 0);
                         let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, budget, &mut s.borrow_mut());
                         flux += f;
                         m += c;
