@@ -37,6 +37,9 @@ pub fn load_scene_with(path: &Path, overrides: &[String]) -> Result<Scene, Scene
     let file = parse_scene_text(&text, &shown, overrides)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut scene = build(file, &shown, &dir)?;
+    for w in crate::scene::contact::coplanar_contacts(&scene) {
+        eprintln!("warning: {shown}: {w}");
+    }
     scene.path = path.to_path_buf();
     scene.load_seconds = t0.elapsed().as_secs_f64();
     Ok(scene)

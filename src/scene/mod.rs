@@ -1,5 +1,6 @@
 //! The in-memory scene: camera, materials, shapes (triangle meshes and analytic spheres), lights, settings.
 pub mod camera;
+pub mod contact;
 pub mod env;
 pub mod file;
 pub mod light;
