@@ -3,6 +3,9 @@
 //! render (tiny, both modes, finite) or stop with an error naming the file — never panic.
 //! CI runs 1,000 seeded cases; `CAUSTICA_FUZZ_CASES=10000 cargo test --release --test hostile_input`
 //! runs the full set. The dragon scenes are left out of the corpus (each case would re-read a 30 MB mesh).
+//! The Mitsuba XML scenes of `tests/mitsuba/` get a quarter as many cases, with XML-specific damage too
+//! (other plugin types, deep nesting, includes of themselves, files of the wrong kind, degenerate
+//! transforms and values).
 use caustica::accel::Accel;
 use caustica::pipeline::{render_path, render_pm_default};
 use caustica::scene::load_scene_str;
@@ -128,6 +131,8 @@ const OVERFLOWING_COUNTS: &str =
 
 static RENDERED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 static REFUSED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+static XML_CASES: [std::sync::atomic::AtomicUsize; 2] =
+    [std::sync::atomic::AtomicUsize::new(0), std::sync::atomic::AtomicUsize::new(0)];
 
 fn run_case(name: &str, bytes: &[u8]) {
     use std::sync::atomic::Ordering::Relaxed;
@@ -145,27 +150,31 @@ fn run_case(name: &str, bytes: &[u8]) {
             REFUSED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             assert!(e.to_string().contains(name), "error does not name the file: {e}");
         }
-        Ok(mut scene) => {
-            // Render it tiny in both modes: whatever the mutation kept must not break the renderer.
-            scene.camera.width = scene.camera.width.min(6);
-            scene.camera.height = scene.camera.height.min(6);
-            let r = &mut scene.render;
-            r.spp = 1;
-            r.pm_spp = 1;
-            r.specular_spp = r.specular_spp.min(1);
-            r.final_gather = r.final_gather.min(2);
-            r.max_depth = r.max_depth.min(32);
-            r.photons.max_shots_factor = r.photons.max_shots_factor.min(20);
-            for c in [&mut r.photons.direct, &mut r.photons.indirect, &mut r.photons.caustic] {
-                *c = (*c).min(500);
-            }
-            let accel = Accel::new(&scene).expect("Embree scene");
-            let pt = render_path(&scene, &accel, 1, true);
-            let pm = render_pm_default(&scene, &accel, true).expect("photon maps");
-            assert_eq!(pt.counters.nonfinite + pm.counters.nonfinite, 0, "{name}, mutated:\n{text}");
+        Ok(scene) => {
+            render_tiny(scene, &format!("{name}, mutated:\n{text}"));
             RENDERED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         }
     }
+}
+
+/// Renders a scene that loaded tiny in both modes: whatever a mutation kept must not break the renderer.
+fn render_tiny(mut scene: caustica::scene::Scene, what: &str) {
+    scene.camera.width = scene.camera.width.min(6);
+    scene.camera.height = scene.camera.height.min(6);
+    let r = &mut scene.render;
+    r.spp = 1;
+    r.pm_spp = 1;
+    r.specular_spp = r.specular_spp.min(1);
+    r.final_gather = r.final_gather.min(2);
+    r.max_depth = r.max_depth.min(32);
+    r.photons.max_shots_factor = r.photons.max_shots_factor.min(20);
+    for c in [&mut r.photons.direct, &mut r.photons.indirect, &mut r.photons.caustic] {
+        *c = (*c).min(500);
+    }
+    let accel = Accel::new(&scene).expect("Embree scene");
+    let pt = render_path(&scene, &accel, 1, true);
+    let pm = render_pm_default(&scene, &accel, true).expect("photon maps");
+    assert_eq!(pt.counters.nonfinite + pm.counters.nonfinite, 0, "{what}");
 }
 
 fn cases() -> u32 {
@@ -242,5 +251,130 @@ fn huge_photon_counts_reach_the_memory_guard_unclamped() {
                 }
             }
         }
+    }
+}
+
+/// The Mitsuba XML scenes of `tests/mitsuba/`, copied with the files they read into a directory of this
+/// process's own, where mutated copies are written (the importer reads a path, relative to which the
+/// meshes, textures and skies resolve).
+fn xml_corpus() -> (PathBuf, Vec<(String, String)>) {
+    let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba");
+    let dir = std::env::temp_dir().join(format!("caustica-xml-fuzz-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut scenes = Vec::new();
+    for e in std::fs::read_dir(&src).unwrap() {
+        let p = e.unwrap().path();
+        if !p.is_file() {
+            continue;
+        }
+        let name = p.file_name().unwrap().to_string_lossy().to_string();
+        // Every file goes along: the scenes may include one another.
+        std::fs::copy(&p, dir.join(&name)).unwrap();
+        if p.extension().is_some_and(|e| e == "xml") {
+            scenes.push((name, std::fs::read_to_string(&p).unwrap()));
+        }
+    }
+    scenes.sort();
+    (dir, scenes)
+}
+
+/// What damage a case does: 0–5 another plugin type at one of the file's type attributes, 6 shapes
+/// nested deep, 7 a text mutation (as the TOML scenes get), and from 8 on one of `XML_EXTRAS` (valid
+/// XML, odd or hostile for a renderer).
+fn xml_mutation() -> impl Strategy<Value = (Mutation, usize, usize)> {
+    (mutation(), any::<usize>(), 0usize..XML_EXTRAS.len() + 8)
+}
+
+const XML_TYPES: &[&str] = &[
+    "diffuse",
+    "dielectric",
+    "conductor",
+    "roughconductor",
+    "thindielectric",
+    "twosided",
+    "area",
+    "point",
+    "directional",
+    "envmap",
+    "constant",
+    "sphere",
+    "rectangle",
+    "cube",
+    "disk",
+    "obj",
+    "ply",
+    "bitmap",
+    "checkerboard",
+    "path",
+    "sppm",
+    "photonmapper",
+    "hdrfilm",
+    "perspective",
+    "box",
+    "spot",
+    "plastic",
+    "",
+];
+
+const XML_EXTRAS: &[&str] = &[
+    r#"<include filename="cornell.xml"/>"#,
+    r#"<include filename="case.xml"/>"#,
+    r#"<shape type="obj"><string name="filename" value="label.png"/></shape>"#,
+    r#"<shape type="ply"><string name="filename" value="sky.exr"/></shape>"#,
+    r#"<emitter type="envmap"><string name="filename" value="ball.ply"/></emitter>"#,
+    r#"<shape type="sphere"><float name="radius" value="-1"/><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#,
+    r#"<shape type="rectangle"><transform name="to_world"><scale value="0"/></transform><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#,
+    r#"<shape type="cube"><transform name="to_world"><matrix value="0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0"/></transform></shape>"#,
+    r#"<emitter type="point"><point name="position" value="nan,0,0"/></emitter>"#,
+    r#"<emitter type="directional"><vector name="direction" value="0,0,0"/></emitter>"#,
+    r#"<bsdf type="roughconductor" id="r9"><float name="alpha" value="1e30"/></bsdf><shape type="sphere"><ref id="r9"/></shape>"#,
+    r#"<bsdf type="dielectric" id="d9"><float name="int_ior" value="0"/></bsdf><shape type="sphere"><ref id="d9"/></shape>"#,
+    r#"<shape type="sphere"><ref id="nowhere"/></shape>"#,
+    r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="ball.ply"/></texture></bsdf></shape>"#,
+];
+
+fn apply_xml(text: &str, m: &Mutation, which: usize, extra: usize) -> Vec<u8> {
+    let after_scene = text.find("<scene").and_then(|i| text[i..].find('>').map(|j| i + j + 1)).unwrap_or(0);
+    match extra {
+        0..=5 => {
+            let at: Vec<usize> = text.match_indices("type=\"").map(|(i, _)| i + 6).collect();
+            let Some(&s) = at.get(which % at.len().max(1)) else { return text.as_bytes().to_vec() };
+            let e = s + text[s..].find('"').unwrap_or(0);
+            let t = XML_TYPES[(which / at.len().max(1) + extra) % XML_TYPES.len()];
+            [&text[..s], t, &text[e..]].concat().into_bytes()
+        }
+        6 => {
+            let d = [10, 1000, 20_000][which % 3];
+            let nest = format!("{}{}", "<shape type=\"sphere\">".repeat(d), "</shape>".repeat(d));
+            [&text[..after_scene], nest.as_str(), &text[after_scene..]].concat().into_bytes()
+        }
+        7 => apply(text, m),
+        k => [&text[..after_scene], XML_EXTRAS[k - 8], &text[after_scene..]].concat().into_bytes(),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases() / 4, rng_seed: proptest::test_runner::RngSeed::Fixed(0x3A1), failure_persistence: None, ..ProptestConfig::default() })]
+
+    #[test]
+    fn mutated_mitsuba_scenes_load_or_fail_cleanly(which in any::<usize>(), (m, at, extra) in xml_mutation()) {
+        thread_local!(static CORPUS: (PathBuf, Vec<(String, String)>) = xml_corpus());
+        CORPUS.with(|(dir, scenes)| {
+            let (name, text) = &scenes[which % scenes.len()];
+            let path = dir.join("case.xml");
+            std::fs::write(&path, apply_xml(text, &m, at, extra)).unwrap();
+            let result = caustica::scene::load_scene(&path);
+            XML_CASES[result.is_ok() as usize].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let [f, r] = [&XML_CASES[0], &XML_CASES[1]].map(|c| c.load(std::sync::atomic::Ordering::Relaxed));
+            if (r + f) % 500 == 0 {
+                eprintln!("{} XML cases: {r} rendered, {f} refused with an error", r + f);
+            }
+            match result {
+                Err(e) => assert!(e.to_string().contains("case.xml"), "{name}: error does not name the file: {e}"),
+                Ok(scene) => {
+                    render_tiny(scene, &format!("{name}, mutated:\n{}", std::fs::read_to_string(&path).unwrap_or_default()));
+                }
+            }
+        });
     }
 }

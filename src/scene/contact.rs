@@ -40,7 +40,7 @@ pub fn coplanar_contacts(scene: &Scene) -> Vec<String> {
                 out.push(format!(
                     "{} (glass) lies flat on {} ({n} face{} in the same plane): which surface a ray meets \
                      there is decided by rounding, so the path tracer and the photon mappers see different \
-                     light there; leave a gap (e.g. lift the glass by {:.2e})",
+                     light there; leave a gap (e.g. lift the glass by {:.2e}) or model the shared face once",
                     a.name,
                     b.name,
                     if n == 1 { "" } else { "s" },
