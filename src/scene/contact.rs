@@ -12,7 +12,9 @@ use glam::{Vec2, Vec3};
 /// pair is not checked (two huge meshes pressed together).
 const MAX_PAIR_TESTS: u64 = 20_000_000;
 
-/// One message per pair of shapes in flat contact, a dielectric (or thin dielectric) first.
+/// One message per pair of shapes in flat contact, the glass (dielectric or thin dielectric) or the
+/// light first. An area light lying in a ceiling's plane is as ill-posed as glass on a table: the
+/// ceiling hides it from some rays and not from others.
 pub fn coplanar_contacts(scene: &Scene) -> Vec<String> {
     let (lo, hi) = scene.bounds;
     let extent = (hi - lo).max_element();
@@ -27,20 +29,31 @@ pub fn coplanar_contacts(scene: &Scene) -> Vec<String> {
             scene.materials[a.material as usize].bsdf,
             Material::Dielectric { .. } | Material::ThinDielectric { .. }
         );
+        let emits = a.emission.max_element() > 0.0;
         let Geometry::Mesh(ma) = &a.geometry else { continue };
-        if !transmissive {
+        if !(transmissive || emits) {
             continue;
         }
+        let what = if transmissive { "glass" } else { "light" };
         for (j, b) in scene.shapes.iter().enumerate() {
             let Geometry::Mesh(mb) = &b.geometry else { continue };
             if i == j {
                 continue;
             }
+            // A pair of lights or of glasses is reported once.
+            let b_first = j < i && {
+                let mat = &scene.materials[b.material as usize].bsdf;
+                let b_transmissive = matches!(mat, Material::Dielectric { .. } | Material::ThinDielectric { .. });
+                b_transmissive || b.emission.max_element() > 0.0
+            };
+            if b_first {
+                continue;
+            }
             if let Some(n) = touching_faces(ma, mb, eps) {
                 out.push(format!(
-                    "{} (glass) lies flat on {} ({n} face{} in the same plane): which surface a ray meets \
+                    "{} ({what}) lies flat on {} ({n} face{} in the same plane): which surface a ray meets \
                      there is decided by rounding, so the path tracer and the photon mappers see different \
-                     light there; leave a gap (e.g. lift the glass by {:.2e}) or model the shared face once",
+                     light there; leave a gap (e.g. move the {what} by {:.2e}) or model the shared face once",
                     a.name,
                     b.name,
                     if n == 1 { "" } else { "s" },
@@ -178,6 +191,25 @@ power = [10.0, 10.0, 10.0]
         // Opaque boxes on the floor are well posed (no ray can pass between the two faces).
         let diffuse = r#"{ type = "diffuse", reflectance = [0.5, 0.5, 0.5] }"#;
         let s = load_scene_str(&scene(0.0, diffuse), "t.toml", Path::new("."), &[]).unwrap();
+        assert!(super::coplanar_contacts(&s).is_empty());
+    }
+
+    #[test]
+    fn a_light_in_the_ceiling_plane_is_reported_below_it_is_not() {
+        let diffuse = r#"{ type = "diffuse", reflectance = [0.5, 0.5, 0.5] }"#;
+        let light = |y: f32| {
+            format!(
+                "[[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 2.0, -2.0]\nedge_u = [4.0, 0.0, 0.0]\n\
+                 edge_v = [0.0, 0.0, 4.0]\nmaterial = \"floor\"\n[[lights]]\ntype = \"quad\"\n\
+                 corner = [-0.2, {y}, -0.2]\nedge_u = [0.4, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.4]\n\
+                 power = [5.0, 5.0, 5.0]\n"
+            )
+        };
+        let s = load_scene_str(&(scene(0.1, diffuse) + &light(2.0)), "t.toml", Path::new("."), &[]).unwrap();
+        let w = super::coplanar_contacts(&s);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("(light) lies flat on shapes[2]"), "{w:?}");
+        let s = load_scene_str(&(scene(0.1, diffuse) + &light(1.999)), "t.toml", Path::new("."), &[]).unwrap();
         assert!(super::coplanar_contacts(&s).is_empty());
     }
 }
