@@ -1,9 +1,11 @@
-//! Glass resting flat on another surface: faces of a dielectric that lie in the plane of another
-//! shape's faces and overlap them. Where two surfaces coincide, which one a ray meets first is decided
-//! by rounding, so whether light leaves the glass there differs between a camera ray and a photon: the
-//! path tracer and the photon mappers then disagree (the glass foot of the bundled snifter read 0.8 of
-//! the path tracer in SPPM, VCM and PM before the scene lifted it by 0.5 mm), and so do other renderers.
-//! The loader warns, naming both shapes; a gap (or a modelled contact) makes the scene well posed.
+//! Glass resting flat on another surface, or an area light set into a ceiling: faces of a dielectric
+//! or an emitting mesh that lie in the plane of another shape's faces and overlap them. Where two
+//! surfaces coincide, which one a ray meets first is decided by rounding, so whether light leaves the
+//! glass (or the light is seen) there differs between a camera ray and a photon: the path tracer and
+//! the photon mappers then disagree (the glass foot of the bundled snifter read 0.8 of the path tracer
+//! in SPPM, VCM and PM before the scene lifted it by 0.5 mm), and so do other renderers. The loader
+//! warns, naming both shapes; a gap (or a modelled contact) makes the scene well posed. Coplanar means
+//! within 1e-5 of the scene's size, a proxy for what the ray offsets can resolve.
 use crate::scene::material::Material;
 use crate::scene::{Geometry, Scene, TriMesh};
 use glam::{Vec2, Vec3};
