@@ -257,7 +257,16 @@ fn huge_photon_counts_reach_the_memory_guard_unclamped() {
 /// The Mitsuba XML scenes of `tests/mitsuba/`, copied with the files they read into a directory of this
 /// process's own, where mutated copies are written (the importer reads a path, relative to which the
 /// meshes, textures and skies resolve).
-fn xml_corpus() -> (PathBuf, Vec<(String, String)>) {
+struct XmlCorpus(PathBuf, Vec<(String, String)>);
+
+/// The copies go when the test's thread ends.
+impl Drop for XmlCorpus {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn xml_corpus() -> XmlCorpus {
     let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba");
     let dir = std::env::temp_dir().join(format!("caustica-xml-fuzz-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -275,7 +284,7 @@ fn xml_corpus() -> (PathBuf, Vec<(String, String)>) {
         }
     }
     scenes.sort();
-    (dir, scenes)
+    XmlCorpus(dir, scenes)
 }
 
 /// What damage a case does: 0–5 another plugin type at one of the file's type attributes, 6 shapes
@@ -358,8 +367,8 @@ proptest! {
 
     #[test]
     fn mutated_mitsuba_scenes_load_or_fail_cleanly(which in any::<usize>(), (m, at, extra) in xml_mutation()) {
-        thread_local!(static CORPUS: (PathBuf, Vec<(String, String)>) = xml_corpus());
-        CORPUS.with(|(dir, scenes)| {
+        thread_local!(static CORPUS: XmlCorpus = xml_corpus());
+        CORPUS.with(|XmlCorpus(dir, scenes)| {
             let (name, text) = &scenes[which % scenes.len()];
             let path = dir.join("case.xml");
             std::fs::write(&path, apply_xml(text, &m, at, extra)).unwrap();
