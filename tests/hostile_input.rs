@@ -5,7 +5,7 @@
 //! runs the full set. The dragon scenes are left out of the corpus (each case would re-read a 30 MB mesh).
 //! The Mitsuba XML scenes of `tests/mitsuba/` get a quarter as many cases, with XML-specific damage too
 //! (other plugin types, deep nesting, includes of themselves, files of the wrong kind, degenerate
-//! transforms and values).
+//! transforms and values), and the files they read (sky, mesh, texture) are damaged on disk.
 use caustica::accel::Accel;
 use caustica::pipeline::{render_path, render_pm_default};
 use caustica::scene::load_scene_str;
@@ -132,6 +132,8 @@ const OVERFLOWING_COUNTS: &str =
 static RENDERED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 static REFUSED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 static XML_CASES: [std::sync::atomic::AtomicUsize; 2] =
+    [std::sync::atomic::AtomicUsize::new(0), std::sync::atomic::AtomicUsize::new(0)];
+static ASSET_CASES: [std::sync::atomic::AtomicUsize; 2] =
     [std::sync::atomic::AtomicUsize::new(0), std::sync::atomic::AtomicUsize::new(0)];
 
 fn run_case(name: &str, bytes: &[u8]) {
@@ -268,7 +270,10 @@ impl Drop for XmlCorpus {
 
 fn xml_corpus() -> XmlCorpus {
     let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba");
-    let dir = std::env::temp_dir().join(format!("caustica-xml-fuzz-{}", std::process::id()));
+    // One directory per test thread: each test damages and removes its own copies.
+    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("caustica-xml-fuzz-{}-{k}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mut scenes = Vec::new();
     for e in std::fs::read_dir(&src).unwrap() {
@@ -383,6 +388,55 @@ proptest! {
                 Ok(scene) => {
                     render_tiny(scene, &format!("{name}, mutated:\n{}", std::fs::read_to_string(&path).unwrap_or_default()));
                 }
+            }
+        });
+    }
+}
+
+/// The files the XML scenes read, each with a scene that reads it.
+const ASSETS: &[(&str, &str)] = &[
+    ("sky.exr", "envmap.xml"),
+    ("ball.ply", "mixed.xml"),
+    ("label.png", "showcase.xml"),
+    ("tile.obj", "showcase.xml"),
+];
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: cases() / 4, rng_seed: proptest::test_runner::RngSeed::Fixed(0xA55E7), failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// A sky, a mesh or a texture damaged on disk (truncated, bytes overwritten, inserted or cut): the
+    /// scene that reads it renders or stops with an error naming the damaged file, never a panic.
+    #[test]
+    fn damaged_skies_meshes_and_textures_load_or_fail_cleanly(
+        which in 0..ASSETS.len(),
+        kind in 0..4usize,
+        at in any::<usize>(),
+        bytes in proptest::collection::vec(any::<u8>(), 1..24),
+    ) {
+        thread_local!(static CORPUS: XmlCorpus = xml_corpus());
+        CORPUS.with(|XmlCorpus(dir, _)| {
+            let (asset, scene) = ASSETS[which];
+            let file = dir.join(asset);
+            let good = std::fs::read(&file).unwrap();
+            let mut bad = good.clone();
+            let i = at % good.len();
+            match kind {
+                0 => bad.truncate(i),
+                1 => bytes.iter().enumerate().for_each(|(k, &b)| bad[(i + k * 7919) % good.len()] = b),
+                2 => drop(bad.splice(i..i, bytes.iter().copied())),
+                _ => drop(bad.drain(i..(i + bytes.len() * 8).min(good.len()))),
+            }
+            std::fs::write(&file, &bad).unwrap();
+            let result = caustica::scene::load_scene(&dir.join(scene));
+            std::fs::write(&file, &good).unwrap();
+            ASSET_CASES[result.is_ok() as usize].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let [f, r] = [&ASSET_CASES[0], &ASSET_CASES[1]].map(|c| c.load(std::sync::atomic::Ordering::Relaxed));
+            if (r + f) % 500 == 0 {
+                eprintln!("{} damaged files: {r} rendered, {f} refused with an error", r + f);
+            }
+            match result {
+                Err(e) => assert!(e.to_string().contains(asset), "{asset} damaged ({kind}): the error does not name it: {e}"),
+                Ok(s) => render_tiny(s, &format!("{scene} with {asset} damaged ({kind} at {i})")),
             }
         });
     }
