@@ -25,6 +25,18 @@ pub enum DirectStrategy {
     LightAndBsdf,
 }
 
+impl DirectStrategy {
+    /// What the photon mappers' eye passes (fixed PM at its visible points, SPPM) use: the BSDF sample
+    /// too where the scene has a sky, the light sample alone elsewhere.
+    pub fn eye_pass(scene: &Scene) -> DirectStrategy {
+        if scene.lights.env.is_some() {
+            DirectStrategy::LightAndBsdf
+        } else {
+            DirectStrategy::LightOnly
+        }
+    }
+}
+
 /// Direct light reflected towards `wo` at a non-delta surface.
 pub fn estimate_direct(
     scene: &Scene,

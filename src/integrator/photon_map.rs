@@ -375,10 +375,10 @@ impl<'a> PhotonMapper<'a> {
         }
         let direct = if self.maps.direct_from_map(self.scene) {
             self.map_radiance(DIRECT, si, wo, rho, budget)
-        } else if !in_gather && self.scene.lights.env.is_some() {
-            estimate_direct(self.scene, self.tracer, si, wo, rng, c, DirectStrategy::LightAndBsdf)
         } else {
-            estimate_direct(self.scene, self.tracer, si, wo, rng, c, DirectStrategy::LightOnly)
+            // Final-gather ends keep the light sample alone (a BSDF sample there is not worth its ray).
+            let strategy = if in_gather { DirectStrategy::LightOnly } else { DirectStrategy::eye_pass(self.scene) };
+            estimate_direct(self.scene, self.tracer, si, wo, rng, c, strategy)
         };
         let caustic = self.map_radiance(CAUSTIC, si, wo, rho, budget);
         if fg > 0 {

@@ -222,9 +222,7 @@ impl<'a> Sppm<'a> {
             if e.budget(scene, 0) == 0 {
                 return (l, end);
             }
-            // Under a sky, a BSDF sample as well (`DirectStrategy::LightAndBsdf`).
-            let strategy =
-                if scene.lights.env.is_some() { DirectStrategy::LightAndBsdf } else { DirectStrategy::LightOnly };
+            let strategy = DirectStrategy::eye_pass(scene);
             l += e.beta * estimate_direct(scene, self.tracer, &e.si, e.wo, rng, c, strategy);
         }
         (l, end)
