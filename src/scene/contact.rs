@@ -25,33 +25,23 @@ pub fn coplanar_contacts(scene: &Scene) -> Vec<String> {
     }
     // Far below any gap a scene means (0.5 mm on a 6 m table is 8e-5 of it), far above rounding.
     let eps = extent * 1e-5;
+    // What a shape is checked as: glass (dielectric or thin dielectric), an area light, or neither.
+    let kind = |s: &crate::scene::Shape| match scene.materials[s.material as usize].bsdf {
+        Material::Dielectric { .. } | Material::ThinDielectric { .. } => Some("glass"),
+        _ if s.emission.max_element() > 0.0 => Some("light"),
+        _ => None,
+    };
+    let boxes: Vec<(Vec3, Vec3)> = scene.shapes.iter().map(|s| s.geometry.bounds()).collect();
     let mut out = Vec::new();
     for (i, a) in scene.shapes.iter().enumerate() {
-        let transmissive = matches!(
-            scene.materials[a.material as usize].bsdf,
-            Material::Dielectric { .. } | Material::ThinDielectric { .. }
-        );
-        let emits = a.emission.max_element() > 0.0;
-        let Geometry::Mesh(ma) = &a.geometry else { continue };
-        if !(transmissive || emits) {
-            continue;
-        }
-        let what = if transmissive { "glass" } else { "light" };
+        let (Some(what), Geometry::Mesh(ma)) = (kind(a), &a.geometry) else { continue };
         for (j, b) in scene.shapes.iter().enumerate() {
             let Geometry::Mesh(mb) = &b.geometry else { continue };
-            if i == j {
+            // A shape with itself never; a pair of lights or of glasses once.
+            if i == j || (j < i && kind(b).is_some()) {
                 continue;
             }
-            // A pair of lights or of glasses is reported once.
-            let b_first = j < i && {
-                let mat = &scene.materials[b.material as usize].bsdf;
-                let b_transmissive = matches!(mat, Material::Dielectric { .. } | Material::ThinDielectric { .. });
-                b_transmissive || b.emission.max_element() > 0.0
-            };
-            if b_first {
-                continue;
-            }
-            if let Some(n) = touching_faces(ma, mb, eps) {
+            if let Some(n) = touching_faces((ma, boxes[i]), (mb, boxes[j]), eps) {
                 out.push(format!(
                     "{} ({what}) lies flat on {} ({n} face{} in the same plane): which surface a ray meets \
                      there is decided by rounding, so the path tracer and the photon mappers see different \
@@ -88,21 +78,18 @@ fn tris(m: &TriMesh, within: (Vec3, Vec3), eps: f32) -> Vec<Tri> {
 }
 
 /// How many of `a`'s faces lie in the plane of one of `b`'s and overlap it (None: none, or too many
-/// pairs to check).
-fn touching_faces(a: &TriMesh, b: &TriMesh, eps: f32) -> Option<usize> {
-    let (alo, ahi) = bounds(a);
-    let (blo, bhi) = bounds(b);
-    let ta = tris(a, (blo, bhi), eps);
-    let tb = tris(b, (alo, ahi), eps);
+/// pairs to check); each mesh comes with its bounding box.
+fn touching_faces((a, abox): (&TriMesh, (Vec3, Vec3)), (b, bbox): (&TriMesh, (Vec3, Vec3)), eps: f32) -> Option<usize> {
+    if abox.0.cmpgt(bbox.1 + eps).any() || bbox.0.cmpgt(abox.1 + eps).any() {
+        return None;
+    }
+    let ta = tris(a, bbox, eps);
+    let tb = tris(b, abox, eps);
     if ta.is_empty() || tb.is_empty() || ta.len() as u64 * tb.len() as u64 > MAX_PAIR_TESTS {
         return None;
     }
     let n = ta.iter().filter(|x| tb.iter().any(|y| coplanar_overlap(x, y, eps))).count();
     (n > 0).then_some(n)
-}
-
-fn bounds(m: &TriMesh) -> (Vec3, Vec3) {
-    m.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
 }
 
 /// Same plane (parallel normals, every corner of each within `eps` of the other's plane) and an
