@@ -129,32 +129,46 @@ fn apply(text: &str, m: &Mutation) -> Vec<u8> {
 const OVERFLOWING_COUNTS: &str =
     "render.photons = { direct = 9223372036854775807, indirect = 9223372036854775807, caustic = 2 }";
 
-static RENDERED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-static REFUSED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-static XML_CASES: [std::sync::atomic::AtomicUsize; 2] =
-    [std::sync::atomic::AtomicUsize::new(0), std::sync::atomic::AtomicUsize::new(0)];
-static ASSET_CASES: [std::sync::atomic::AtomicUsize; 2] =
-    [std::sync::atomic::AtomicUsize::new(0), std::sync::atomic::AtomicUsize::new(0)];
+/// Cases that rendered and cases refused with an error, printed every `every` cases.
+struct Tally {
+    what: &'static str,
+    every: usize,
+    counts: [std::sync::atomic::AtomicUsize; 2],
+}
+
+impl Tally {
+    const fn new(what: &'static str, every: usize) -> Tally {
+        Tally { what, every, counts: [std::sync::atomic::AtomicUsize::new(0), std::sync::atomic::AtomicUsize::new(0)] }
+    }
+
+    fn count(&self, rendered: bool) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.counts[rendered as usize].fetch_add(1, Relaxed);
+        let [f, r] = [&self.counts[0], &self.counts[1]].map(|c| c.load(Relaxed));
+        if (r + f) % self.every == 0 {
+            eprintln!("{} {}: {r} rendered, {f} refused with an error", r + f, self.what);
+        }
+    }
+}
+
+static TOML_CASES: Tally = Tally::new("cases", 1000);
+static XML_CASES: Tally = Tally::new("XML cases", 500);
+static ASSET_CASES: Tally = Tally::new("damaged files", 500);
 
 fn run_case(name: &str, bytes: &[u8]) {
-    use std::sync::atomic::Ordering::Relaxed;
-    let (r, f) = (RENDERED.load(Relaxed), REFUSED.load(Relaxed));
-    if (r + f) % 1000 == 999 {
-        eprintln!("{} cases: {r} rendered, {f} refused with an error", r + f + 1);
-    }
     let Ok(text) = std::str::from_utf8(bytes) else {
-        REFUSED.fetch_add(1, Relaxed);
+        TOML_CASES.count(false);
         return;
     };
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
     match load_scene_str(text, name, &dir, &[]) {
         Err(e) => {
-            REFUSED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            TOML_CASES.count(false);
             assert!(e.to_string().contains(name), "error does not name the file: {e}");
         }
         Ok(scene) => {
             render_tiny(scene, &format!("{name}, mutated:\n{text}"));
-            RENDERED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            TOML_CASES.count(true);
         }
     }
 }
@@ -378,11 +392,7 @@ proptest! {
             let path = dir.join("case.xml");
             std::fs::write(&path, apply_xml(text, &m, at, extra)).unwrap();
             let result = caustica::scene::load_scene(&path);
-            XML_CASES[result.is_ok() as usize].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let [f, r] = [&XML_CASES[0], &XML_CASES[1]].map(|c| c.load(std::sync::atomic::Ordering::Relaxed));
-            if (r + f) % 500 == 0 {
-                eprintln!("{} XML cases: {r} rendered, {f} refused with an error", r + f);
-            }
+            XML_CASES.count(result.is_ok());
             match result {
                 Err(e) => assert!(e.to_string().contains("case.xml"), "{name}: error does not name the file: {e}"),
                 Ok(scene) => {
@@ -429,11 +439,7 @@ proptest! {
             std::fs::write(&file, &bad).unwrap();
             let result = caustica::scene::load_scene(&dir.join(scene));
             std::fs::write(&file, &good).unwrap();
-            ASSET_CASES[result.is_ok() as usize].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let [f, r] = [&ASSET_CASES[0], &ASSET_CASES[1]].map(|c| c.load(std::sync::atomic::Ordering::Relaxed));
-            if (r + f) % 500 == 0 {
-                eprintln!("{} damaged files: {r} rendered, {f} refused with an error", r + f);
-            }
+            ASSET_CASES.count(result.is_ok());
             match result {
                 Err(e) => assert!(e.to_string().contains(asset), "{asset} damaged ({kind}): the error does not name it: {e}"),
                 Ok(s) => render_tiny(s, &format!("{scene} with {asset} damaged ({kind} at {i})")),
