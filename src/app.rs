@@ -278,8 +278,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             if s.emission != glam::Vec3::ZERO { " (emissive)" } else { "" }
         );
     }
-    let n_points =
-        scene.lights.list.iter().filter(|l| matches!(l, crate::scene::light::LightKind::Point { .. })).count();
+    use crate::scene::light::LightKind;
+    let n_points = scene.lights.list.iter().filter(|l| matches!(l, LightKind::Point { .. })).count();
+    let n_spots = scene.lights.list.iter().filter(|l| matches!(l, LightKind::Point { spot: Some(_), .. })).count();
     let env = match &scene.lights.env {
         Some((e, i)) => {
             let kind = match &e.image {
@@ -291,11 +292,10 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         None => String::new(),
     };
     let n_env = usize::from(scene.lights.env.is_some());
-    let n_distant =
-        scene.lights.list.iter().filter(|l| matches!(l, crate::scene::light::LightKind::Distant { .. })).count();
+    let n_distant = scene.lights.list.iter().filter(|l| matches!(l, LightKind::Distant { .. })).count();
     println!(
-        "lights      {} point, {n_distant} distant, {} emissive primitives{env}, total power {:?} W",
-        n_points,
+        "lights      {} point, {n_spots} spot, {n_distant} distant, {} emissive primitives{env}, total power {:?} W",
+        n_points - n_spots,
         scene.lights.list.len() - n_points - n_env - n_distant,
         scene.lights.total_power().to_array()
     );

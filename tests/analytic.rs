@@ -63,6 +63,53 @@ fn point_light_over_diffuse_plane_matches_inverse_square_cosine_law() {
     assert!(checked > 200);
 }
 
+/// A spot light over a diffuse plane: every visible point reads ρ/π · I · falloff · cosθ/d², with the
+/// falloff linear in angle from the beam (full) to the cutoff (zero), as Mitsuba's spot; the plane holds
+/// the full beam, the soft ring and the dark outside.
+#[test]
+fn spot_light_over_diffuse_plane_matches_its_falloff_times_the_cosine_law() {
+    let (rho, i0, h) = (0.7f32, 20.0f32, 1.5f32);
+    let (cutoff, beam) = (35.0f32, 20.0f32);
+    let text = format!(
+        "[camera]\norigin = [0.4, 3.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 60\nresolution = [24, 24]\n\
+         [materials]\nm = {{ type = \"diffuse\", reflectance = [{rho}, {rho}, {rho}] }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-5.0, 0.0, -5.0]\nedge_u = [0.0, 0.0, 10.0]\nedge_v = [10.0, 0.0, 0.0]\nmaterial = \"m\"\n\
+         [[lights]]\ntype = \"spot\"\nposition = [0.2, {h}, -0.3]\ntarget = [-0.3, 0.0, 0.2]\n\
+         intensity = [{i0}, {i0}, {i0}]\ncutoff_angle = {cutoff}\nbeam_width = {beam}\n"
+    );
+    let scene = common::scene(&text);
+    let accel = Accel::new(&scene).unwrap();
+    let pt = PathTracer { scene: &scene, tracer: &accel, max_depth: 8, rr_depth: 100 };
+    let light = Vec3::new(0.2, h, -0.3);
+    let axis = (Vec3::new(-0.3, 0.0, 0.2) - light).normalize();
+    let (mut full, mut soft, mut dark) = (0, 0, 0);
+    for y in 0..24 {
+        for x in 0..24 {
+            let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+            let Some(hit) = accel.intersect(&ray) else {
+                continue;
+            };
+            let p = ray.at(hit.t);
+            let d = light - p;
+            let angle = axis.dot(-d.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+            let falloff = ((cutoff - angle) / (cutoff - beam)).clamp(0.0, 1.0);
+            let expect = rho / std::f32::consts::PI * i0 * falloff * d.normalize().y / d.length_squared();
+            let got = pt.li(ray, &mut Rng::new(0, x, y), &mut Counters::default());
+            assert!(
+                (got.x - expect).abs() <= 2e-3 * expect + 1e-6,
+                "pixel ({x},{y}) at {angle:.2}°: {} vs {expect}",
+                got.x
+            );
+            match angle {
+                a if a < beam => full += 1,
+                a if a < cutoff => soft += 1,
+                _ => dark += 1,
+            }
+        }
+    }
+    assert!(full > 20 && soft > 20 && dark > 20, "pixels in the beam {full}, the ring {soft}, outside {dark}");
+}
+
 /// Traces `n` flux carriers into a glass slab (y in [0, t]) at incidence `theta`; returns the fractions
 /// that leave upwards (reflected) and downwards (transmitted), carrying radiance: each refraction scales
 /// by 1/η² going in and η² coming out, so R + T = 1 holds only if the two scales cancel exactly.

@@ -120,6 +120,48 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["lights[0]", "zero area"],
         ),
         (
+            "spot_two_directions",
+            GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]", "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\nintensity = [1.0, 1.0, 1.0]"),
+            vec![],
+            vec!["lights[0]", "exactly one of `direction` or `target`"],
+        ),
+        (
+            "spot_no_direction",
+            GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]", "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\nintensity = [1.0, 1.0, 1.0]"),
+            vec![],
+            vec!["lights[0]", "exactly one of `direction` or `target`"],
+        ),
+        (
+            "spot_at_its_target",
+            GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]", "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ntarget = [0.0, 1.5, 0.0]\nintensity = [1.0, 1.0, 1.0]"),
+            vec![],
+            vec!["lights[0].target", "no direction"],
+        ),
+        (
+            "spot_cutoff",
+            GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]", "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\ncutoff_angle = 0.0"),
+            vec![],
+            vec!["lights[0].cutoff_angle", "(0, 180]", "got 0"],
+        ),
+        (
+            "spot_beam_past_cutoff",
+            GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]", "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\ncutoff_angle = 20.0\nbeam_width = 25.0"),
+            vec![],
+            vec!["lights[0].beam_width", "[0, 20]", "got 25"],
+        ),
+        (
+            "spot_intensity_and_power",
+            GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]", "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\npower = [1.0, 1.0, 1.0]"),
+            vec![],
+            vec!["lights[0]", "exactly one of `intensity` or `power`"],
+        ),
+        (
+            "spot_negative",
+            GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]", "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\nintensity = [1.0, -1.0, 1.0]"),
+            vec![],
+            vec!["lights[0].intensity", "negative"],
+        ),
+        (
             "negative_reflectance",
             GOOD.replace("[0.5, 0.5, 0.5]", "[0.5, -0.5, 0.5]"),
             vec![],

@@ -167,9 +167,9 @@ fn bdpt_and_vcm_are_bit_identical_on_1_and_2_threads() {
     }
 }
 
-/// An open scene with every kind of light (quad, sphere, point, distant, constant sky) over diffuse
-/// and rough gold, or (`glass`) a glass ball under the lights PT can also see through glass (no point
-/// or distant light: their caustics are beyond PT). The MIS weights of each light kind must sum to one,
+/// An open scene with every kind of light (quad, sphere, point, spot, distant, constant sky) over
+/// diffuse and rough gold, or (`glass`) a glass ball under the lights PT can also see through glass (no
+/// point, spot or distant light: their caustics are beyond PT). The MIS weights of each light kind must sum to one,
 /// so the means agree with PT.
 fn every_light(glass: bool) -> Scene {
     let (ball, delta) = if glass {
@@ -178,7 +178,9 @@ fn every_light(glass: bool) -> Scene {
         (
             "",
             "[[lights]]\ntype = \"point\"\nposition = [-1.0, 1.2, 0.8]\npower = [6.0, 6.0, 6.0]\n\
-             [[lights]]\ntype = \"distant\"\ndirection = [0.3, -1.0, -0.4]\nirradiance = [0.8, 0.8, 0.8]\n",
+             [[lights]]\ntype = \"distant\"\ndirection = [0.3, -1.0, -0.4]\nirradiance = [0.8, 0.8, 0.8]\n\
+             [[lights]]\ntype = \"spot\"\nposition = [0.9, 1.3, 0.6]\ntarget = [-0.5, 0.3, -0.3]\n\
+             intensity = [3.0, 2.0, 1.0]\ncutoff_angle = 25.0\n",
         )
     };
     common::scene(&format!(

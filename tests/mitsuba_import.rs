@@ -86,6 +86,11 @@ fn mixed_lights_and_shapes_xml_matches_mitsuba() {
     matches_mitsuba("mixed", 1024, 0.003);
 }
 
+#[test]
+fn spot_lights_xml_matches_mitsuba() {
+    matches_mitsuba("spot", 1024, 0.003);
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let p = dir.join(name);
@@ -245,7 +250,7 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &format!("<scene version=\"3.0.0\">{}{}</scene>", "<a>".repeat(100_000), "</a>".repeat(100_000)),
             "nested deeper",
         ),
-        ("spot", &panel_scene("").replace("type=\"point\"", "type=\"spot\""), "emitter type not read"),
+        ("projector", &panel_scene("").replace("type=\"point\"", "type=\"projector\""), "emitter type not read"),
         ("shape", &panel_scene("").replace("type=\"rectangle\"", "type=\"cylinder\""), "shape type not read"),
         // A width beyond u32 was reported as "must be ≥ 1".
         (

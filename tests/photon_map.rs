@@ -215,6 +215,34 @@ fn aimed_photons_go_where_the_light_arrives_and_keep_the_caustic_flux() {
     assert!(stored_per_shot > 0.45, "{stored_per_shot:.3} caustic photons stored per aimed shot");
 }
 
+/// A spot (cutoff 30°, beam 20°) above a glass ball that subtends 14.5° from it, its axis tilted 25°
+/// from the ball's centre: part of the ball lies outside the cone, so photons aimed at it must carry the spot's falloff towards where
+/// they were aimed (and none outside its cone), or the caustic flux is several times too high.
+fn spot_caustic(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64, u64) {
+    let s = common::scene(
+        "[camera]\norigin = [0.0, 3.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [16, 16]\n\
+         [materials]\nglass = { type = \"dielectric\", ior = 1.5 }\nwhite = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, -3.0]\nedge_u = [0.0, 0.0, 6.0]\nedge_v = [6.0, 0.0, 0.0]\nmaterial = \"white\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.7, 0.0]\nradius = 0.4\nmaterial = \"glass\"\n\
+         [[lights]]\ntype = \"spot\"\nposition = [0.0, 2.3, 0.0]\ntarget = [1.0725, 0.0, 0.0]\n\
+         intensity = [30.0, 30.0, 30.0]\ncutoff_angle = 30.0\nbeam_width = 20.0\n",
+    );
+    caustic_of(s, want, shots, seed)
+}
+
+#[test]
+fn photons_aimed_at_glass_under_a_spot_keep_the_caustic_flux() {
+    let runs = 8;
+    let aimed: Vec<(f64, u64, u64)> = (0..runs).map(|i| spot_caustic(20_000, None, 10 + i)).collect();
+    let shots = aimed[0].1;
+    let (ma, sa) = mean_std(&aimed.iter().map(|t| t.0).collect::<Vec<_>>());
+    let uniform: Vec<f64> = (0..4).map(|i| spot_caustic(0, Some(shots), 100 + i).0).collect();
+    let (mu, su) = mean_std(&uniform);
+    let sigma = (sa * sa / runs as f64 + su * su / 4.0).sqrt();
+    eprintln!("spot: aimed {ma:.5} ± {sa:.5} ({shots} shots), uniform {mu:.5} ± {su:.5}");
+    assert!((ma - mu).abs() < 4.0 * sigma + 1e-3 * mu, "aimed mean {ma} vs uniform {mu} (σ {sigma})");
+}
+
 /// A flat water surface (a 256 × 256 heightfield, 131,072 triangles: one probe each) in full view of a
 /// small sphere light:
 /// every triangle is lit, so aiming where the light arrives must spread the shots by area as plain
@@ -561,7 +589,7 @@ fn channel_means(img: &caustica::film::Image) -> [f64; 3] {
 /// rough metal by sampling its BSDF, and a sampled direction never finds a point light or a distant
 /// light; the light they send straight into the camera off a rough surface has to come from a light
 /// sample there (next-event estimation, MIS-weighted against the BSDF samples that find area lights).
-/// A rough gold floor under a point light, a sun and a small quad light, with a white ball on it: fixed
+/// A rough gold floor under a point light, a spot, a sun and a small quad light, with a white ball on it: fixed
 /// PM, PPM and SPPM have the path tracer's mean in every channel.
 #[test]
 fn photon_mappers_see_delta_lights_in_rough_metal() {
@@ -572,6 +600,7 @@ fn photon_mappers_see_delta_lights_in_rough_metal() {
          [[shapes]]\ntype = \"sphere\"\ncenter = [-0.6, 0.3, -0.4]\nradius = 0.3\nmaterial = \"white\"\n\
          [[lights]]\ntype = \"point\"\nposition = [0.2, 1.0, -0.8]\npower = [30.0, 30.0, 30.0]\n\
          [[lights]]\ntype = \"distant\"\ndirection = [0.1, -0.5, 1.0]\nirradiance = [1.5, 1.2, 0.9]\n\
+         [[lights]]\ntype = \"spot\"\nposition = [-1.2, 1.5, -1.2]\ntarget = [-0.3, 0.0, 0.2]\nintensity = [8.0, 6.0, 4.0]\ncutoff_angle = 30.0\n\
          [[lights]]\ntype = \"quad\"\ncorner = [0.6, 1.2, -1.0]\nedge_u = [0.3, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.3]\npower = [6.0, 6.0, 6.0]\n\
          [render]\nmax_depth = 6\n";
     let mut s = common::scene(text);

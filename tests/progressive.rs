@@ -210,3 +210,31 @@ fn point_light_caustics_converge_where_the_path_tracer_sees_nothing() {
         assert!(agree.mean_ratio > low && agree.mean_ratio < 1.03, "{name}/PPM mean {}", agree.mean_ratio);
     }
 }
+
+/// A spot's caustic: a spot (cutoff 30°, beam 20°) above a glass ball that subtends 14.5° from it,
+/// its axis tilted 25° from the ball's centre, so that part of the ball lies outside its cone. VCM's light subpaths aimed at the ball
+/// (`render.vcm.aim = 0.9`) must carry the spot's falloff towards where they were aimed and die outside
+/// its cone, or the caustic under the ball comes out several times too bright: the aimed run must
+/// have the unaimed run's mean (aim 0) within 3%. (The photon mappers' aimed caustic photons:
+/// tests/photon_map.rs.)
+#[test]
+fn vcm_aimed_at_glass_under_a_spot_keeps_the_caustic() {
+    let text = "[camera]\norigin = [0.0, 1.3, 2.0]\ntarget = [0.0, 0.2, 0.0]\nfov = 40\nresolution = [32, 32]\n\
+        [materials]\nfloor = { type = \"diffuse\", reflectance = [0.8, 0.8, 0.8] }\nglass = { type = \"dielectric\", ior = 1.5 }\n\
+        [[shapes]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, 3.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -6.0]\nmaterial = \"floor\"\n\
+        [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.7, 0.0]\nradius = 0.4\nmaterial = \"glass\"\n\
+        [[lights]]\ntype = \"spot\"\nposition = [0.0, 2.3, 0.0]\ndirection = [0.4226, -0.9063, 0.0]\n\
+        intensity = [30.0, 30.0, 30.0]\ncutoff_angle = 30.0\nbeam_width = 20.0\n\
+        [render]\nmode = \"vcm\"\n[render.progressive]\npasses = 96\n[render.vcm]\nlight_paths = 50000\n";
+    let base = common::scene(text);
+    let a = Accel::new(&base).unwrap();
+    let mean = |aim: f32| {
+        let mut s = common::scene(text);
+        s.render.vcm.aim = aim;
+        let img = run(&s, &a, &[]).output.image;
+        img.pixels.iter().map(|p| p.x as f64).sum::<f64>() / img.pixels.len() as f64
+    };
+    let (aimed, unaimed) = (mean(0.9), mean(0.0));
+    eprintln!("VCM under a spot: aimed {aimed:.5}, unaimed {unaimed:.5}, ratio {:.4}", aimed / unaimed);
+    assert!(unaimed > 0.0 && (aimed / unaimed - 1.0).abs() < 0.03, "aimed {aimed} vs unaimed {unaimed}");
+}

@@ -8,7 +8,7 @@ use caustica::film::Image;
 use caustica::math::{sampling, Frame, Rng};
 use caustica::metrics::compare;
 use caustica::pipeline::{render_path, render_pm_default};
-use caustica::scene::light::LightKind;
+use caustica::scene::light::{LightKind, PointLight};
 use caustica::scene::{load_scene_with, Geometry, Lights, Scene};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -34,13 +34,13 @@ fn transformed(mut scene: Scene, s: f32, t: Vec3) -> Scene {
             }
         }
     }
-    let points: Vec<(Vec3, Vec3)> = scene
+    let points: Vec<PointLight> = scene
         .lights
         .list
         .iter()
         .filter_map(|l| match l {
-            LightKind::Point { position, intensity } => {
-                Some((*position * s + t, *intensity * 4.0 * std::f32::consts::PI * s * s))
+            LightKind::Point { position, intensity, spot } => {
+                Some(PointLight { position: *position * s + t, intensity: *intensity * s * s, spot: *spot })
             }
             _ => None,
         })

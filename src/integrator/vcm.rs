@@ -26,7 +26,7 @@ use crate::math::sampling::{uniform_cone, uniform_sphere};
 use crate::math::Frame;
 use crate::math::{max_component, offset_ray_origin, Ray, Rng};
 use crate::photon::kdtree::{KdTree, KnnResult};
-use crate::scene::light::{visible_cone, EmittedRay, LightKind};
+use crate::scene::light::{visible_cone, EmittedRay, LightKind, Lights};
 use crate::scene::Geometry;
 use crate::scene::{Material, Scene, SurfaceHit, TransportMode};
 use glam::Vec3;
@@ -371,21 +371,12 @@ impl Aim {
         (1.0 - self.frac) + self.frac * self.cone_pdf(x, w) / base
     }
 
-    /// The light's own emission density of direction `w` leaving a point of normal `n` (zero: a point
-    /// light, uniform over the sphere; else the cosine lobe).
-    fn light_density(n: Vec3, w: Vec3) -> f32 {
-        if n == Vec3::ZERO {
-            1.0 / (4.0 * PI)
-        } else {
-            w.dot(n).max(0.0) / PI
-        }
-    }
-
     /// Aims an emitted ray (light at finite distance) with probability `frac`, given the uniform
     /// `u_aim` and the direction numbers `u_dir` the emission used; corrects its power and density.
-    /// None: the aimed direction leaves the emitter's back (it emits nothing there).
-    fn apply(&self, mut e: EmittedRay, u_aim: f32, u_dir: [f32; 2]) -> Option<EmittedRay> {
-        let old = Aim::light_density(e.normal, e.ray.d);
+    /// None: the aimed direction leaves the emitter's back or a spot's cone (it emits nothing there).
+    fn apply(&self, lights: &Lights, mut e: EmittedRay, u_aim: f32, u_dir: [f32; 2]) -> Option<EmittedRay> {
+        let old = lights.direction_density(e.light, e.normal, e.ray.d);
+        let old_falloff = lights.falloff(e.light, e.ray.d);
         if u_aim < self.frac {
             let w = self.sample(e.origin, u_aim / self.frac, u_dir);
             if e.normal == Vec3::ZERO {
@@ -398,9 +389,15 @@ impl Aim {
                 e.ray = Ray::new(offset_ray_origin(e.origin, e.normal, w, e.size), w);
             }
         }
-        let new = Aim::light_density(e.normal, e.ray.d);
+        let new = lights.direction_density(e.light, e.normal, e.ray.d);
+        if new <= 0.0 || old <= 0.0 || old_falloff <= 0.0 {
+            return None;
+        }
+        // The power is the light's emission towards the direction over the density of drawing it: the
+        // light's own emission over its own density is the same for every direction it emits into
+        // (cosine over cosine lobe, or uniform), but for a spot's falloff; the mixture divides by `ratio`.
         let ratio = self.ratio(e.origin, e.ray.d, new);
-        e.phi *= 1.0 / ratio;
+        e.phi *= lights.falloff(e.light, e.ray.d) / old_falloff / ratio;
         e.pdf_emit = e.pdf_emit / old * new * ratio;
         Some(e)
     }
@@ -686,7 +683,7 @@ impl Vcm<'_> {
         let kind = &lights.list[e.light];
         let finite = !kind.at_infinity();
         if finite && self.aim.is_active() {
-            let Some(aimed) = self.aim.apply(e, rng.next_f32(), u_dir) else {
+            let Some(aimed) = self.aim.apply(lights, e, rng.next_f32(), u_dir) else {
                 return;
             };
             e = aimed;
@@ -928,7 +925,7 @@ impl Vcm<'_> {
             let i = lights.index_of(self.scene, si.shape, si.prim)?;
             let direct_a = lights.direct_pdf_area(self.scene, i, prev, si.p, si.ng);
             let cos = wo.dot(si.ng);
-            let aim = self.aim.ratio(si.p, wo, Aim::light_density(si.ng, wo));
+            let aim = self.aim.ratio(si.p, wo, lights.direction_density(i, si.ng, wo));
             Some((direct_a, lights.emit_pdf(self.scene, i, cos, -wo) * aim))
         })
     }
@@ -989,7 +986,7 @@ impl Vcm<'_> {
             let aim = if self.scene.lights.list[ls.light].at_infinity() {
                 1.0
             } else {
-                self.aim.ratio(ls.p, -ls.wi, Aim::light_density(ls.normal, -ls.wi))
+                self.aim.ratio(ls.p, -ls.wi, self.scene.lights.direction_density(ls.light, ls.normal, -ls.wi))
             };
             let w_camera = ls.emit_ratio * aim * cos_g(si, ls.wi) * (vm + sp.d_vcm + sp.d_vc * rev_pdf);
             1.0 / (w_light + 1.0 + w_camera)
@@ -1147,7 +1144,7 @@ mod tests {
                 .filter(|_| {
                     let u_dir = rng.next_2d();
                     let e = s.lights.emit(&s, 0.5, [0.5, 0.5], u_dir).unwrap();
-                    let e = if aim.is_active() { aim.apply(e, rng.next_f32(), u_dir).unwrap() } else { e };
+                    let e = if aim.is_active() { aim.apply(&s.lights, e, rng.next_f32(), u_dir).unwrap() } else { e };
                     aim.cone_pdf(e.origin, e.ray.d) > 0.0
                 })
                 .count() as f32

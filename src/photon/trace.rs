@@ -332,7 +332,8 @@ fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
 }
 
 /// Emission aimed at a point drawn on the specular targets (by `Targets`' density). The power is the
-/// flux that reaches that surface element, L·cosθx·cosθy/d² (I·cosθy/d² for point lights), divided by
+/// flux that reaches that surface element, L·cosθx·cosθy/d² (I·cosθy/d² for point lights, times the
+/// falloff towards it for a spot), divided by
 /// the densities of the light choice, the light point and the target point, so the caustic estimate
 /// has the same expectation as with uniform emission.
 fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<Launch> {
@@ -363,7 +364,11 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
         return None;
     }
     let cos_y = ny.dot(w).abs();
-    let phi = lp.le * (cos_x * cos_y / dist2 * inv_p / (lp.pdf_area * p_sel));
+    let falloff = lights.falloff(li, w);
+    if falloff <= 0.0 {
+        return None;
+    }
+    let phi = lp.le * (falloff * cos_x * cos_y / dist2 * inv_p / (lp.pdf_area * p_sel));
     let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w, lp.size) };
     let travelled = (o - lp.p).length();
     Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)) })

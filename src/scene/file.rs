@@ -367,6 +367,10 @@ pub struct Wave {
 fn default_normal() -> V3 {
     [0.0, 1.0, 0.0]
 }
+fn default_cutoff() -> f32 {
+    20.0
+}
+
 fn default_segments() -> u32 {
     64
 }
@@ -376,6 +380,25 @@ fn default_segments() -> u32 {
 pub enum LightSpec {
     /// Isotropic point light of total `power` (W per channel).
     Point { position: V3, power: V3 },
+    /// Spot light at `position` shining along `direction` (or towards `target`), as Mitsuba 3's `spot`:
+    /// full intensity within `beam_width` degrees of its axis (default ¾ of the cutoff), falling
+    /// linearly in angle to zero at `cutoff_angle` degrees (default 20); give `intensity` (W/sr on the
+    /// axis) or its total `power` (W).
+    Spot {
+        position: V3,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        direction: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        target: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        intensity: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        power: Option<V3>,
+        #[serde(default = "default_cutoff")]
+        cutoff_angle: f32,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        beam_width: Option<f32>,
+    },
     /// Spherical area light (visible, emits outward); give `power` or `radiance`.
     Sphere {
         center: V3,

@@ -3,7 +3,7 @@
 use crate::color::Rgb;
 use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
-use crate::scene::light::Lights;
+use crate::scene::light::{Lights, PointLight, Spot};
 use crate::scene::material::{conductor_preset, Fresnel, Material, SurfaceMaterial};
 use crate::scene::mesh::{self, TriMesh};
 use crate::scene::texture::{load_image, Texture, UvMap};
@@ -733,11 +733,46 @@ fn build_light(
     spec: &LightSpec,
     black: u32,
     shapes: &mut Vec<Shape>,
-    points: &mut Vec<(Vec3, Rgb)>,
+    points: &mut Vec<PointLight>,
 ) -> Result<(), SceneError> {
     match spec {
         LightSpec::Point { position, power } => {
-            points.push((Vec3::from_array(*position), cx.colour(&format!("{key}.power"), *power, None)?));
+            let power = cx.colour(&format!("{key}.power"), *power, None)?;
+            let intensity = power / (4.0 * std::f32::consts::PI);
+            points.push(PointLight { position: Vec3::from_array(*position), intensity, spot: None });
+        }
+        LightSpec::Spot { position, direction, target, intensity, power, cutoff_angle, beam_width } => {
+            let position = Vec3::from_array(*position);
+            let axis = match (direction, target) {
+                (Some(d), None) => Vec3::from_array(*d),
+                (None, Some(t)) => Vec3::from_array(*t) - position,
+                _ => return Err(cx.err(key, "give exactly one of `direction` or `target`")),
+            };
+            if !(axis.length() > 0.0 && axis.length().is_finite()) {
+                let what = if direction.is_some() { "direction" } else { "target" };
+                return Err(
+                    cx.err(&format!("{key}.{what}"), "gives no direction (zero vector, or the light's own position)")
+                );
+            }
+            let angle = |name: &str, deg: f32, (min, max): (f32, f32), open: &str| {
+                if deg >= min && deg <= max && (deg > 0.0 || open == "[") {
+                    Ok(deg.to_radians())
+                } else {
+                    Err(cx.err(&format!("{key}.{name}"), format!("must be in {open}0, {max}] degrees, got {deg}")))
+                }
+            };
+            let cutoff = angle("cutoff_angle", *cutoff_angle, (0.0, 180.0), "(")?;
+            let beam = angle("beam_width", beam_width.unwrap_or(0.75 * cutoff_angle), (0.0, *cutoff_angle), "[")?;
+            let spot = Spot::new(axis, cutoff, beam);
+            let intensity = match (intensity, power) {
+                (Some(i), None) => cx.colour(&format!("{key}.intensity"), *i, None)?,
+                (None, Some(p)) => cx.colour(&format!("{key}.power"), *p, None)? / spot.solid_angle(),
+                _ => return Err(cx.err(key, "give exactly one of `intensity` or `power`")),
+            };
+            if !intensity.is_finite() {
+                return Err(cx.err(key, "intensity overflows f32 (power too large for this cone)"));
+            }
+            points.push(PointLight { position, intensity, spot: Some(spot) });
         }
         LightSpec::Sphere { center, radius, power, radiance } => {
             let r = cx.positive(&format!("{key}.radius"), *radius)?;
@@ -792,7 +827,7 @@ fn build_env(cx: &Ctx, key: &str, spec: &LightSpec, dir: &Path) -> Result<EnvLig
     Ok(EnvLight { scale, image, to_local })
 }
 
-fn scene_bounds(shapes: &[Shape], points: &[(Vec3, Rgb)]) -> (Vec3, Vec3) {
+fn scene_bounds(shapes: &[Shape], points: &[PointLight]) -> (Vec3, Vec3) {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
     for s in shapes {
@@ -809,9 +844,9 @@ fn scene_bounds(shapes: &[Shape], points: &[(Vec3, Rgb)]) -> (Vec3, Vec3) {
             }
         }
     }
-    for (p, _) in points {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
+    for p in points {
+        lo = lo.min(p.position);
+        hi = hi.max(p.position);
     }
     if lo.x > hi.x {
         (Vec3::ZERO, Vec3::ZERO)

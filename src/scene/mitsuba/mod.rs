@@ -25,7 +25,7 @@ pub struct Converted {
 
 const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
 const BSDFS: &str = "diffuse, dielectric, thindielectric, conductor, roughconductor (ggx, beckmann), twosided";
-const EMITTERS: &str = "area (inside a shape), point, directional, constant, envmap";
+const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
 
@@ -540,6 +540,23 @@ impl<'a> Cx<'a> {
                 let power = intensity.map(|i| i * 4.0 * std::f32::consts::PI);
                 self.file.lights.push(LightSpec::Point { position, power });
             }
+            Some("spot") => {
+                // Mitsuba's spot sits at to_world's origin and shines along its +z; a beam wider than
+                // the cutoff is a hard edge at the cutoff there, as here with the two equal.
+                let intensity = p.rgb("intensity")?.unwrap_or([1.0; 3]);
+                let cutoff_angle = p.float("cutoff_angle")?.unwrap_or(20.0);
+                let beam_width = p.float("beam_width")?.unwrap_or(0.75 * cutoff_angle).min(cutoff_angle);
+                let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+                self.file.lights.push(LightSpec::Spot {
+                    position: m.transform_point3(Vec3::ZERO).to_array(),
+                    direction: Some(m.transform_vector3(Vec3::Z).to_array()),
+                    target: None,
+                    intensity: Some(intensity),
+                    power: None,
+                    cutoff_angle,
+                    beam_width: Some(beam_width),
+                });
+            }
             Some("constant") => {
                 let radiance = p.rgb("radiance")?.unwrap_or([1.0; 3]);
                 self.file.lights.push(LightSpec::Constant { radiance });
@@ -564,7 +581,7 @@ impl<'a> Cx<'a> {
             _ => return Err(e.error(format!("emitter type not read (read: {EMITTERS})"))),
         }
         p.finish(
-            "intensity, position, to_world (point); irradiance, direction, to_world (directional); radiance \
+            "intensity, position, to_world (point); intensity, cutoff_angle, beam_width, to_world (spot); irradiance, direction, to_world (directional); radiance \
              (constant); filename, scale, to_world (envmap)",
         )
     }
