@@ -162,6 +162,23 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["lights[0].intensity", "negative"],
         ),
         (
+            // A sky emits its radiance times the area of the scene's bounding disc: with a shape 1e30 away
+            // that overflowed f32 and a quarter of the samples were NaN (found by the XML fuzz).
+            "sky_around_a_huge_scene",
+            GOOD.replace(
+                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
+                "type = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n[[shapes]]\ntype = \"sphere\"\ncenter = [1e30, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\"",
+            ),
+            vec![],
+            vec!["lights[0]", "emits inf W", "bounding disc", "radius 5.000e29"],
+        ),
+        (
+            "lights_beyond_f32",
+            GOOD.replace("power = [10.0, 10.0, 10.0]", "power = [3e38, 3e38, 3e38]\n[[lights]]\ntype = \"point\"\nposition = [0.5, 1.5, 0.0]\npower = [3e38, 3e38, 3e38]"),
+            vec![],
+            vec!["lights[", "emits 3.000e38 W", "at most 1e30 W"],
+        ),
+        (
             "negative_reflectance",
             GOOD.replace("[0.5, 0.5, 0.5]", "[0.5, -0.5, 0.5]"),
             vec![],

@@ -197,6 +197,8 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     let mut points = Vec::new();
     let mut distant = Vec::new();
     let mut env = None;
+    // The keys of the lights in the order `Lights::build` lists them: environment, distant, point.
+    let (mut env_key, mut distant_keys, mut point_keys) = (None, Vec::new(), Vec::new());
     for (i, spec) in file.lights.iter().enumerate() {
         let key = format!("lights[{i}]");
         match spec {
@@ -205,6 +207,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
                     return Err(cx.err(&key, "a second environment light (a scene has at most one)"));
                 }
                 env = Some(build_env(&cx, &key, spec, dir)?);
+                env_key = Some(key);
             }
             LightSpec::Distant { direction, irradiance } => {
                 let d = Vec3::from_array(*direction);
@@ -212,6 +215,11 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
                     return Err(cx.err(&format!("{key}.direction"), "is the zero vector"));
                 }
                 distant.push((d, cx.colour(&format!("{key}.irradiance"), *irradiance, None)?));
+                distant_keys.push(key);
+            }
+            LightSpec::Point { .. } | LightSpec::Spot { .. } => {
+                build_light(&cx, &key, spec, black, &mut shapes, &mut points)?;
+                point_keys.push(key);
             }
             _ => build_light(&cx, &key, spec, black, &mut shapes, &mut points)?,
         }
@@ -230,6 +238,8 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         load_seconds: 0.0,
     };
     scene.lights = Lights::build(&scene, &points, &distant, env);
+    let keys: Vec<String> = env_key.into_iter().chain(distant_keys).chain(point_keys).collect();
+    check_power(&cx, &scene, &keys)?;
     if scene.lights.is_empty() {
         return Err(
             cx.err("lights", "the scene has no light with positive power (add [[lights]] or an emissive shape)")
@@ -796,6 +806,38 @@ fn build_light(
         }
     }
     Ok(())
+}
+
+/// Most power (W, any channel) a scene's lights may emit in all: photon powers, flux sums and pixel
+/// values are f32, and a light brighter than this leaves no headroom for them.
+const MAX_POWER: f64 = 1e30;
+
+/// Refuses lights whose power overflows f32 or whose total exceeds `MAX_POWER`, naming the brightest:
+/// two point lights of 3e38 W each, or a sky around a scene stretched over 1e20 units (a light at
+/// infinity emits its radiance times the area of the scene's bounding disc), would turn into NaN.
+/// `keys`: the file's key of each light at infinity and point light, in `Lights` order.
+fn check_power(cx: &Ctx, scene: &Scene, keys: &[String]) -> Result<(), SceneError> {
+    let lights = &scene.lights;
+    let total: f64 = lights.power.iter().map(|p| p.max_element() as f64).sum();
+    if total <= MAX_POWER {
+        return Ok(());
+    }
+    let (i, p) =
+        lights.power.iter().enumerate().max_by(|a, b| a.1.max_element().total_cmp(&b.1.max_element())).unwrap();
+    let key = keys.get(i).cloned().or_else(|| lights.list[i].shape().map(|s| scene.shapes[s as usize].name.clone()));
+    let why = if lights.list[i].at_infinity() {
+        format!(
+            " (a light at infinity emits its radiance times the area of the scene's bounding disc, here of \
+             radius {:.3e}: keep the shapes within about 1e12 of one another)",
+            0.5 * (scene.bounds.1.as_dvec3() - scene.bounds.0.as_dvec3()).length()
+        )
+    } else {
+        String::new()
+    };
+    Err(cx.err(
+        &key.unwrap_or_else(|| "lights".into()),
+        format!("emits {:.3e} W{why}; the lights may emit at most {MAX_POWER:e} W in all", p.max_element()),
+    ))
 }
 
 /// An environment light (`Lights::build` places it around the scene).
