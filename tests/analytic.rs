@@ -8,7 +8,7 @@ use caustica::integrator::{specular_chain, ChainLight, Counters};
 use caustica::math::{Ray, Rng};
 use caustica::pipeline::render_path;
 use caustica::scene::material::{fresnel_dielectric, Material};
-use caustica::scene::TransportMode;
+use caustica::scene::{Scene, TransportMode};
 use glam::Vec3;
 
 #[test]
@@ -42,25 +42,34 @@ fn point_light_over_diffuse_plane_matches_inverse_square_cosine_law() {
     );
     let scene = common::scene(&text);
     let accel = Accel::new(&scene).unwrap();
-    let pt = PathTracer { scene: &scene, tracer: &accel, max_depth: 8, rr_depth: 100 };
     let light = Vec3::new(0.2, h, -0.3);
     let intensity = power / (4.0 * std::f32::consts::PI);
-    let mut checked = 0;
-    for y in 0..16 {
-        for x in 0..16 {
+    let checked = path_traced_against(&scene, &accel, 1e-3, |p| {
+        let d = light - p;
+        rho / std::f32::consts::PI * intensity * (d.normalize().y) / d.length_squared()
+    });
+    assert!(checked.len() > 200);
+}
+
+/// The path tracer's radiance at every pixel that sees something, against `expect` of the point it
+/// sees (relative tolerance `tol`, plus 1e-6 where `expect` is 0); returns those points.
+fn path_traced_against(scene: &Scene, accel: &Accel, tol: f32, expect: impl Fn(Vec3) -> f32) -> Vec<Vec3> {
+    let pt = PathTracer { scene, tracer: accel, max_depth: 8, rr_depth: 100 };
+    let mut seen = Vec::new();
+    for y in 0..scene.camera.height {
+        for x in 0..scene.camera.width {
             let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
             let Some(hit) = accel.intersect(&ray) else {
                 continue;
             };
             let p = ray.at(hit.t);
-            let d = light - p;
-            let expect = rho / std::f32::consts::PI * intensity * (d.normalize().y) / d.length_squared();
-            let got = pt.li(ray, &mut Rng::new(0, x, y), &mut Counters::default());
-            assert!((got.x - expect).abs() <= 1e-3 * expect, "pixel ({x},{y}): {} vs {expect}", got.x);
-            checked += 1;
+            let want = expect(p);
+            let got = pt.li(ray, &mut Rng::new(0, x as u64, y as u64), &mut Counters::default());
+            assert!((got.x - want).abs() <= tol * want + 1e-6, "pixel ({x},{y}) at {p}: {} vs {want}", got.x);
+            seen.push(p);
         }
     }
-    assert!(checked > 200);
+    seen
 }
 
 /// A spot light over a diffuse plane: every visible point reads ρ/π · I · falloff · cosθ/d², with the
@@ -79,34 +88,16 @@ fn spot_light_over_diffuse_plane_matches_its_falloff_times_the_cosine_law() {
     );
     let scene = common::scene(&text);
     let accel = Accel::new(&scene).unwrap();
-    let pt = PathTracer { scene: &scene, tracer: &accel, max_depth: 8, rr_depth: 100 };
     let light = Vec3::new(0.2, h, -0.3);
     let axis = (Vec3::new(-0.3, 0.0, 0.2) - light).normalize();
-    let (mut full, mut soft, mut dark) = (0, 0, 0);
-    for y in 0..24 {
-        for x in 0..24 {
-            let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
-            let Some(hit) = accel.intersect(&ray) else {
-                continue;
-            };
-            let p = ray.at(hit.t);
-            let d = light - p;
-            let angle = axis.dot(-d.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
-            let falloff = ((cutoff - angle) / (cutoff - beam)).clamp(0.0, 1.0);
-            let expect = rho / std::f32::consts::PI * i0 * falloff * d.normalize().y / d.length_squared();
-            let got = pt.li(ray, &mut Rng::new(0, x, y), &mut Counters::default());
-            assert!(
-                (got.x - expect).abs() <= 2e-3 * expect + 1e-6,
-                "pixel ({x},{y}) at {angle:.2}°: {} vs {expect}",
-                got.x
-            );
-            match angle {
-                a if a < beam => full += 1,
-                a if a < cutoff => soft += 1,
-                _ => dark += 1,
-            }
-        }
-    }
+    let angle = |p: Vec3| axis.dot((p - light).normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+    let seen = path_traced_against(&scene, &accel, 2e-3, |p| {
+        let d = light - p;
+        let falloff = ((cutoff - angle(p)) / (cutoff - beam)).clamp(0.0, 1.0);
+        rho / std::f32::consts::PI * i0 * falloff * d.normalize().y / d.length_squared()
+    });
+    let count = |lo: f32, hi: f32| seen.iter().filter(|&&p| (lo..hi).contains(&angle(p))).count();
+    let (full, soft, dark) = (count(0.0, beam), count(beam, cutoff), count(cutoff, 180.0));
     assert!(full > 20 && soft > 20 && dark > 20, "pixels in the beam {full}, the ring {soft}, outside {dark}");
 }
 
