@@ -56,10 +56,13 @@ fn box_corners(scene: &Scene, s: usize) -> [Vec3; 8] {
 
 /// Whether light can possibly arrive at shape `s` straight from an emitter. The only proof of
 /// darkness used is geometric and exact: every emitting triangle faces away from the shape's whole
-/// bounding box (triangles emit from their front only). Point and sphere lights shine everywhere, and
-/// occlusion is never used as a proof: a mirror lit through a gap a random probe misses stays a target.
+/// bounding box (triangles emit from their front only), and every spot's cone misses the sphere around
+/// that box. Point and sphere lights shine everywhere, and occlusion is never used as a proof: a mirror
+/// lit through a gap a random probe misses stays a target.
 fn may_be_lit(scene: &Scene, s: usize) -> bool {
     let corners = box_corners(scene, s);
+    let (lo, hi) = scene.shapes[s].geometry.bounds();
+    let (centre, radius) = (0.5 * (lo + hi), 0.5 * (hi - lo).length());
     scene.lights.list.iter().enumerate().any(|(i, light)| {
         if scene.lights.power[i].max_element() <= 0.0 {
             return false;
@@ -70,6 +73,18 @@ fn may_be_lit(scene: &Scene, s: usize) -> bool {
                 let [a, b, c] = m.triangle(*prim as usize);
                 let n = (b - a).cross(c - a);
                 corners.iter().any(|&q| (q - a).dot(n) > 0.0)
+            }
+            LightKind::Point { position, spot: Some(spot), .. } => {
+                // The cone reaches the sphere iff the angle from its axis to the centre is at most the
+                // cutoff plus the sphere's angular radius (or the apex is inside the sphere).
+                let v = centre - *position;
+                let d = v.length();
+                if d.is_nan() || d <= radius * (1.0 + 1e-4) {
+                    return true;
+                }
+                let angle = (spot.axis.dot(v) / d).clamp(-1.0, 1.0).acos();
+                // Anything not a number is no proof of darkness.
+                angle.is_nan() || angle <= spot.cutoff + (radius / d).min(1.0).asin() + 1e-4
             }
             LightKind::Point { .. } | LightKind::Sphere { .. } | LightKind::Env | LightKind::Distant { .. } => true,
         }
@@ -90,7 +105,7 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
             targets.push(s as u32);
         } else {
             reasons.push(format!(
-                "{}: specular but every light faces away from it: not a caustic target",
+                "{}: specular but every light faces away from it (or points its cone elsewhere): not a caustic target",
                 scene.shapes[s].name
             ));
         }

@@ -68,6 +68,31 @@ fn only_a_mirror_every_light_faces_away_from_is_not_a_target() {
     assert!(plan.reasons.iter().any(|r| r.contains("shapes[0]") && r.contains("faces away")), "{:?}", plan.reasons);
 }
 
+/// A spot's cone is a proof of darkness too: a spot straight down (cutoff 20°) from 2 m above the floor
+/// misses a mirror ball (radius 0.2) 1.5 m to the side: its centre lies 39.8° from the axis, more than
+/// the cutoff plus the ball's angular radius (4.9°); moved to 0.8 m (24.0° against 20° + 5.8°) the cone
+/// reaches it and it is a target.
+#[test]
+fn a_mirror_outside_every_spots_cone_is_not_a_target() {
+    let plan_with_ball_at = |x: f32| {
+        let text = format!(
+            "[camera]\norigin = [0.0, 3.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\
+             [materials]\nchrome = {{ type = \"mirror\" }}\nwhite = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
+             [[shapes]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, -3.0]\nedge_u = [0.0, 0.0, 6.0]\nedge_v = [6.0, 0.0, 0.0]\nmaterial = \"white\"\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [{x}, 0.2, 0.0]\nradius = 0.2\nmaterial = \"chrome\"\n\
+             [[lights]]\ntype = \"spot\"\nposition = [0.0, 2.0, 0.0]\ndirection = [0.0, -1.0, 0.0]\nintensity = [5.0, 5.0, 5.0]\ncutoff_angle = 20.0\n"
+        );
+        let s = common::scene(&text);
+        let a = Accel::new(&s).unwrap();
+        plan_for(&s, &a)
+    };
+    let far = plan_with_ball_at(1.5);
+    assert!(far.caustic_targets.is_empty(), "{:?}", far.reasons);
+    assert!(far.reasons.iter().any(|r| r.contains("shapes[1]") && r.contains("cone elsewhere")), "{:?}", far.reasons);
+    let near = plan_with_ball_at(0.8);
+    assert_eq!(near.caustic_targets, vec![1], "{:?}", near.reasons);
+}
+
 /// A closed room (inward walls, ρ = 0.6) with a 4 cm × 4 cm hole in its ceiling, a 2 m × 2 m quad light
 /// a metre above facing down, a mirror ball under the hole and a camera inside looking at the floor.
 /// About one light–ball segment in a thousand passes the hole.
