@@ -42,8 +42,6 @@ pub struct Spot {
     pub axis: Vec3,
     pub cutoff: f32,
     pub beam: f32,
-    cos_cutoff: f32,
-    cos_beam: f32,
     /// 1 − cos(cutoff), computed stably for narrow cones: the cone's solid angle over 2π.
     one_minus: f32,
 }
@@ -52,25 +50,24 @@ impl Spot {
     /// A cone around `axis` (any length but zero); `beam` ≤ `cutoff` ≤ π, in radians.
     pub fn new(axis: Vec3, cutoff: f32, beam: f32) -> Spot {
         let half = (0.5 * cutoff).sin();
-        Spot {
-            axis: axis.normalize(),
-            cutoff,
-            beam,
-            cos_cutoff: cutoff.cos(),
-            cos_beam: beam.cos(),
-            one_minus: 2.0 * half * half,
-        }
+        Spot { axis: axis.normalize(), cutoff, beam, one_minus: 2.0 * half * half }
+    }
+
+    /// Angle between the axis and unit direction `w`, by atan2: exact for narrow cones, where the f32
+    /// cosine of a direction a hundredth of a degree off the axis is 1.
+    fn angle(&self, w: Vec3) -> f32 {
+        self.axis.cross(w).length().atan2(self.axis.dot(w))
     }
 
     /// Intensity towards unit direction `w` over the intensity on the axis.
     pub fn falloff(&self, w: Vec3) -> f32 {
-        let c = self.axis.dot(w);
-        if c <= self.cos_cutoff {
+        let angle = self.angle(w);
+        if angle >= self.cutoff {
             0.0
-        } else if c >= self.cos_beam {
+        } else if angle <= self.beam {
             1.0
         } else {
-            ((self.cutoff - c.clamp(-1.0, 1.0).acos()) / (self.cutoff - self.beam)).clamp(0.0, 1.0)
+            ((self.cutoff - angle) / (self.cutoff - self.beam)).clamp(0.0, 1.0)
         }
     }
 
@@ -85,11 +82,16 @@ impl Spot {
 
     /// Solid-angle density of an emitted direction `w` (uniform over the cutoff cone).
     pub fn pdf(&self, w: Vec3) -> f32 {
-        if self.axis.dot(w) > self.cos_cutoff {
-            1.0 / (2.0 * PI * self.one_minus)
+        if self.angle(w) < self.cutoff {
+            self.cone_density()
         } else {
             0.0
         }
+    }
+
+    /// The density of every direction `sample` draws: one over the cone's solid angle.
+    fn cone_density(&self) -> f32 {
+        1.0 / (2.0 * PI * self.one_minus)
     }
 
     /// A direction uniform over the cutoff cone.
@@ -473,11 +475,9 @@ impl Lights {
         }
         if let LightKind::Point { position, intensity, spot: Some(s) } = &self.list[i] {
             // A spot: uniform over its cone, each photon carrying I·falloff / (pdf · p_choice).
+            // Inside the cone by construction (a direction rounded onto its edge has zero falloff).
             let d = s.sample(u_dir);
-            let pdf = s.pdf(d);
-            if pdf <= 0.0 {
-                return None;
-            }
+            let pdf = s.cone_density();
             return Some(EmittedRay {
                 ray: Ray::new(*position, d),
                 phi: *intensity * (s.falloff(d) / (pdf * p_sel)),
@@ -661,6 +661,16 @@ mod tests {
             let t = f32::to_radians(deg);
             let got = s.falloff(Vec3::new(t.sin(), 0.0, t.cos()));
             assert!((got - want).abs() < 2e-4, "{deg}°: {got} vs {want}");
+        }
+        // A narrow spot (cutoff 0.05°, beam 0.02°) keeps its linear ramp to 1e-3: the acos of an f32
+        // cosine this close to 1 is off by up to 0.01°, a third of the ramp.
+        let narrow = Spot::new(Vec3::Z, 0.05f32.to_radians(), 0.02f32.to_radians());
+        for k in 0..=30 {
+            let deg = 0.02 + 0.001 * k as f32;
+            let t = deg.to_radians();
+            let got = narrow.falloff(Vec3::new(t.sin(), 0.0, t.cos()));
+            let want = ((0.05 - deg) / 0.03).clamp(0.0, 1.0);
+            assert!((got - want).abs() < 1e-3, "narrow spot at {deg}°: {got} vs {want}");
         }
     }
 
