@@ -146,6 +146,8 @@ pub struct Lights {
     pub env: Option<(EnvLight, usize)>,
     /// Centre and radius of the scene's bounding sphere (where light from infinity enters).
     pub sphere: (Vec3, f32),
+    /// Index range [start, end) of the point and spot lights in `list` (`build` lists them together).
+    points: (usize, usize),
 }
 
 /// A point on a light seen from a reference point.
@@ -211,10 +213,12 @@ impl Lights {
             l.list.push(LightKind::Distant { dir: dir.normalize(), irradiance });
             l.power.push(irradiance * disc);
         }
+        let first_point = l.list.len();
         for p in points {
             l.list.push(LightKind::Point { position: p.position, intensity: p.intensity, spot: p.spot });
             l.power.push(p.power());
         }
+        l.points = (first_point, l.list.len());
         for (si, shape) in scene.shapes.iter().enumerate() {
             if shape.emission == Rgb::ZERO {
                 continue;
@@ -316,7 +320,10 @@ impl Lights {
         if cdf.last().is_none_or(|&t| t <= 0.0) {
             return None;
         }
-        let (i, p_sel) = sampling::sample_cdf(cdf, u_sel);
+        let (mut i, mut p_sel) = sampling::sample_cdf(cdf, u_sel);
+        if (self.points.0..self.points.1).contains(&i) {
+            (i, p_sel) = self.pick_point(cdf, x, u_sel)?;
+        }
         match &self.list[i] {
             LightKind::Point { position, intensity, spot } => {
                 let d = *position - x;
@@ -338,7 +345,8 @@ impl Lights {
                     li: *intensity * (falloff / dist2),
                     pdf: p_sel,
                     delta: true,
-                    emit_ratio: dir_pdf / dist2,
+                    // Emission picks this light by power, this sampler with p_sel.
+                    emit_ratio: dir_pdf / dist2 * (self.power_pdf(i) / p_sel),
                     light: i,
                     normal: Vec3::ZERO,
                 })
@@ -400,6 +408,55 @@ impl Lights {
                 })
             }
         }
+    }
+
+    /// What point or spot light `j` sends towards `x` unoccluded, by its brightest channel: I·falloff/d².
+    fn point_weight(&self, j: usize, x: Vec3) -> f32 {
+        let LightKind::Point { position, intensity, .. } = &self.list[j] else { return 0.0 };
+        let d = *position - x;
+        let d2 = d.length_squared();
+        if d2.is_nan() || d2 <= 0.0 {
+            return 0.0;
+        }
+        let w = intensity.max_element() * self.falloff(j, -d / d2.sqrt()) / d2;
+        if w.is_finite() {
+            w
+        } else {
+            0.0
+        }
+    }
+
+    /// The point or spot light `sample` takes at `x` once its draw `u_sel` over `cdf` fell among the
+    /// point lights, and the probability of that choice. The point lights keep their share of `cdf`
+    /// together (so every other light keeps the probability the MIS weights use), and within it each is
+    /// taken in proportion to `point_weight` at x: a spot whose cone misses x, or a far dim light, is
+    /// not drawn in place of one that lights x. None: no point light reaches x.
+    fn pick_point(&self, cdf: &[f32], x: Vec3, u_sel: f32) -> Option<(usize, f32)> {
+        let (a, b) = self.points;
+        let total = cdf[cdf.len() - 1];
+        let lo = if a == 0 { 0.0 } else { cdf[a - 1] };
+        let share = (cdf[b - 1] - lo) / total;
+        let sum: f32 = (a..b).map(|j| self.point_weight(j, x)).sum();
+        if !(share > 0.0 && sum > 0.0 && sum.is_finite()) {
+            return None;
+        }
+        // The draw's place within the group's share, reused to pick within it.
+        let u = ((u_sel * total - lo) / (cdf[b - 1] - lo)).clamp(0.0, 1.0);
+        let target = u * sum;
+        let mut acc = 0.0;
+        let mut last = None;
+        for j in a..b {
+            let w = self.point_weight(j, x);
+            if w <= 0.0 {
+                continue;
+            }
+            acc += w;
+            last = Some((j, w));
+            if target < acc {
+                break;
+            }
+        }
+        last.map(|(j, w)| (j, share * w / sum))
     }
 
     /// Solid-angle pdf that `sample` from `x` produces the point `y` (normal `n`) on the given emitter.
@@ -509,12 +566,23 @@ impl Lights {
     }
 
     /// Density with which `sample` over every light (`nee = false`) from `x` picks point `y` (unit
-    /// normal `n`) of light `i`, per unit area of the light; for point and distant lights the choice
-    /// probability alone, for the environment per unit solid angle of the direction `y − x`.
+    /// normal `n`) of light `i`, per unit area of the light; for point lights the probability that it
+    /// takes that light at x (`pick_point`), for distant lights the choice probability alone, for the
+    /// environment per unit solid angle of the direction `y − x`.
     pub fn direct_pdf_area(&self, scene: &Scene, i: usize, x: Vec3, y: Vec3, n: Vec3) -> f32 {
         let p_sel = self.power_pdf(i);
         match &self.list[i] {
-            LightKind::Point { .. } | LightKind::Distant { .. } => p_sel,
+            LightKind::Point { .. } => {
+                let (a, b) = self.points;
+                let sum: f32 = (a..b).map(|j| self.point_weight(j, x)).sum();
+                let share: f32 = (a..b).map(|j| self.power_pdf(j)).sum();
+                if sum > 0.0 && sum.is_finite() {
+                    share * self.point_weight(i, x) / sum
+                } else {
+                    0.0
+                }
+            }
+            LightKind::Distant { .. } => p_sel,
             LightKind::Env => self.env.as_ref().map_or(0.0, |(e, _)| p_sel * e.pdf((y - x).normalize())),
             LightKind::Triangle { .. } => {
                 let a = self.area_of(scene, i);
@@ -694,6 +762,49 @@ mod tests {
                 * std::f64::consts::PI;
             let got = s.solid_angle() as f64;
             assert!((got / sum - 1.0).abs() < 1e-3, "cutoff {cutoff}°, beam {beam}°: {got} vs {sum}");
+        }
+    }
+
+    /// Next-event estimation takes the point lights together with their share of the power, and among
+    /// them each in proportion to what it sends to the point: at a floor point outside one spot's cone
+    /// that spot is never taken, the others are taken as often as the probability reported with them
+    /// (which `direct_pdf_area` reports too), and the quad light keeps its share of the power.
+    #[test]
+    fn point_lights_are_taken_by_what_they_send_to_the_point() {
+        let text = "[camera]\norigin = [0.0, 2.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [4, 4]\n\
+            [materials]\nm = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
+            [[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 0.0, -2.0]\nedge_u = [0.0, 0.0, 4.0]\nedge_v = [4.0, 0.0, 0.0]\nmaterial = \"m\"\n\
+            [[lights]]\ntype = \"spot\"\nposition = [1.0, 2.0, 0.0]\ndirection = [0.0, -1.0, 0.0]\nintensity = [50.0, 50.0, 50.0]\ncutoff_angle = 10.0\n\
+            [[lights]]\ntype = \"spot\"\nposition = [-1.0, 2.0, 0.0]\ndirection = [0.0, -1.0, 0.0]\nintensity = [5.0, 5.0, 5.0]\ncutoff_angle = 40.0\n\
+            [[lights]]\ntype = \"point\"\nposition = [0.0, 3.0, 1.0]\npower = [20.0, 20.0, 20.0]\n\
+            [[lights]]\ntype = \"quad\"\ncorner = [-0.2, 1.9, -0.2]\nedge_u = [0.4, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.4]\npower = [10.0, 10.0, 10.0]\n";
+        let scene = crate::scene::load::load_scene_str(text, "pick.toml", std::path::Path::new("."), &[]).unwrap();
+        let lights = &scene.lights;
+        let x = Vec3::new(-0.8, 0.0, 0.1);
+        let n = 200_000;
+        let mut rng = Rng::new(9, 0, 0);
+        let mut count = vec![0u32; lights.list.len()];
+        let mut reported = vec![0.0f32; lights.list.len()];
+        for _ in 0..n {
+            let Some(ls) = lights.sample(&scene, x, rng.next_f32(), rng.next_2d(), false) else { continue };
+            let kind = lights.list[ls.light].clone();
+            let p = if matches!(kind, LightKind::Point { .. }) { ls.pdf } else { lights.power_pdf(ls.light) };
+            count[ls.light] += 1;
+            reported[ls.light] = p;
+            if matches!(kind, LightKind::Point { .. }) {
+                let again = lights.direct_pdf_area(&scene, ls.light, x, ls.p, Vec3::ZERO);
+                assert!((again / p - 1.0).abs() < 1e-5, "direct_pdf_area {again} vs {p}");
+            }
+        }
+        let (a, b) = lights.points;
+        assert_eq!(count[a], 0, "the narrow spot far from x was taken");
+        let share: f32 = (a..b).map(|j| lights.power_pdf(j)).sum();
+        let taken: f32 = (a..b).map(|j| reported[j]).sum();
+        assert!((taken / share - 1.0).abs() < 1e-5, "point lights' probabilities {taken} vs their share {share}");
+        for (j, &c) in count.iter().enumerate().filter(|(_, &c)| c > 0) {
+            let expect = reported[j] as f64 * n as f64;
+            let sigma = expect.sqrt();
+            assert!((c as f64 - expect).abs() < 5.0 * sigma, "light {j}: taken {c} times, expected {expect:.0}");
         }
     }
 
