@@ -82,7 +82,7 @@ fn may_be_lit(scene: &Scene, s: usize) -> bool {
                 if d.is_nan() || d <= radius * (1.0 + 1e-4) {
                     return true;
                 }
-                let angle = spot.axis.cross(v).length().atan2(spot.axis.dot(v));
+                let angle = spot.angle(v);
                 // Anything not a number is no proof of darkness.
                 angle.is_nan() || angle <= spot.cutoff + (radius / d).min(1.0).asin() + 1e-4
             }

@@ -53,9 +53,9 @@ impl Spot {
         Spot { axis: axis.normalize(), cutoff, beam, one_minus: 2.0 * half * half }
     }
 
-    /// Angle between the axis and unit direction `w`, by atan2: exact for narrow cones, where the f32
+    /// Angle between the axis and direction `w` (any length), by atan2: exact for narrow cones, where the f32
     /// cosine of a direction a hundredth of a degree off the axis is 1.
-    fn angle(&self, w: Vec3) -> f32 {
+    pub fn angle(&self, w: Vec3) -> f32 {
         self.axis.cross(w).length().atan2(self.axis.dot(w))
     }
 
@@ -325,7 +325,7 @@ impl Lights {
             (i, p_sel) = self.pick_point(cdf, x, u_sel)?;
         }
         match &self.list[i] {
-            LightKind::Point { position, intensity, spot } => {
+            LightKind::Point { position, intensity, .. } => {
                 let d = *position - x;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
@@ -337,7 +337,7 @@ impl Lights {
                 if falloff <= 0.0 {
                     return None;
                 }
-                let dir_pdf = spot.map_or(1.0 / (4.0 * PI), |s| s.pdf(-wi));
+                let dir_pdf = self.direction_density(i, Vec3::ZERO, -wi);
                 Some(LightSample {
                     wi,
                     dist,
@@ -432,20 +432,18 @@ impl Lights {
     /// taken in proportion to `point_weight` at x: a spot whose cone misses x, or a far dim light, is
     /// not drawn in place of one that lights x. None: no point light reaches x.
     fn pick_point(&self, cdf: &[f32], x: Vec3, u_sel: f32) -> Option<(usize, f32)> {
-        let (a, b) = self.points;
         let total = cdf[cdf.len() - 1];
-        let lo = if a == 0 { 0.0 } else { cdf[a - 1] };
-        let share = (cdf[b - 1] - lo) / total;
-        let sum: f32 = (a..b).map(|j| self.point_weight(j, x)).sum();
+        let (lo, size, sum) = self.point_group(cdf, x);
+        let share = size / total;
         if !(share > 0.0 && sum > 0.0 && sum.is_finite()) {
             return None;
         }
         // The draw's place within the group's share, reused to pick within it.
-        let u = ((u_sel * total - lo) / (cdf[b - 1] - lo)).clamp(0.0, 1.0);
+        let u = ((u_sel * total - lo) / size).clamp(0.0, 1.0);
         let target = u * sum;
         let mut acc = 0.0;
         let mut last = None;
-        for j in a..b {
+        for j in self.points.0..self.points.1 {
             let w = self.point_weight(j, x);
             if w <= 0.0 {
                 continue;
@@ -457,6 +455,24 @@ impl Lights {
             }
         }
         last.map(|(j, w)| (j, share * w / sum))
+    }
+
+    /// The point lights' part of `cdf` at x: where their share starts, its size, and the sum of their
+    /// `point_weight`s (what `pick_point` draws from and `point_pdf` reports).
+    fn point_group(&self, cdf: &[f32], x: Vec3) -> (f32, f32, f32) {
+        let (a, b) = self.points;
+        let lo = if a == 0 { 0.0 } else { cdf[a - 1] };
+        (lo, cdf[b - 1] - lo, (a..b).map(|j| self.point_weight(j, x)).sum())
+    }
+
+    /// Probability that `sample` over `cdf` takes point light `j` at x (`pick_point`).
+    fn point_pdf(&self, cdf: &[f32], j: usize, x: Vec3) -> f32 {
+        let (_, size, sum) = self.point_group(cdf, x);
+        if sum > 0.0 && sum.is_finite() {
+            size / cdf[cdf.len() - 1] * self.point_weight(j, x) / sum
+        } else {
+            0.0
+        }
     }
 
     /// Solid-angle pdf that `sample` from `x` produces the point `y` (normal `n`) on the given emitter.
@@ -572,16 +588,7 @@ impl Lights {
     pub fn direct_pdf_area(&self, scene: &Scene, i: usize, x: Vec3, y: Vec3, n: Vec3) -> f32 {
         let p_sel = self.power_pdf(i);
         match &self.list[i] {
-            LightKind::Point { .. } => {
-                let (a, b) = self.points;
-                let sum: f32 = (a..b).map(|j| self.point_weight(j, x)).sum();
-                let share: f32 = (a..b).map(|j| self.power_pdf(j)).sum();
-                if sum > 0.0 && sum.is_finite() {
-                    share * self.point_weight(i, x) / sum
-                } else {
-                    0.0
-                }
-            }
+            LightKind::Point { .. } => self.point_pdf(&self.cdf, i, x),
             LightKind::Distant { .. } => p_sel,
             LightKind::Env => self.env.as_ref().map_or(0.0, |(e, _)| p_sel * e.pdf((y - x).normalize())),
             LightKind::Triangle { .. } => {
