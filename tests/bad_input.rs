@@ -138,6 +138,24 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["lights[0].target", "no direction"],
         ),
         (
+            "glass_roughness",
+            GOOD.replace(
+                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+                "white = { type = \"dielectric\", ior = 1.5, roughness = 1.5 }",
+            ),
+            vec![],
+            vec!["materials.white.roughness", "[0, 1]", "got 1.5"],
+        ),
+        (
+            "glass_distribution",
+            GOOD.replace(
+                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+                "white = { type = \"dielectric\", ior = 1.5, roughness = 0.2, distribution = \"phong\" }",
+            ),
+            vec![],
+            vec!["line 9", "phong", "ggx", "beckmann"],
+        ),
+        (
             "spot_cutoff",
             GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]", "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\ncutoff_angle = 0.0"),
             vec![],

@@ -167,27 +167,43 @@ fn bdpt_and_vcm_are_bit_identical_on_1_and_2_threads() {
     }
 }
 
+/// What stands in the middle of `every_light`'s scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Ball {
+    None,
+    /// Smooth glass, under the lights PT can also see through it (no point, spot or distant light:
+    /// their caustics are beyond PT).
+    Glass,
+    /// Rough glass (GGX, α 0.3) under every light and with a point light inside: PT finds even the
+    /// point lights' caustics through it by next-event estimation at the glass, and BDPT's and VCM's
+    /// light subpaths cross it with the adjoint BSDF. The light inside makes paths that cross the glass
+    /// once, where an adjoint off by η² does not cancel between entering and leaving.
+    RoughGlass,
+}
+
 /// An open scene with every kind of light (quad, sphere, point, spot, distant, constant sky) over
-/// diffuse and rough gold, or (`glass`) a glass ball under the lights PT can also see through glass (no
-/// point, spot or distant light: their caustics are beyond PT). The MIS weights of each light kind must sum to one,
-/// so the means agree with PT.
-fn every_light(glass: bool) -> Scene {
-    let (ball, delta) = if glass {
-        ("[[shapes]]\ntype = \"sphere\"\ncenter = [0.5, 0.35, 0.2]\nradius = 0.35\nmaterial = \"glass\"\n", "")
-    } else {
-        (
-            "",
-            "[[lights]]\ntype = \"point\"\nposition = [-1.0, 1.2, 0.8]\npower = [6.0, 6.0, 6.0]\n\
-             [[lights]]\ntype = \"distant\"\ndirection = [0.3, -1.0, -0.4]\nirradiance = [0.8, 0.8, 0.8]\n\
-             [[lights]]\ntype = \"spot\"\nposition = [0.9, 1.3, 0.6]\ntarget = [-0.5, 0.3, -0.3]\n\
-             intensity = [3.0, 2.0, 1.0]\ncutoff_angle = 25.0\n",
-        )
+/// diffuse and rough gold, with a glass ball or not. The MIS weights of each light kind must sum to
+/// one, so the means agree with PT.
+fn every_light(ball: Ball) -> Scene {
+    let sphere = |m: &str| {
+        format!("[[shapes]]\ntype = \"sphere\"\ncenter = [0.5, 0.35, 0.2]\nradius = 0.35\nmaterial = \"{m}\"\n")
+    };
+    let delta = "[[lights]]\ntype = \"point\"\nposition = [-1.0, 1.2, 0.8]\npower = [6.0, 6.0, 6.0]\n\
+                 [[lights]]\ntype = \"distant\"\ndirection = [0.3, -1.0, -0.4]\nirradiance = [0.8, 0.8, 0.8]\n\
+                 [[lights]]\ntype = \"spot\"\nposition = [0.9, 1.3, 0.6]\ntarget = [-0.5, 0.3, -0.3]\n\
+                 intensity = [3.0, 2.0, 1.0]\ncutoff_angle = 25.0\n";
+    let inside = "[[lights]]\ntype = \"point\"\nposition = [0.5, 0.35, 0.2]\npower = [2.0, 2.0, 2.0]\n";
+    let (ball, delta) = match ball {
+        Ball::None => (String::new(), delta.to_string()),
+        Ball::Glass => (sphere("glass"), String::new()),
+        Ball::RoughGlass => (sphere("frosted"), format!("{delta}{inside}")),
     };
     common::scene(&format!(
         "[camera]\norigin = [0.0, 1.6, 2.6]\ntarget = [0.0, 0.3, 0.0]\nfov = 45\nresolution = [24, 24]\n\
          [materials]\nm = {{ type = \"diffuse\", reflectance = [0.6, 0.5, 0.4] }}\n\
          gold = {{ type = \"conductor\", preset = \"Au\", roughness = 0.2 }}\n\
          glass = {{ type = \"dielectric\", ior = 1.5 }}\n\
+         frosted = {{ type = \"dielectric\", ior = 1.5, roughness = 0.3 }}\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, -1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 1.5, 0.0]\nmaterial = \"m\"\n\
          {ball}[[shapes]]\ntype = \"box\"\nmin = [-0.9, 0.0, -0.6]\nmax = [-0.3, 0.5, 0.0]\nmaterial = \"gold\"\n\
@@ -200,11 +216,11 @@ fn every_light(glass: bool) -> Scene {
 
 #[test]
 fn mis_weights_sum_to_one_for_every_kind_of_light() {
-    for glass in [false, true] {
-        let mut s = every_light(glass);
+    for ball in [Ball::None, Ball::Glass, Ball::RoughGlass] {
+        let mut s = every_light(ball);
         s.render.max_depth = 6;
         let a = Accel::new(&s).unwrap();
-        means_match_pt(&format!("glass {glass}"), &mut s, &a, 256, 1024);
+        means_match_pt(&format!("{ball:?}"), &mut s, &a, 256, 1024);
     }
 }
 

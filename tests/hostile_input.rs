@@ -341,6 +341,7 @@ const XML_TYPES: &[&str] = &[
     "box",
     "spot",
     "plastic",
+    "roughdielectric",
     "",
 ];
 
@@ -357,6 +358,8 @@ const XML_EXTRAS: &[&str] = &[
     r#"<emitter type="directional"><vector name="direction" value="0,0,0"/></emitter>"#,
     r#"<bsdf type="roughconductor" id="r9"><float name="alpha" value="1e30"/></bsdf><shape type="sphere"><ref id="r9"/></shape>"#,
     r#"<bsdf type="dielectric" id="d9"><float name="int_ior" value="0"/></bsdf><shape type="sphere"><ref id="d9"/></shape>"#,
+    r#"<bsdf type="roughdielectric" id="rd9"><float name="alpha" value="-1"/></bsdf><shape type="sphere"><ref id="rd9"/></shape>"#,
+    r#"<bsdf type="roughdielectric" id="rd8"><float name="alpha" value="1e-38"/></bsdf><shape type="sphere"><ref id="rd8"/></shape>"#,
     r#"<shape type="sphere"><ref id="nowhere"/></shape>"#,
     r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="ball.ply"/></texture></bsdf></shape>"#,
 ];

@@ -91,6 +91,11 @@ fn spot_lights_xml_matches_mitsuba() {
     matches_mitsuba("spot", 1024, 0.003);
 }
 
+#[test]
+fn rough_glass_xml_matches_mitsuba() {
+    matches_mitsuba("roughglass", 1024, 0.003);
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let p = dir.join(name);

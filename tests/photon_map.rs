@@ -603,6 +603,12 @@ fn photon_mappers_see_delta_lights_in_rough_metal() {
          [[lights]]\ntype = \"spot\"\nposition = [-1.2, 1.5, -1.2]\ntarget = [-0.3, 0.0, 0.2]\nintensity = [8.0, 6.0, 4.0]\ncutoff_angle = 30.0\n\
          [[lights]]\ntype = \"quad\"\ncorner = [0.6, 1.2, -1.0]\nedge_u = [0.3, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.3]\npower = [6.0, 6.0, 6.0]\n\
          [render]\nmax_depth = 6\n";
+    photon_modes_match_pt("rough metal", text);
+}
+
+/// Fixed PM, PPM and SPPM (32 passes of 50,000 photons) have the path tracer's mean (2048 spp) in
+/// every channel, within 3%.
+fn photon_modes_match_pt(label: &str, text: &str) {
     let mut s = common::scene(text);
     let a = Accel::new(&s).unwrap();
     let pt = channel_means(&render_path(&s, &a, 2048, true).image);
@@ -618,9 +624,38 @@ fn photon_mappers_see_delta_lights_in_rough_metal() {
     }
     for (name, mean) in got {
         let ratio = [0, 1, 2].map(|k| mean[k] / pt[k]);
-        eprintln!("{name}: mean / PT's {ratio:.4?} (PT {pt:.4?})");
-        assert!(ratio.iter().all(|r| (r - 1.0).abs() < 0.03), "{name}: means {mean:?} against PT's {pt:?}");
+        eprintln!("{label}, {name}: mean / PT's {ratio:.4?} (PT {pt:.4?})");
+        assert!(ratio.iter().all(|r| (r - 1.0).abs() < 0.03), "{label}, {name}: means {mean:?} against PT's {pt:?}");
     }
+}
+
+/// Rough glass in the photon mappers: photons cross it with the adjoint BSDF and land as caustic
+/// photons; camera rays go through it by sampling its BSDF, with a light sample at each crossing. A
+/// rough glass ball (Beckmann, α 0.4) on a diffuse floor and a rough glass slab (GGX, α 0.3, tinted)
+/// standing on its edge, under a quad light, a point light and a spot, with a point light inside a
+/// second rough ball (light that crosses glass once, where an adjoint off by η² would not cancel):
+/// the path tracer finds every one of these paths by next-event estimation at the glass. A point
+/// light seen through rough glass is a spiky glint, heavy-tailed in few eye samples: with the ball at
+/// α 0.2 and the slab at 0.1, fixed PM read 1.10 of PT's mean at 4 eye samples and PPM 0.967–0.973 at
+/// 32 passes (0.985 at 256) though their expectations are right; rougher glass and 64 eye samples keep
+/// this test's noise under its 3%.
+#[test]
+fn photon_mappers_render_rough_glass() {
+    let text = "[camera]\norigin = [0.0, 1.4, 3.0]\ntarget = [0.0, 0.3, -0.2]\nfov = 50\nresolution = [32, 24]\n\
+         [materials]\nwhite = { type = \"diffuse\", reflectance = [0.7, 0.7, 0.7] }\n\
+         frosted = { type = \"dielectric\", ior = 1.5, roughness = 0.4, distribution = \"beckmann\" }\n\
+         pane = { type = \"dielectric\", ior = 1.5, roughness = 0.3, tint = [0.9, 0.7, 0.5] }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 0.0, 2.0]\nedge_u = [4.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -4.0]\nmaterial = \"white\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 0.0, -1.5]\nedge_u = [4.0, 0.0, 0.0]\nedge_v = [0.0, 2.0, 0.0]\nmaterial = \"white\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [-0.6, 0.31, 0.0]\nradius = 0.3\nmaterial = \"frosted\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.9, 0.5, -0.6]\nradius = 0.25\nmaterial = \"frosted\"\n\
+         [[shapes]]\ntype = \"box\"\nmin = [0.1, 0.01, -0.2]\nmax = [0.5, 0.6, -0.1]\nmaterial = \"pane\"\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.4, 1.2, 0.6]\npower = [20.0, 20.0, 20.0]\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.9, 0.5, -0.6]\npower = [3.0, 3.0, 3.0]\n\
+         [[lights]]\ntype = \"spot\"\nposition = [-1.2, 1.5, 0.8]\ntarget = [-0.6, 0.3, 0.0]\nintensity = [6.0, 5.0, 4.0]\ncutoff_angle = 25.0\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [-0.3, 1.8, -0.8]\nedge_u = [0.6, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.4]\npower = [8.0, 8.0, 8.0]\n\
+         [render]\nmax_depth = 8\npm_spp = 64\n";
+    photon_modes_match_pt("rough glass", text);
 }
 
 /// `render.max_depth` limits the whole path in the path tracer: the camera's bounces through glass

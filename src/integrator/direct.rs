@@ -136,11 +136,11 @@ pub fn sample_light(
     if ls.pdf <= 0.0 || ls.li == Rgb::ZERO {
         return None;
     }
-    // Light must be on the side the BSDF can scatter into (geometric test avoids light leaks).
-    if ls.wi.dot(si.ng) * wo.dot(si.ng) <= 0.0 {
+    // Light must be on a side the BSDF can scatter into (the geometric test avoids light leaks).
+    if !si.can_scatter(mat, wo, ls.wi) {
         return None;
     }
-    let f = mat.eval(wo, ls.wi, si.ns) * ls.wi.dot(si.ns).abs();
+    let f = mat.eval(wo, ls.wi, si.ns, crate::scene::TransportMode::Radiance) * ls.wi.dot(si.ns).abs();
     (f != Rgb::ZERO).then_some((ls, f))
 }
 

@@ -119,13 +119,8 @@ pub fn specular_chain(
         let Some((bs, next)) = si.scatter_with(&mat, wo, u, uc, crate::scene::TransportMode::Radiance) else {
             break;
         };
-        let two_lobes = || {
-            matches!(
-                mat,
-                crate::scene::material::Material::Dielectric { .. }
-                    | crate::scene::material::Material::ThinDielectric { .. }
-            )
-        };
+        // A smooth dielectric's two delta lobes (bs.pdf is then the lobe's probability).
+        let two_lobes = || bs.delta && mat.transmits();
         if light == ChainLight::CountSplitFirst && depth == 0 && bs.pdf < 1.0 && two_lobes() {
             // The other lobe: reflection is chosen for uc < F, so uc = 0 forces it and uc = 1 refraction.
             let other_uc = if bs.transmitted { 0.0 } else { 1.0 };

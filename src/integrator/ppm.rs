@@ -72,9 +72,11 @@ pub fn radius_for_density(scene: &Scene, k: f64, points: f64) -> f32 {
     }
 }
 
-/// Seed of pass `i`'s eye samples: every pass draws its own pixel samples.
+/// Seed of pass `i`'s eye samples: every pass of every seed draws its own pixel samples (the seed is
+/// hashed before the pass index joins it, so no two (seed, pass) pairs share a stream).
 pub fn pass_seed(seed: u64, i: u32) -> u64 {
-    crate::math::rng::mix64(seed ^ (0x5050_u64 << 32 | i as u64))
+    use crate::math::rng::mix64;
+    mix64(mix64(seed ^ (0x5050_u64 << 32)) ^ i as u64)
 }
 
 /// The maps a progressive pass builds: those the plan wants, each from exactly `photons_per_pass` shots,
@@ -121,7 +123,22 @@ pub fn ppm_pass(
 
 #[cfg(test)]
 mod tests {
-    use super::radius_at;
+    use super::{pass_seed, radius_at};
+
+    /// Renders with different seeds draw different eye samples in every pass: no (seed, pass) pair
+    /// shares another's stream. (Seeds XORed with the pass index did: seed 1's pass 2 was seed 2's pass
+    /// 1, so runs with neighbouring seeds were mostly the same samples.)
+    #[test]
+    fn pass_seeds_of_different_seeds_never_coincide() {
+        let mut seen = std::collections::HashMap::new();
+        for seed in 0..64u64 {
+            for i in 1..=2000u32 {
+                if let Some(prev) = seen.insert(pass_seed(seed, i), (seed, i)) {
+                    panic!("seed {seed} pass {i} draws the eye samples of seed {} pass {}", prev.0, prev.1);
+                }
+            }
+        }
+    }
 
     #[test]
     fn radius_schedule_follows_knaus_zwicker() {

@@ -113,7 +113,8 @@ impl LightVertex {
     /// The adjoint BSDF at the vertex scattering the arriving light towards `dir`, times |cos θ| there
     /// (Veach's shading-normal correction included).
     fn f_to(&self, dir: Vec3) -> Rgb {
-        self.mat.eval(self.wo, dir, self.si.ns) * (self.si.shading_correction(self.wo, dir) * dir.dot(self.si.ns).abs())
+        self.mat.eval(self.wo, dir, self.si.ns, TransportMode::Importance)
+            * (self.si.shading_correction(self.wo, dir) * dir.dot(self.si.ns).abs())
     }
 }
 
@@ -816,7 +817,7 @@ impl Vcm<'_> {
         let to_cam = cam.origin - lv.si.p;
         let dist2 = to_cam.length_squared();
         let dir = to_cam / dist2.sqrt();
-        if dir.dot(lv.si.ng) * lv.wo.dot(lv.si.ng) <= 0.0 {
+        if !lv.si.can_scatter(&lv.mat, lv.wo, dir) {
             return;
         }
         let f = lv.f_to(dir);
@@ -1017,11 +1018,11 @@ impl Vcm<'_> {
             return Rgb::ZERO;
         }
         let dir = d / dist2.sqrt();
-        // Both ends reflect: the connection must leave each on the side it was reached from.
-        if dir.dot(si.ng) * wo.dot(si.ng) <= 0.0 || (-dir).dot(lv.si.ng) * lv.wo.dot(lv.si.ng) <= 0.0 {
+        // The connection must leave each end on a side its BSDF scatters to.
+        if !si.can_scatter(mat, wo, dir) || !lv.si.can_scatter(&lv.mat, lv.wo, -dir) {
             return Rgb::ZERO;
         }
-        let f_cam = mat.eval(wo, dir, si.ns) * dir.dot(si.ns).abs();
+        let f_cam = mat.eval(wo, dir, si.ns, TransportMode::Radiance) * dir.dot(si.ns).abs();
         if f_cam == Rgb::ZERO {
             return Rgb::ZERO;
         }
@@ -1072,10 +1073,10 @@ impl Vcm<'_> {
             tree.within_res(si.p.to_array(), r2, &mut s);
             for &(_, ti) in s.items() {
                 let lv = tree.item(ti);
-                if lv.len + sp.len > it.max_len || lv.wo.dot(si.ng) * wo.dot(si.ng) <= 0.0 {
+                if lv.len + sp.len > it.max_len || !si.can_scatter(mat, wo, lv.wo) {
                     continue;
                 }
-                let f = mat.eval(wo, lv.wo, si.ns);
+                let f = mat.eval(wo, lv.wo, si.ns, TransportMode::Radiance);
                 if f == Rgb::ZERO {
                     continue;
                 }

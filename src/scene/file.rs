@@ -139,7 +139,8 @@ pub enum MaterialSpec {
         #[serde(default = "one3")]
         tint: V3,
     },
-    /// Smooth glass or water: exact Fresnel, refraction and total internal reflection.
+    /// Glass or water: exact Fresnel, refraction and total internal reflection; smooth, or frosted with
+    /// a microfacet `roughness` (α, as a rough conductor's).
     Dielectric {
         ior: f32,
         /// Index of the medium around the object (1 = air; 1.33 for glass under water).
@@ -147,11 +148,19 @@ pub enum MaterialSpec {
         outside_ior: f32,
         #[serde(default = "one3")]
         tint: V3,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        roughness: f32,
+        #[serde(default, skip_serializing_if = "is_ggx")]
+        distribution: crate::scene::material::Microfacet,
     },
 }
 
 fn one() -> f32 {
     1.0
+}
+
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
 }
 
 fn is_true(b: &bool) -> bool {

@@ -465,7 +465,7 @@ fn build_material(
             };
             sided(Material::Conductor { fresnel, alpha: rough(*roughness)?, distribution: *distribution }, *two_sided)
         }
-        MaterialSpec::Dielectric { ior, outside_ior, tint }
+        MaterialSpec::Dielectric { ior, outside_ior, tint, .. }
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
             for (k, v) in [("ior", ior), ("outside_ior", outside_ior)] {
                 if !(*v >= 1.0 / 4.0 && *v <= 4.0) {
@@ -474,8 +474,13 @@ fn build_material(
             }
             // Only the ratio matters at an interface: glass (1.5) in water (1.33) bends light by 1.5/1.33.
             let (ior, tint) = (ior / outside_ior, cx.colour(&format!("{key}.tint"), *tint, Some(1.0))?);
-            if matches!(spec, MaterialSpec::Dielectric { .. }) {
-                SurfaceMaterial::new(Material::Dielectric { ior, tint })
+            if let MaterialSpec::Dielectric { roughness, distribution, .. } = spec {
+                SurfaceMaterial::new(Material::Dielectric {
+                    ior,
+                    tint,
+                    alpha: rough(*roughness)?,
+                    distribution: *distribution,
+                })
             } else {
                 SurfaceMaterial::new(Material::ThinDielectric { ior, tint })
             }

@@ -217,6 +217,16 @@ impl SurfaceHit {
         Some((bs, self.spawn(bs.wi)))
     }
 
+    /// Whether `mat` here can carry light between `wo` and `wi` (both pointing away): a reflection must
+    /// keep to one side of the geometric surface, a transmission (dielectrics only) cross it, and the
+    /// shading normal must see the same (the BSDF decides reflection or transmission by it; where the two
+    /// normals disagree the light would leak through the surface, or be refracted where it reflects).
+    pub fn can_scatter(&self, mat: &Material, wo: Vec3, wi: Vec3) -> bool {
+        let geometric = wo.dot(self.ng) * wi.dot(self.ng);
+        let shading = wo.dot(self.ns) * wi.dot(self.ns);
+        (geometric > 0.0 && shading > 0.0) || (geometric < 0.0 && shading < 0.0 && mat.transmits())
+    }
+
     /// |wo·ns||wi·ng| / (|wo·ng||wi·ns|): the factor by which the adjoint BSDF differs from the BSDF
     /// under shading normals (1 where they agree).
     pub fn shading_correction(&self, wo: Vec3, wi: Vec3) -> f32 {

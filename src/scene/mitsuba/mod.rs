@@ -24,7 +24,8 @@ pub struct Converted {
 }
 
 const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
-const BSDFS: &str = "diffuse, dielectric, thindielectric, conductor, roughconductor (ggx, beckmann), twosided";
+const BSDFS: &str =
+    "diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor (ggx, beckmann), twosided";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
@@ -385,7 +386,7 @@ impl<'a> Cx<'a> {
                     inner.push(self.lookup(r, r.attr("id").unwrap_or(""))?);
                 }
                 let [one] = inner[..] else { return Err(b.error("needs exactly one nested BSDF")) };
-                if matches!(one.attr("type"), Some("dielectric" | "thindielectric" | "twosided")) {
+                if matches!(one.attr("type"), Some("dielectric" | "roughdielectric" | "thindielectric" | "twosided")) {
                     return Err(one.error("cannot be wrapped in twosided (it is two-sided already)"));
                 }
                 self.bsdf(one, true, name)?
@@ -404,46 +405,39 @@ impl<'a> Cx<'a> {
                 };
                 MaterialSpec::Diffuse { reflectance, two_sided }
             }
-            "dielectric" | "thindielectric" => {
+            "dielectric" | "thindielectric" | "roughdielectric" => {
                 let int = p.float_or_name("int_ior", named_ior)?.unwrap_or(1.5046);
                 let ext = p.float_or_name("ext_ior", named_ior)?.unwrap_or(1.000277);
                 if p.rgb("specular_reflectance")?.is_some_and(|c| c != [1.0; 3]) {
                     return Err(b.error("specular_reflectance other than 1 is not supported"));
                 }
                 let tint = p.rgb("specular_transmittance")?.unwrap_or([1.0; 3]);
-                if kind == "dielectric" {
-                    MaterialSpec::Dielectric { ior: int, outside_ior: ext, tint }
-                } else {
-                    MaterialSpec::ThinDielectric { ior: int, outside_ior: ext, tint }
+                match kind {
+                    "thindielectric" => MaterialSpec::ThinDielectric { ior: int, outside_ior: ext, tint },
+                    "dielectric" => MaterialSpec::Dielectric {
+                        ior: int,
+                        outside_ior: ext,
+                        tint,
+                        roughness: 0.0,
+                        distribution: Default::default(),
+                    },
+                    _ => {
+                        let (roughness, distribution) = microfacet(b, &p)?;
+                        MaterialSpec::Dielectric { ior: int, outside_ior: ext, tint, roughness, distribution }
+                    }
                 }
             }
             "conductor" | "roughconductor" => self.conductor(b, &p, two_sided)?,
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
         };
-        p.finish("the parameters of diffuse, dielectric, thindielectric, conductor, roughconductor and twosided")?;
+        p.finish("the parameters of diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor and twosided")?;
         Ok(spec)
     }
 
     fn conductor(&mut self, b: &Node, p: &Props, two_sided: bool) -> Result<MaterialSpec, SceneError> {
         use crate::scene::material::Microfacet;
-        let mut distribution = Microfacet::Ggx;
-        let roughness = if b.attr("type") == Some("roughconductor") {
-            distribution = match p.string("distribution")?.as_deref() {
-                Some("ggx") => Microfacet::Ggx,
-                None | Some("beckmann") => Microfacet::Beckmann,
-                Some(d) => return Err(b.error(format!("microfacet distribution `{d}` (read: beckmann, ggx)"))),
-            };
-            p.boolean("sample_visible")?;
-            let (a, au, av) = (p.float("alpha")?, p.float("alpha_u")?, p.float("alpha_v")?);
-            match (a, au, av) {
-                (Some(a), None, None) => a,
-                (None, Some(u), Some(v)) if u == v => u,
-                (None, None, None) => 0.1,
-                _ => return Err(b.error("anisotropic roughness (alpha_u ≠ alpha_v) is not supported")),
-            }
-        } else {
-            0.0
-        };
+        let (roughness, distribution) =
+            if b.attr("type") == Some("roughconductor") { microfacet(b, p)? } else { (0.0, Microfacet::Ggx) };
         let specular = p.rgb("specular_reflectance")?;
         let (eta, k) = (p.rgb("eta")?, p.rgb("k")?);
         let material = p.string("material")?;
@@ -616,6 +610,25 @@ pub fn rebase(file: &mut SceneFile, from: &Path, to: &Path) -> Result<(), String
 }
 
 /// `target` as seen from folder `base` (both absolute): `../x/y` where needed.
+/// A rough BSDF's isotropic roughness α (Mitsuba's default 0.1) and microfacet distribution (Mitsuba's
+/// default Beckmann); `sample_visible` only changes how Mitsuba samples, so it is read and ignored.
+fn microfacet(b: &Node, p: &Props) -> Result<(f32, crate::scene::material::Microfacet), SceneError> {
+    use crate::scene::material::Microfacet;
+    let distribution = match p.string("distribution")?.as_deref() {
+        Some("ggx") => Microfacet::Ggx,
+        None | Some("beckmann") => Microfacet::Beckmann,
+        Some(d) => return Err(b.error(format!("microfacet distribution `{d}` (read: beckmann, ggx)"))),
+    };
+    p.boolean("sample_visible")?;
+    let alpha = match (p.float("alpha")?, p.float("alpha_u")?, p.float("alpha_v")?) {
+        (Some(a), None, None) => a,
+        (None, Some(u), Some(v)) if u == v => u,
+        (None, None, None) => 0.1,
+        _ => return Err(b.error("anisotropic roughness (alpha_u ≠ alpha_v) is not supported")),
+    };
+    Ok((alpha, distribution))
+}
+
 fn relative_path(base: &Path, target: &Path) -> PathBuf {
     let (b, t): (Vec<_>, Vec<_>) = (base.components().collect(), target.components().collect());
     let common = b.iter().zip(&t).take_while(|(x, y)| x == y).count();
