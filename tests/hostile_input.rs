@@ -342,6 +342,7 @@ const XML_TYPES: &[&str] = &[
     "spot",
     "plastic",
     "roughdielectric",
+    "cylinder",
     "",
 ];
 

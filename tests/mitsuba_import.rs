@@ -96,6 +96,11 @@ fn rough_glass_xml_matches_mitsuba() {
     matches_mitsuba("roughglass", 1024, 0.003);
 }
 
+#[test]
+fn cylinders_xml_match_mitsuba() {
+    matches_mitsuba("cylinder", 1024, 0.003);
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let p = dir.join(name);
@@ -256,7 +261,22 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "nested deeper",
         ),
         ("projector", &panel_scene("").replace("type=\"point\"", "type=\"projector\""), "emitter type not read"),
-        ("shape", &panel_scene("").replace("type=\"rectangle\"", "type=\"cylinder\""), "shape type not read"),
+        ("shape", &panel_scene("").replace("type=\"rectangle\"", "type=\"bsplinecurve\""), "shape type not read"),
+        (
+            "cylinder-radius",
+            r#"<scene version="3.0.0"><shape type="cylinder"><float name="radius" value="0"/></shape></scene>"#,
+            "radius > 0",
+        ),
+        (
+            "cylinder-axis",
+            r#"<scene version="3.0.0"><shape type="cylinder"><point name="p1" x="0" y="0" z="0"/></shape></scene>"#,
+            "p0 ≠ p1",
+        ),
+        (
+            "cylinder-texture",
+            r#"<scene version="3.0.0"><shape type="cylinder"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape></scene>"#,
+            "no texture coordinates",
+        ),
         // A width beyond u32 was reported as "must be ≥ 1".
         (
             "huge-width",

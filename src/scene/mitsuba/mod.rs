@@ -23,7 +23,7 @@ pub struct Converted {
     pub warnings: Vec<String>,
 }
 
-const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
+const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere, cylinder";
 const BSDFS: &str =
     "diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor (ggx, beckmann), twosided";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
@@ -330,11 +330,62 @@ impl<'a> Cx<'a> {
                 let radius = p.float("radius")?.unwrap_or(1.0);
                 ShapeSpec::Sphere { center, radius, material, transform, emission }
             }
+            "cylinder" => self.cylinder(n, &p, material, emission, flip_normals)?,
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
         };
-        p.finish("to_world, filename, face_normals, flip_normals, center, radius, a bsdf or <ref>, an area emitter")?;
+        p.finish(
+            "to_world, filename, face_normals, flip_normals, center, radius, p0, p1, a bsdf or <ref>, an area emitter",
+        )?;
         self.file.shapes.push(spec);
         Ok(())
+    }
+
+    /// Mitsuba's `cylinder`: the open tube (no caps) of `radius` from `p0` to `p1` under `to_world`, as a
+    /// 256-sided lathe with smooth normals (its silhouette within 7.6e-5 radii of the circle); normals
+    /// outward, inward with `flip_normals`. The lathe has no texture coordinates, so a textured BSDF on
+    /// it is refused.
+    fn cylinder(
+        &mut self,
+        n: &Node,
+        p: &Props,
+        material: String,
+        emission: Option<[f32; 3]>,
+        flip_normals: bool,
+    ) -> Result<ShapeSpec, SceneError> {
+        let p0 = Vec3::from_array(p.point("p0")?.unwrap_or([0.0; 3]));
+        let p1 = Vec3::from_array(p.point("p1")?.unwrap_or([0.0, 0.0, 1.0]));
+        let radius = p.float("radius")?.unwrap_or(1.0);
+        let axis = p1 - p0;
+        let fine = radius > 0.0 && radius.is_finite() && axis.length() > 0.0 && axis.is_finite() && p0.is_finite();
+        if !fine {
+            return Err(n.error(format!("needs a radius > 0 and p0 ≠ p1 (got radius {radius}, p0 {p0}, p1 {p1})")));
+        }
+        if let Some(MaterialSpec::Diffuse { reflectance: Reflectance::Texture(_), .. }) =
+            self.file.materials.get(&material)
+        {
+            return Err(n.error(
+                "a textured BSDF on a cylinder is not supported (caustica's cylinder has no texture coordinates)",
+            ));
+        }
+        // The lathe's y axis onto p0 → p1, its x and z onto a frame around the axis (a mirroring map would
+        // not turn it inside out: meshes keep their winding's side under any transform).
+        let frame = crate::math::Frame::from_normal(axis.normalize());
+        let local = Mat4::from_cols(
+            (frame.t * radius).extend(0.0),
+            axis.extend(0.0),
+            (frame.s * radius).extend(0.0),
+            p0.extend(1.0),
+        );
+        let to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY) * local;
+        let profile = if flip_normals { vec![[1.0, 1.0], [1.0, 0.0]] } else { vec![[1.0, 0.0], [1.0, 1.0]] };
+        Ok(ShapeSpec::Lathe {
+            profile,
+            material,
+            segments: 256,
+            smooth: true,
+            transform: transform_spec(Some(to_world)),
+            emission,
+        })
     }
 
     /// The material a shape names (nested `<bsdf>` or `<ref>`), or Mitsuba's default: one-sided diffuse
