@@ -248,18 +248,44 @@ impl Microfacet {
         }
     }
 
-    /// A microfacet normal (local frame) drawn with density D(h) cos θh.
-    fn sample_h(self, u: [f32; 2], alpha: f32) -> Vec3 {
+    /// A microfacet normal (local frame) for a path arriving along `lo` (lo.z > 0), with density
+    /// `pdf_h`: GGX draws only the normals `lo` can see (Heitz 2018, "Sampling the GGX distribution of
+    /// visible normals"), whose samples weigh at most 1 apart from Fresnel; Beckmann draws D(h) cos θh.
+    fn sample_h(self, lo: Vec3, u: [f32; 2], alpha: f32) -> Vec3 {
         let alpha = alpha.max(MIN_ALPHA);
-        let a2 = alpha * alpha;
-        let cos2 = match self {
-            Microfacet::Ggx => (1.0 - u[0]) / (1.0 + (a2 - 1.0) * u[0]),
-            Microfacet::Beckmann => 1.0 / (1.0 - a2 * (1.0 - u[0]).max(1e-30).ln()),
-        };
-        let cos_t = cos2.max(0.0).sqrt();
-        let sin_t = (1.0 - cos2).max(0.0).sqrt();
-        let phi = 2.0 * PI * u[1];
-        Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+        match self {
+            Microfacet::Ggx => {
+                // Stretch to the hemisphere configuration, sample the projected disc, unstretch.
+                let v = Vec3::new(alpha * lo.x, alpha * lo.y, lo.z).normalize();
+                let len2 = v.x * v.x + v.y * v.y;
+                let t1 = if len2 > 0.0 { Vec3::new(-v.y, v.x, 0.0) / len2.sqrt() } else { Vec3::X };
+                let t2 = v.cross(t1);
+                let r = u[0].sqrt();
+                let phi = 2.0 * PI * u[1];
+                let (a, b) = (r * phi.cos(), r * phi.sin());
+                let s = 0.5 * (1.0 + v.z);
+                let b = (1.0 - s) * (1.0 - a * a).max(0.0).sqrt() + s * b;
+                let nh = a * t1 + b * t2 + (1.0 - a * a - b * b).max(0.0).sqrt() * v;
+                Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)).normalize()
+            }
+            Microfacet::Beckmann => {
+                let a2 = alpha * alpha;
+                let cos2 = 1.0 / (1.0 - a2 * (1.0 - u[0]).max(1e-30).ln());
+                let cos_t = cos2.max(0.0).sqrt();
+                let sin_t = (1.0 - cos2).max(0.0).sqrt();
+                let phi = 2.0 * PI * u[1];
+                Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+            }
+        }
+    }
+
+    /// Density of `sample_h` drawing h for a path arriving along `lo` (lo.z > 0).
+    fn pdf_h(self, lo: Vec3, h: Vec3, alpha: f32) -> f32 {
+        let d = self.d(h, alpha);
+        match self {
+            Microfacet::Ggx => self.g1(lo, alpha) * lo.dot(h).max(0.0) * d / lo.z,
+            Microfacet::Beckmann => d * h.z.max(0.0),
+        }
     }
 }
 
@@ -300,7 +326,7 @@ impl RoughInterface {
         let d = self.m.d(h, self.alpha);
         let g = self.m.g1(lo, self.alpha) * self.m.g1(li, self.alpha);
         let (fr, _) = fresnel_dielectric(ho, eta);
-        let pdf_h = d * h.z;
+        let pdf_h = self.m.pdf_h(lo, h, self.alpha);
         if !transmitted {
             return (fr * d * g / (4.0 * lo.z * li.z), pdf_h * fr / (4.0 * ho));
         }
@@ -391,7 +417,7 @@ impl Material {
                     return 0.0;
                 }
                 let h = (lo + li).normalize();
-                m.d(h, *alpha) * h.z / (4.0 * lo.dot(h))
+                m.pdf_h(lo, h, *alpha) / (4.0 * lo.dot(h))
             }
             Material::Dielectric { ior, alpha, distribution, .. } if *alpha > 0.0 => {
                 let (frame, eta) = RoughInterface::local(*ior, wo, n);
@@ -429,7 +455,7 @@ impl Material {
                 }
                 let f = Frame::from_normal(side);
                 let lo = f.to_local(wo);
-                let li = reflect(lo, distribution.sample_h(u, *alpha));
+                let li = reflect(lo, distribution.sample_h(lo, u, *alpha));
                 if li.z <= 0.0 || lo.z <= 0.0 {
                     return None;
                 }
@@ -445,7 +471,7 @@ impl Material {
                 let (frame, eta) = RoughInterface::local(*ior, wo, n);
                 let lo = frame.to_local(wo);
                 let rough = RoughInterface { alpha: *alpha, m: *distribution };
-                let h = distribution.sample_h(u, *alpha);
+                let h = distribution.sample_h(lo, u, *alpha);
                 let ho = lo.dot(h);
                 if lo.z <= 0.0 || ho <= 0.0 {
                     return None;
@@ -668,6 +694,26 @@ mod tests {
             let expect = 1.0 - fresnel_dielectric(cos, 1.5).0 as f64;
             assert!((through / expect - 1.0).abs() < 0.01, "cos {cos}: {through} vs 1 − F = {expect}");
         }
+    }
+
+    /// GGX draws visible normals only, so a white rough mirror's samples weigh G1 ≤ 1, even at grazing
+    /// incidence; Beckmann's D cos θ sampling, for contrast, gives weights far above 1 there (what made
+    /// rough GGX metal noisy before session 24's change).
+    #[test]
+    fn ggx_visible_normal_samples_weigh_at_most_one() {
+        let mut r = Rng::new(8, 0, 0);
+        let wo = Vec3::new((1.0f32 - 0.01).sqrt(), 0.0, 0.1);
+        let mut worst = [0.0f32; 2];
+        for (k, distribution) in [Microfacet::Ggx, Microfacet::Beckmann].into_iter().enumerate() {
+            let m = Material::Conductor { fresnel: Fresnel::Constant(Rgb::ONE), alpha: 0.5, distribution };
+            for _ in 0..100_000 {
+                if let Some(s) = m.sample(wo, Vec3::Z, r.next_2d(), r.next_f32(), TransportMode::Radiance) {
+                    worst[k] = worst[k].max(s.weight.x);
+                }
+            }
+        }
+        assert!(worst[0] <= 1.0 + 1e-4, "GGX: a sample weighs {}", worst[0]);
+        assert!(worst[1] > 1.5, "Beckmann: the largest weight is only {}", worst[1]);
     }
 
     /// A roughness far below f32's reach near the normal (D would overflow) still gives finite samples,
