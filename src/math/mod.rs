@@ -139,6 +139,12 @@ pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
     2.0 * wo.dot(n) * n - wo
 }
 
+/// Refracts `wo` (pointing away from the surface, on `n`'s side) through the normal `n` into a medium
+/// of relative index `eta` (beyond over this side), given cos θt from `fresnel_dielectric`.
+pub fn refract(wo: Vec3, n: Vec3, eta: f32, cos_t: f32) -> Vec3 {
+    -wo / eta + (wo.dot(n) / eta - cos_t) * n
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

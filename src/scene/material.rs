@@ -3,7 +3,7 @@
 //! transmission) and thin dielectric (a pane: reflect or pass straight).
 //! Directions point away from the surface; `n` is the shading normal (any side).
 use crate::color::Rgb;
-use crate::math::{face_forward, reflect, sampling, Frame};
+use crate::math::{face_forward, reflect, refract, sampling, Frame};
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -289,6 +289,16 @@ impl Microfacet {
     }
 }
 
+/// η at a dielectric seen from `wo`'s side: the index beyond the surface over the index on `wo`'s side
+/// (`ior` is inside over outside; `n` points outside).
+fn relative_eta(ior: f32, wo: Vec3, n: Vec3) -> f32 {
+    if wo.dot(n) > 0.0 {
+        ior
+    } else {
+        1.0 / ior
+    }
+}
+
 /// A rough dielectric interface (Walter, Marschner, Li & Torrance 2007, with Mitsuba 3's and pbrt-v4's
 /// factor for radiance crossing it), seen in a local frame whose z is the macro normal on `wo`'s side.
 struct RoughInterface {
@@ -297,11 +307,9 @@ struct RoughInterface {
 }
 
 impl RoughInterface {
-    /// The local frame on `wo`'s side of `n`, and η = the index beyond the surface over the index on
-    /// `wo`'s side (`ior` is inside over outside; `n` points outside).
+    /// The local frame on `wo`'s side of `n`, and `relative_eta`.
     fn local(ior: f32, wo: Vec3, n: Vec3) -> (Frame, f32) {
-        let eta = if wo.dot(n) > 0.0 { ior } else { 1.0 / ior };
-        (Frame::from_normal(face_forward(n, wo)), eta)
+        (Frame::from_normal(face_forward(n, wo)), relative_eta(ior, wo, n))
     }
 
     /// f(lo, li) (untinted) and the density of `sample` choosing li, for lo.z > 0; li.z < 0 is
@@ -478,7 +486,7 @@ impl Material {
                 }
                 let (fr, cos_t) = fresnel_dielectric(ho, eta);
                 let reflected = uc < fr;
-                let li = if reflected { reflect(lo, h) } else { -lo / eta + (ho / eta - cos_t) * h };
+                let li = if reflected { reflect(lo, h) } else { refract(lo, h, eta, cos_t) };
                 // The chosen lobe must leave on its own side of the macro surface.
                 if (li.z > 0.0) != reflected {
                     return None;
@@ -494,14 +502,13 @@ impl Material {
                 Some(sample(frame.to_world(li), weight, pdf, false, transmitted, scale))
             }
             Material::Dielectric { ior, tint, .. } => {
-                let entering = wo.dot(n) > 0.0;
-                let eta = if entering { *ior } else { 1.0 / *ior };
+                let eta = relative_eta(*ior, wo, n);
                 let cos_i = wo.dot(side);
                 let (fr, cos_t) = fresnel_dielectric(cos_i, eta);
                 if uc < fr {
                     Some(sample(reflect(wo, side), Rgb::ONE, fr, true, false, 1.0))
                 } else {
-                    let wi = (-wo / eta + (cos_i / eta - cos_t) * side).normalize();
+                    let wi = refract(wo, side, eta, cos_t).normalize();
                     let scale = if mode == TransportMode::Radiance { 1.0 / (eta * eta) } else { 1.0 };
                     Some(sample(wi, *tint * scale, 1.0 - fr, true, true, scale))
                 }

@@ -274,7 +274,8 @@ impl<'a> Cx<'a> {
     fn shape(&mut self, n: &'a Node) -> Result<(), SceneError> {
         let index = self.file.shapes.len();
         let p = Props::new(n);
-        let transform = transform_spec(p.transform("to_world")?);
+        let to_world = p.transform("to_world")?;
+        let transform = transform_spec(to_world);
         let flip_normals = p.boolean("flip_normals")?.unwrap_or(false);
         let mut emission = None;
         for e in p.objects("emitter") {
@@ -330,7 +331,7 @@ impl<'a> Cx<'a> {
                 let radius = p.float("radius")?.unwrap_or(1.0);
                 ShapeSpec::Sphere { center, radius, material, transform, emission }
             }
-            "cylinder" => self.cylinder(n, &p, material, emission, flip_normals)?,
+            "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals, &self.file.materials)?,
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
         };
         p.finish(
@@ -338,54 +339,6 @@ impl<'a> Cx<'a> {
         )?;
         self.file.shapes.push(spec);
         Ok(())
-    }
-
-    /// Mitsuba's `cylinder`: the open tube (no caps) of `radius` from `p0` to `p1` under `to_world`, as a
-    /// 256-sided lathe with smooth normals (its silhouette within 7.6e-5 radii of the circle); normals
-    /// outward, inward with `flip_normals`. The lathe has no texture coordinates, so a textured BSDF on
-    /// it is refused.
-    fn cylinder(
-        &mut self,
-        n: &Node,
-        p: &Props,
-        material: String,
-        emission: Option<[f32; 3]>,
-        flip_normals: bool,
-    ) -> Result<ShapeSpec, SceneError> {
-        let p0 = Vec3::from_array(p.point("p0")?.unwrap_or([0.0; 3]));
-        let p1 = Vec3::from_array(p.point("p1")?.unwrap_or([0.0, 0.0, 1.0]));
-        let radius = p.float("radius")?.unwrap_or(1.0);
-        let axis = p1 - p0;
-        let fine = radius > 0.0 && radius.is_finite() && axis.length() > 0.0 && axis.is_finite() && p0.is_finite();
-        if !fine {
-            return Err(n.error(format!("needs a radius > 0 and p0 ≠ p1 (got radius {radius}, p0 {p0}, p1 {p1})")));
-        }
-        if let Some(MaterialSpec::Diffuse { reflectance: Reflectance::Texture(_), .. }) =
-            self.file.materials.get(&material)
-        {
-            return Err(n.error(
-                "a textured BSDF on a cylinder is not supported (caustica's cylinder has no texture coordinates)",
-            ));
-        }
-        // The lathe's y axis onto p0 → p1, its x and z onto a frame around the axis (a mirroring map would
-        // not turn it inside out: meshes keep their winding's side under any transform).
-        let frame = crate::math::Frame::from_normal(axis.normalize());
-        let local = Mat4::from_cols(
-            (frame.t * radius).extend(0.0),
-            axis.extend(0.0),
-            (frame.s * radius).extend(0.0),
-            p0.extend(1.0),
-        );
-        let to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY) * local;
-        let profile = if flip_normals { vec![[1.0, 1.0], [1.0, 0.0]] } else { vec![[1.0, 0.0], [1.0, 1.0]] };
-        Ok(ShapeSpec::Lathe {
-            profile,
-            material,
-            segments: 256,
-            smooth: true,
-            transform: transform_spec(Some(to_world)),
-            emission,
-        })
     }
 
     /// The material a shape names (nested `<bsdf>` or `<ref>`), or Mitsuba's default: one-sided diffuse
@@ -661,6 +614,53 @@ pub fn rebase(file: &mut SceneFile, from: &Path, to: &Path) -> Result<(), String
 }
 
 /// `target` as seen from folder `base` (both absolute): `../x/y` where needed.
+/// Mitsuba's `cylinder`: the open tube (no caps) of `radius` from `p0` to `p1` under `to_world`, as a
+/// 256-sided lathe with smooth normals (its silhouette within 7.6e-5 radii of the circle); normals
+/// outward, inward with `flip_normals`. The lathe has no texture coordinates, so a textured BSDF on
+/// it is refused.
+fn cylinder(
+    n: &Node,
+    p: &Props,
+    to_world: Option<Mat4>,
+    material: String,
+    emission: Option<[f32; 3]>,
+    flip_normals: bool,
+    materials: &BTreeMap<String, MaterialSpec>,
+) -> Result<ShapeSpec, SceneError> {
+    let p0 = Vec3::from_array(p.point("p0")?.unwrap_or([0.0; 3]));
+    let p1 = Vec3::from_array(p.point("p1")?.unwrap_or([0.0, 0.0, 1.0]));
+    let radius = p.float("radius")?.unwrap_or(1.0);
+    let axis = p1 - p0;
+    let fine = radius > 0.0 && radius.is_finite() && axis.length() > 0.0 && axis.is_finite() && p0.is_finite();
+    if !fine {
+        return Err(n.error(format!("needs a radius > 0 and p0 ≠ p1 (got radius {radius}, p0 {p0}, p1 {p1})")));
+    }
+    if let Some(MaterialSpec::Diffuse { reflectance: Reflectance::Texture(_), .. }) = materials.get(&material) {
+        return Err(
+            n.error("a textured BSDF on a cylinder is not supported (caustica's cylinder has no texture coordinates)")
+        );
+    }
+    // The lathe's y axis onto p0 → p1, its x and z onto a frame around the axis (a mirroring map would
+    // not turn it inside out: meshes keep their winding's side under any transform).
+    let frame = crate::math::Frame::from_normal(axis.normalize());
+    let local = Mat4::from_cols(
+        (frame.t * radius).extend(0.0),
+        axis.extend(0.0),
+        (frame.s * radius).extend(0.0),
+        p0.extend(1.0),
+    );
+    let to_world = to_world.unwrap_or(Mat4::IDENTITY) * local;
+    let profile = if flip_normals { vec![[1.0, 1.0], [1.0, 0.0]] } else { vec![[1.0, 0.0], [1.0, 1.0]] };
+    Ok(ShapeSpec::Lathe {
+        profile,
+        material,
+        segments: 256,
+        smooth: true,
+        transform: transform_spec(Some(to_world)),
+        emission,
+    })
+}
+
 /// A rough BSDF's isotropic roughness α (Mitsuba's default 0.1) and microfacet distribution (Mitsuba's
 /// default Beckmann); `sample_visible` only changes how Mitsuba samples, so it is read and ignored.
 fn microfacet(b: &Node, p: &Props) -> Result<(f32, crate::scene::material::Microfacet), SceneError> {
