@@ -94,9 +94,11 @@ fn may_be_lit(scene: &Scene, s: usize) -> bool {
 pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     let r = &scene.render;
     let mut reasons = Vec::new();
+    // A plastic is both: its base holds photons, its coat is a mirror.
     let is_diffuse = |s: usize| scene.material_of(s as u32).bsdf.is_diffuse();
+    let holds = |s: usize| scene.material_of(s as u32).bsdf.holds_photons();
     let lit_diffuse: Vec<usize> =
-        (0..scene.shapes.len()).filter(|&s| is_diffuse(s) && scene.max_albedo(s as u32) > 0.0).collect();
+        (0..scene.shapes.len()).filter(|&s| holds(s) && scene.max_albedo(s as u32) > 0.0).collect();
     let specular: Vec<usize> = (0..scene.shapes.len()).filter(|&s| !is_diffuse(s)).collect();
 
     let mut targets = Vec::new();
@@ -172,7 +174,7 @@ fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &
     let lights = &scene.lights;
     let eps = 1e-4 * scene.diagonal().max(1e-6);
     let targets: Vec<Vec3> =
-        seen.iter().filter(|(s, _)| scene.material_of(*s).bsdf.is_diffuse()).map(|&(_, p)| p).collect();
+        seen.iter().filter(|(s, _)| scene.material_of(*s).bsdf.holds_photons()).map(|&(_, p)| p).collect();
     let mut keep = vec![true; lights.list.len()];
     let mut i = 0;
     while i < lights.list.len() {

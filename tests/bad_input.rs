@@ -147,6 +147,33 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["materials.white.roughness", "[0, 1]", "got 1.5"],
         ),
         (
+            "plastic_ior",
+            GOOD.replace(
+                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+                "white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], ior = 0.1 }",
+            ),
+            vec![],
+            vec!["materials.white.ior", "[0.25, 4]", "got 0.1"],
+        ),
+        (
+            "plastic_reflectance",
+            GOOD.replace(
+                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+                "white = { type = \"plastic\", reflectance = [0.5, 1.5, 0.5] }",
+            ),
+            vec![],
+            vec!["materials.white.reflectance"],
+        ),
+        (
+            "plastic_texture",
+            GOOD.replace(
+                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+                "white = { type = \"plastic\", reflectance = \"wood\" }",
+            ),
+            vec![],
+            vec!["materials.white.reflectance", "unknown texture `wood`"],
+        ),
+        (
             "glass_distribution",
             GOOD.replace(
                 "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",

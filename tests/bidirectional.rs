@@ -179,6 +179,9 @@ enum Ball {
     /// light subpaths cross it with the adjoint BSDF. The light inside makes paths that cross the glass
     /// once, where an adjoint off by η² does not cancel between entering and leaving.
     RoughGlass,
+    /// Plastic (a mirror coat over a diffuse base, nonlinear), under the lights PT can also see in its
+    /// coat: a vertex there is connected and merged by its base, and passed through by its mirror.
+    Plastic,
 }
 
 /// An open scene with every kind of light (quad, sphere, point, spot, distant, constant sky) over
@@ -197,6 +200,7 @@ fn every_light(ball: Ball) -> Scene {
         Ball::None => (String::new(), delta.to_string()),
         Ball::Glass => (sphere("glass"), String::new()),
         Ball::RoughGlass => (sphere("frosted"), format!("{delta}{inside}")),
+        Ball::Plastic => (sphere("plastic"), String::new()),
     };
     common::scene(&format!(
         "[camera]\norigin = [0.0, 1.6, 2.6]\ntarget = [0.0, 0.3, 0.0]\nfov = 45\nresolution = [24, 24]\n\
@@ -204,6 +208,7 @@ fn every_light(ball: Ball) -> Scene {
          gold = {{ type = \"conductor\", preset = \"Au\", roughness = 0.2 }}\n\
          glass = {{ type = \"dielectric\", ior = 1.5 }}\n\
          frosted = {{ type = \"dielectric\", ior = 1.5, roughness = 0.3 }}\n\
+         plastic = {{ type = \"plastic\", reflectance = [0.1, 0.3, 0.5], ior = 3.0, nonlinear = true }}\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, -1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 1.5, 0.0]\nmaterial = \"m\"\n\
          {ball}[[shapes]]\ntype = \"box\"\nmin = [-0.9, 0.0, -0.6]\nmax = [-0.3, 0.5, 0.0]\nmaterial = \"gold\"\n\
@@ -216,7 +221,7 @@ fn every_light(ball: Ball) -> Scene {
 
 #[test]
 fn mis_weights_sum_to_one_for_every_kind_of_light() {
-    for ball in [Ball::None, Ball::Glass, Ball::RoughGlass] {
+    for ball in [Ball::None, Ball::Glass, Ball::RoughGlass, Ball::Plastic] {
         let mut s = every_light(ball);
         s.render.max_depth = 6;
         let a = Accel::new(&s).unwrap();

@@ -361,6 +361,8 @@ const XML_EXTRAS: &[&str] = &[
     r#"<bsdf type="dielectric" id="d9"><float name="int_ior" value="0"/></bsdf><shape type="sphere"><ref id="d9"/></shape>"#,
     r#"<bsdf type="roughdielectric" id="rd9"><float name="alpha" value="-1"/></bsdf><shape type="sphere"><ref id="rd9"/></shape>"#,
     r#"<bsdf type="roughdielectric" id="rd8"><float name="alpha" value="1e-38"/></bsdf><shape type="sphere"><ref id="rd8"/></shape>"#,
+    r#"<bsdf type="plastic" id="p9"><float name="int_ior" value="0"/></bsdf><shape type="sphere"><ref id="p9"/></shape>"#,
+    r#"<bsdf type="plastic" id="p8"><rgb name="diffuse_reflectance" value="7"/><boolean name="nonlinear" value="true"/></bsdf><shape type="sphere"><ref id="p8"/></shape>"#,
     r#"<shape type="sphere"><ref id="nowhere"/></shape>"#,
     r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="ball.ply"/></texture></bsdf></shape>"#,
 ];

@@ -101,6 +101,11 @@ fn cylinders_xml_match_mitsuba() {
     matches_mitsuba("cylinder", 1024, 0.003);
 }
 
+#[test]
+fn plastic_xml_matches_mitsuba() {
+    matches_mitsuba("plastic", 1024, 0.003);
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let p = dir.join(name);

@@ -91,8 +91,16 @@ fn direct_photon_map_matches_the_sphere_light_closed_form_within_its_blur() {
         for j in 0..5 {
             for i in 0..5 {
                 let x = Vec3::new(-0.8 + 0.4 * i as f32, 0.0, -0.8 + 0.4 * j as f32);
-                let l =
-                    map.radiance(&common::surface_at(x, Vec3::Y), Vec3::Y, Vec3::splat(RHO), g, u32::MAX, &mut res).x;
+                let l = map
+                    .radiance(
+                        &common::surface_at(x, Vec3::Y),
+                        Vec3::Y,
+                        caustica::scene::material::DiffuseLobe::lambert(Vec3::splat(RHO)),
+                        g,
+                        u32::MAX,
+                        &mut res,
+                    )
+                    .x;
                 ratio += (l / closed_form(x, center, radius, radiance)) as f64 / 25.0;
             }
         }

@@ -21,8 +21,8 @@ impl std::ops::AddAssign for Counters {
     }
 }
 
-/// Where a camera ray's chain of non-diffuse bounces (mirrors, glass, rough metal, each sampled) first
-/// meets a diffuse surface, and the chain's throughput there.
+/// Where a camera ray's chain of non-diffuse bounces (mirrors, glass, rough metal, a plastic's coat, each
+/// sampled) first meets a diffuse surface (or a plastic's base), and the chain's throughput there.
 #[derive(Clone, Copy, Debug)]
 pub struct ChainEnd {
     pub si: crate::scene::SurfaceHit,
@@ -108,14 +108,21 @@ pub fn specular_chain(
             break;
         };
         let mat = scene.bsdf(&si, wo);
-        if mat.is_diffuse() {
-            return (emitted, Some(ChainEnd { si, wo, beta, depth }));
-        }
-        if count && !mat.is_delta() && depth < scene.render.max_depth {
+        // Where photons are held the chain ends, except that a plastic's mirror lobe, taken by its share
+        // of the choice, carries the chain on (the end then weighs 1 / the base's share).
+        let mut forced_uc = None;
+        if mat.holds_photons() {
+            let share = mat.coat_share(wo, si.ns);
+            let uc = if share > 0.0 { rng.next_f32() } else { 1.0 };
+            if uc >= share {
+                return (emitted, Some(ChainEnd { si, wo, beta: beta / (1.0 - share), depth }));
+            }
+            forced_uc = Some(uc);
+        } else if count && !mat.is_delta() && depth < scene.render.max_depth {
             let mis = direct::DirectStrategy::Mis;
             emitted += beta * emit_scale * direct::estimate_direct_with(scene, tracer, &si, wo, &mat, rng, c, mis);
         }
-        let (u, uc) = (rng.next_2d(), rng.next_f32());
+        let (u, uc) = (rng.next_2d(), forced_uc.unwrap_or_else(|| rng.next_f32()));
         let Some((bs, next)) = si.scatter_with(&mat, wo, u, uc, crate::scene::TransportMode::Radiance) else {
             break;
         };

@@ -13,6 +13,7 @@ use crate::photon::kdtree::{KdTree, KnnResult};
 use crate::photon::photon::EVENTS_CAP;
 use crate::photon::trace::{run_pass, PassSettings, PassStats, Targets, CAUSTIC, DIRECT, INDIRECT, MAP_NAMES};
 use crate::scene::file::DirectLight;
+use crate::scene::material::DiffuseLobe;
 use crate::scene::{Scene, SurfaceHit, TransportMode};
 use serde::Serialize;
 use std::cell::RefCell;
@@ -236,7 +237,9 @@ impl RadianceCache {
                     SCRATCH.with(|r| {
                         let r = &mut r.borrow_mut();
                         which.iter().fold(Rgb::ZERO, |acc, &m| match &maps.maps[m] {
-                            Some(map) => acc + map.radiance(&si, wo, Rgb::ONE, gather[m], budget, r),
+                            Some(map) => {
+                                acc + map.radiance(&si, wo, DiffuseLobe::lambert(Rgb::ONE), gather[m], budget, r)
+                            }
                             None => acc,
                         })
                     })
@@ -328,21 +331,22 @@ impl<'a> PhotonMapper<'a> {
         }
     }
 
-    fn map_radiance(&self, m: usize, si: &SurfaceHit, wo: glam::Vec3, rho: Rgb, budget: u32) -> Rgb {
+    fn map_radiance(&self, m: usize, si: &SurfaceHit, wo: glam::Vec3, lobe: DiffuseLobe, budget: u32) -> Rgb {
         let Some(map) = &self.maps.maps[m] else {
             return Rgb::ZERO;
         };
         SCRATCH.with(|s| match self.radius {
             Some(r) => {
-                let (flux, _) = map.flux_within(si, wo, r, budget, &mut s.borrow_mut());
-                flux * rho / (std::f32::consts::PI * std::f32::consts::PI * r * r)
+                let (flux, _) = map.flux_within(si, wo, r, budget, lobe.coat, &mut s.borrow_mut());
+                flux * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r * r)
             }
-            None => map.radiance(si, wo, rho, self.gather[m], budget, &mut s.borrow_mut()),
+            None => map.radiance(si, wo, lobe, self.gather[m], budget, &mut s.borrow_mut()),
         })
     }
 
-    /// Radiance leaving a diffuse point: direct + caustic + indirect (`fg` final-gather rays, 0 = map),
-    /// from light paths of at most `budget` scattering events from here on (`ChainEnd::budget`).
+    /// Radiance leaving a diffuse point (or a plastic's base) by its diffuse lobe: direct + caustic +
+    /// indirect (`fg` final-gather rays, 0 = map), from light paths of at most `budget` scattering events
+    /// from here on (`ChainEnd::budget`).
     #[allow(clippy::too_many_arguments)]
     fn diffuse_radiance(
         &self,
@@ -358,33 +362,37 @@ impl<'a> PhotonMapper<'a> {
             // The path tracer counts only emission here (the chain did).
             return Rgb::ZERO;
         }
-        let rho = self.scene.bsdf(si, wo).albedo();
+        let Some(lobe) = self.scene.bsdf(si, wo).diffuse_lobe(wo, si.ns) else {
+            return Rgb::ZERO;
+        };
         if let Some(m) = self.only {
-            return self.map_radiance(m, si, wo, rho, budget);
+            return self.map_radiance(m, si, wo, lobe, budget);
         }
         // The cache holds direct light too: a gather ray that finds it traces no shadow ray. It was
         // filled for a gather ray's end one bounce into the path; past glass, where less depth is left,
-        // it is read only when the photons' records could not tell the difference anyway.
+        // it is read only when the photons' records could not tell the difference anyway. It holds a
+        // Lambertian surface's light (per unit albedo): a plastic's coat weighs each direction, so a
+        // plastic gathers for itself.
         let cache_fits = budget + 1 >= self.scene.render.max_depth || budget >= EVENTS_CAP;
-        if in_gather && cache_fits {
+        if in_gather && cache_fits && lobe.coat.is_none() {
             if let Some(l) =
                 self.cache.as_ref().and_then(|cache| SCRATCH.with(|r| cache.lookup(si, wo, &mut r.borrow_mut())))
             {
-                return l * rho;
+                return l * lobe.rho;
             }
         }
         let direct = if self.maps.direct_from_map(self.scene) {
-            self.map_radiance(DIRECT, si, wo, rho, budget)
+            self.map_radiance(DIRECT, si, wo, lobe, budget)
         } else {
             // Final-gather ends keep the light sample alone (a BSDF sample there is not worth its ray).
             let strategy = if in_gather { DirectStrategy::LightOnly } else { DirectStrategy::eye_pass(self.scene) };
             estimate_direct(self.scene, self.tracer, si, wo, rng, c, strategy)
         };
-        let caustic = self.map_radiance(CAUSTIC, si, wo, rho, budget);
+        let caustic = self.map_radiance(CAUSTIC, si, wo, lobe, budget);
         if fg > 0 {
             return direct + caustic + self.final_gather(si, wo, rng, c, fg, budget);
         }
-        direct + caustic + self.map_radiance(INDIRECT, si, wo, rho, budget)
+        direct + caustic + self.map_radiance(INDIRECT, si, wo, lobe, budget)
     }
 
     /// Indirect light by `n` rays sampled from the surface's BSDF (cosine about the shading normal, as
@@ -410,6 +418,11 @@ impl<'a> PhotonMapper<'a> {
             let Some((bs, ray)) = si.scatter(&mat, wo, rng, TransportMode::Radiance) else {
                 continue;
             };
+            // A plastic's mirror lobe is the chain's to follow (`specular_chain`): here it counts 0,
+            // which leaves the diffuse lobe's share in expectation.
+            if bs.delta {
+                continue;
+            }
             // Emission seen by gather rays is direct light or a caustic, already counted: skip it.
             sum += self.follow(ray, bs.weight, rng, c, false, 0, first);
         }

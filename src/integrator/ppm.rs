@@ -54,13 +54,13 @@ pub fn initial_radius(scene: &Scene) -> f32 {
     radius_for_density(scene, 30.0, p.photons_per_pass as f64)
 }
 
-/// The radius of a disc holding about `k` of `points` points spread evenly over the scene's diffuse
-/// surfaces, capped at `render.gather.max_radius` of the scene diagonal.
+/// The radius of a disc holding about `k` of `points` points spread evenly over the surfaces that hold
+/// photons, capped at `render.gather.max_radius` of the scene diagonal.
 pub fn radius_for_density(scene: &Scene, k: f64, points: f64) -> f32 {
     let area: f64 = scene
         .shapes
         .iter()
-        .filter(|s| scene.materials[s.material as usize].bsdf.is_diffuse())
+        .filter(|s| scene.materials[s.material as usize].bsdf.holds_photons())
         .map(|s| s.area() as f64)
         .sum();
     let r = (k * area / (std::f64::consts::PI * points)).sqrt() as f32;

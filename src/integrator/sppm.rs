@@ -28,6 +28,7 @@ use crate::math::Rng;
 use crate::photon::kdtree::KnnResult;
 use crate::plan::Plan;
 use crate::scene::file::DirectLight;
+use crate::scene::material::DiffuseLobe;
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::cell::RefCell;
@@ -167,9 +168,11 @@ impl<'a> Sppm<'a> {
                 }
                 let (mut flux, mut m) = (Rgb::ZERO, 0u32);
                 let budget = vp.budget(scene, 0);
+                let lobe =
+                    scene.bsdf(&vp.si, vp.wo).diffuse_lobe(vp.wo, vp.si.ns).unwrap_or(DiffuseLobe::lambert(Rgb::ZERO));
                 SCRATCH.with(|s| {
                     for map in maps.maps.iter().flatten() {
-                        let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, budget, &mut s.borrow_mut());
+                        let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, budget, lobe.coat, &mut s.borrow_mut());
                         flux += f;
                         m += c;
                     }
@@ -182,8 +185,7 @@ impl<'a> Sppm<'a> {
                 };
                 px.discs += covered;
                 if m > 0 {
-                    let rho = scene.bsdf(&vp.si, vp.wo).albedo();
-                    let phi = vp.beta * rho / std::f32::consts::PI * flux;
+                    let phi = vp.beta * lobe.rho / std::f32::consts::PI * flux;
                     let n_new = px.n + alpha * m as f32;
                     let r_new = px.r * (n_new / (px.n + m as f32)).sqrt();
                     px.tau = (px.tau + phi) * ((r_new * r_new) / (px.r * px.r));
@@ -276,7 +278,7 @@ pub fn disc_coverage(
                 break;
             };
             let s = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-            if s.ng.dot(n).abs() >= 0.6 && scene.bsdf(&s, n).is_diffuse() {
+            if s.ng.dot(n).abs() >= 0.6 && scene.bsdf(&s, n).holds_photons() {
                 covered += 1;
                 break;
             }

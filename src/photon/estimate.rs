@@ -8,6 +8,7 @@ use crate::math::face_forward;
 use crate::photon::kdtree::{KdError, KdTree, KnnResult};
 use crate::photon::photon::{events, within_depth, PhotonPayload, EVENTS_CAP};
 use crate::photon::trace::MapPhotons;
+use crate::scene::material::{coat_transmission, DiffuseLobe};
 use crate::scene::SurfaceHit;
 use glam::Vec3;
 
@@ -53,11 +54,19 @@ impl PhotonMap {
         (0..self.tree.len() as u32).map(|i| self.phi(i)).sum()
     }
 
-    /// Reflected radiance towards `wo` at the surface point `si` of a Lambertian surface with reflectance
-    /// `rho`, estimated from the k nearest photons (cone filter if `g.cone_k` ≥ 1), counting the photons
-    /// whose paths fit in `budget` scattering events (`within_depth`; `render.max_depth` less the eye
-    /// side's bounces before `si`).
-    pub fn radiance(&self, si: &SurfaceHit, wo: Vec3, rho: Rgb, g: Gather, budget: u32, res: &mut KnnResult) -> Rgb {
+    /// Reflected radiance towards `wo` at the surface point `si` by its diffuse `lobe` (a Lambertian
+    /// reflectance, or a plastic's base under its coat), estimated from the k nearest photons (cone
+    /// filter if `g.cone_k` ≥ 1), counting the photons whose paths fit in `budget` scattering events
+    /// (`within_depth`; `render.max_depth` less the eye side's bounces before `si`).
+    pub fn radiance(
+        &self,
+        si: &SurfaceHit,
+        wo: Vec3,
+        lobe: DiffuseLobe,
+        g: Gather,
+        budget: u32,
+        res: &mut KnnResult,
+    ) -> Rgb {
         if self.is_empty() || g.k == 0 {
             return Rgb::ZERO;
         }
@@ -66,7 +75,7 @@ impl PhotonMap {
             return Rgb::ZERO;
         }
         let r = r2.sqrt();
-        let f = PhotonFilter::new(si, wo, r, budget);
+        let f = PhotonFilter::new(si, wo, r, budget, lobe.coat);
         let cone = g.cone_k >= 1.0;
         // When k photons were found, r is the k-th one's distance and that photon sits on the boundary:
         // given r, the other k − 1 are spread over the disc, so (k − 1)/(π r²) is the unbiased density,
@@ -86,18 +95,28 @@ impl PhotonMap {
             sum += self.phi(i) * (w * cone_w);
         }
         let norm = if cone { 1.0 - 2.0 / (3.0 * g.cone_k) } else { 1.0 };
-        sum * rho / (std::f32::consts::PI * std::f32::consts::PI * r2 * norm)
+        sum * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r2 * norm)
     }
 
     /// Flux-weighted sum Σ w_p ΔΦ_p over the photons within radius `r` of `si` that pass the surface
     /// tests (box kernel) and whose paths fit in `budget` scattering events (as in `radiance`): divided
-    /// by π r² it is the irradiance the progressive estimators accumulate. Returns (sum, photons counted).
-    pub fn flux_within(&self, si: &SurfaceHit, wo: Vec3, r: f32, budget: u32, res: &mut KnnResult) -> (Rgb, u32) {
+    /// by π r² it is the irradiance the progressive estimators accumulate. Under a plastic's `coat` each
+    /// photon also counts the share its coat lets through (`DiffuseLobe::transmitted`). Returns (sum,
+    /// photons counted).
+    pub fn flux_within(
+        &self,
+        si: &SurfaceHit,
+        wo: Vec3,
+        r: f32,
+        budget: u32,
+        coat: Option<f32>,
+        res: &mut KnnResult,
+    ) -> (Rgb, u32) {
         if self.is_empty() || r.is_nan() || r <= 0.0 {
             return (Rgb::ZERO, 0);
         }
         self.tree.within_res(si.p.to_array(), r * r, res);
-        let f = PhotonFilter::new(si, wo, r, budget);
+        let f = PhotonFilter::new(si, wo, r, budget, coat);
         let mut sum = Rgb::ZERO;
         let mut count = 0u32;
         for &(_, i) in res.items() {
@@ -119,10 +138,12 @@ struct PhotonFilter {
     smooth: bool,
     r: f32,
     budget: u32,
+    /// A plastic's coat (its index): each photon counts the share it lets through.
+    coat: Option<f32>,
 }
 
 impl PhotonFilter {
-    fn new(si: &SurfaceHit, wo: Vec3, r: f32, budget: u32) -> PhotonFilter {
+    fn new(si: &SurfaceHit, wo: Vec3, r: f32, budget: u32, coat: Option<f32>) -> PhotonFilter {
         PhotonFilter {
             p: si.p,
             n: si.ng,
@@ -131,6 +152,7 @@ impl PhotonFilter {
             smooth: si.ns != si.ng,
             r,
             budget,
+            coat,
         }
     }
 
@@ -161,6 +183,11 @@ impl PhotonFilter {
         if wi.dot(self.n_side) >= 0.0 {
             return None;
         }
-        Some(if self.smooth { (-wi).dot(self.ns_side).max(0.0) / wi.dot(self.n).abs().max(1e-6) } else { 1.0 })
+        let w = if self.smooth { (-wi).dot(self.ns_side).max(0.0) / wi.dot(self.n).abs().max(1e-6) } else { 1.0 };
+        match self.coat {
+            None => Some(w),
+            // Mitsuba's plastic takes the Fresnel factor at the shading normal.
+            Some(eta) => Some(w * coat_transmission(eta, (-wi).dot(self.ns_side))),
+        }
     }
 }

@@ -2,8 +2,9 @@
 //! bounces through Embree, storage into the direct / indirect / caustic maps. Bounces go through the
 //! same BSDF sampling as camera paths, in importance mode (no 1/η², shading-normal adjoint). Depth
 //! follows the path tracer: a photon path plus the surface it is gathered at has at most
-//! `render.max_depth` scattering events; Russian roulette at diffuse hits by reflectance, and at
-//! specular hits past `render.rr_depth` on the throughput, as the path tracer does. Photon i's random
+//! `render.max_depth` scattering events; Russian roulette at diffuse hits by reflectance (a plastic's base:
+//! by the sample's weight), and at specular hits (a plastic's coat among them) past `render.rr_depth` on
+//! the throughput, as the path tracer does. Photon i's random
 //! numbers are keyed by (seed, pass, i), and batches are merged in index order, so the maps are
 //! identical for any thread count. Each map counts its own `n_emitted`: the
 //! number of photons shot up to the batch in which it reached its requested size.
@@ -277,7 +278,7 @@ fn trace_one(
         let wo = -ray.d.normalize();
         let mat = scene.bsdf(&si, wo);
         let last = depth + 1 >= s.max_depth;
-        if mat.is_diffuse() {
+        if mat.holds_photons() {
             let map = if diffuse_bounces > 0 {
                 INDIRECT
             } else if specular_bounces > 0 {
@@ -291,37 +292,55 @@ fn trace_one(
                 let p = with_events(si.p.to_array(), depth + 1);
                 out[map].push((p, Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
             }
-            // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
-            if s.want[INDIRECT] == 0 || last {
-                return;
-            }
-            let p = max_component(mat.albedo());
-            if p <= 0.0 || rng.next_f32() >= p {
-                return;
-            }
-            let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
-                return;
-            };
-            phi *= bs.weight / p;
-            diffuse_bounces += 1;
-            ray = next;
-        } else {
             if last {
                 return;
             }
-            let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
-                return;
-            };
-            phi *= bs.weight;
-            specular_bounces += 1;
-            if specular_bounces >= s.rr_depth {
-                let Some(q) = sampling::russian_roulette(max_component(phi) / phi_launch, rng.next_f32()) else {
+            if mat.is_diffuse() {
+                // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
+                if s.want[INDIRECT] == 0 {
+                    return;
+                }
+                let p = max_component(mat.albedo());
+                if p <= 0.0 || rng.next_f32() >= p {
+                    return;
+                }
+                let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
                     return;
                 };
-                phi /= q;
+                phi *= bs.weight / p;
+                diffuse_bounces += 1;
+                ray = next;
+                continue;
             }
-            ray = next;
+        } else if last {
+            return;
         }
+        let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
+            return;
+        };
+        if !bs.delta && mat.holds_photons() {
+            // A plastic's base: a diffuse bounce, with Russian roulette on the sample's weight.
+            if s.want[INDIRECT] == 0 {
+                return;
+            }
+            let q = max_component(bs.weight).min(1.0);
+            if q <= 0.0 || rng.next_f32() >= q {
+                return;
+            }
+            phi *= bs.weight / q;
+            diffuse_bounces += 1;
+            ray = next;
+            continue;
+        }
+        phi *= bs.weight;
+        specular_bounces += 1;
+        if specular_bounces >= s.rr_depth {
+            let Some(q) = sampling::russian_roulette(max_component(phi) / phi_launch, rng.next_f32()) else {
+                return;
+            };
+            phi /= q;
+        }
+        ray = next;
     }
 }
 

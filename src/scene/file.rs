@@ -130,6 +130,22 @@ pub enum MaterialSpec {
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         two_sided: bool,
     },
+    /// Plastic: a diffuse base (`reflectance`, a colour or a texture) under a smooth clear coat of index
+    /// `ior` (default 1.49, polypropylene) that mirrors F·`specular`; `nonlinear` darkens and saturates
+    /// the base as light bouncing inside the coat does (Mitsuba's `plastic`).
+    Plastic {
+        reflectance: Reflectance,
+        #[serde(default = "one3")]
+        specular: V3,
+        #[serde(default = "polypropylene")]
+        ior: f32,
+        #[serde(default = "one")]
+        outside_ior: f32,
+        #[serde(default, skip_serializing_if = "is_false")]
+        nonlinear: bool,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        two_sided: bool,
+    },
     /// A thin pane of glass (no refraction offset): reflects or lets light through unbent.
     #[serde(rename = "thin_dielectric")]
     ThinDielectric {
@@ -157,6 +173,10 @@ pub enum MaterialSpec {
 
 fn one() -> f32 {
     1.0
+}
+
+fn polypropylene() -> f32 {
+    1.49
 }
 
 fn is_zero(x: &f32) -> bool {

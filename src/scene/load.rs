@@ -424,21 +424,24 @@ fn build_material(
             let reflectance = cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?;
             sided(Material::Diffuse { reflectance }, *two_sided)
         }
-        MaterialSpec::Diffuse { reflectance: Reflectance::Texture(name), two_sided } => {
-            let t = *textures.index.get(name).ok_or_else(|| {
-                let known: Vec<&String> = textures.index.keys().collect();
-                cx.err(&format!("{key}.reflectance"), format!("unknown texture `{name}` (defined: {known:?})"))
-            })?;
-            let max = textures.list[t as usize].max_value();
-            if max > 1.0 {
-                let msg = format!("texture `{name}` reaches {max}; a reflectance must be in [0, 1]");
-                return Err(cx.err(&format!("{key}.reflectance"), msg));
+        MaterialSpec::Diffuse { reflectance: Reflectance::Texture(name), two_sided } => SurfaceMaterial {
+            bsdf: Material::Diffuse { reflectance: Rgb::ZERO },
+            two_sided: *two_sided,
+            texture: Some(texture_index(cx, key, name, textures)?),
+        },
+        MaterialSpec::Plastic { reflectance, specular, ior, outside_ior, nonlinear, two_sided } => {
+            for (k, v) in [("ior", ior), ("outside_ior", outside_ior)] {
+                if !(*v >= 1.0 / 4.0 && *v <= 4.0) {
+                    return Err(cx.err(&format!("{key}.{k}"), format!("must be in [0.25, 4], got {v}")));
+                }
             }
-            SurfaceMaterial {
-                bsdf: Material::Diffuse { reflectance: Rgb::ZERO },
-                two_sided: *two_sided,
-                texture: Some(t),
-            }
+            let (diffuse, texture) = match reflectance {
+                Reflectance::Colour(c) => (cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?, None),
+                Reflectance::Texture(name) => (Rgb::ZERO, Some(texture_index(cx, key, name, textures)?)),
+            };
+            let specular = cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?;
+            let bsdf = Material::Plastic { diffuse, specular, ior: ior / outside_ior, nonlinear: *nonlinear };
+            SurfaceMaterial { bsdf, two_sided: *two_sided, texture }
         }
         MaterialSpec::Mirror { specular, roughness, distribution, two_sided } => {
             let fresnel = Fresnel::Constant(cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?);
@@ -486,6 +489,20 @@ fn build_material(
             }
         }
     })
+}
+
+/// The `[textures]` entry a material's `reflectance` names; refused if unknown or above 1 anywhere.
+fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures) -> Result<u32, SceneError> {
+    let t = *textures.index.get(name).ok_or_else(|| {
+        let known: Vec<&String> = textures.index.keys().collect();
+        cx.err(&format!("{key}.reflectance"), format!("unknown texture `{name}` (defined: {known:?})"))
+    })?;
+    let max = textures.list[t as usize].max_value();
+    if max > 1.0 {
+        let msg = format!("texture `{name}` reaches {max}; a reflectance must be in [0, 1]");
+        return Err(cx.err(&format!("{key}.reflectance"), msg));
+    }
+    Ok(t)
 }
 
 /// Transform to a matrix; refuses degenerate or non-finite ones.

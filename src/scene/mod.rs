@@ -309,6 +309,9 @@ impl Scene {
             (Some(t), Material::Diffuse { .. }) => {
                 Material::Diffuse { reflectance: self.textures[t as usize].eval(si.uv) }
             }
+            (Some(t), Material::Plastic { specular, ior, nonlinear, .. }) => {
+                Material::Plastic { diffuse: self.textures[t as usize].eval(si.uv), specular, ior, nonlinear }
+            }
             (_, bsdf) => bsdf,
         }
     }

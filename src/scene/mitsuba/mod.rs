@@ -25,7 +25,7 @@ pub struct Converted {
 
 const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere, cylinder";
 const BSDFS: &str =
-    "diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor (ggx, beckmann), twosided";
+    "diffuse, plastic, dielectric, roughdielectric, thindielectric, conductor, roughconductor (ggx, beckmann), twosided";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
@@ -395,19 +395,18 @@ impl<'a> Cx<'a> {
                 }
                 self.bsdf(one, true, name)?
             }
-            "diffuse" => {
-                let reflectance = match p.colour("reflectance")? {
-                    None => Reflectance::Colour([0.5; 3]),
-                    Some(ColourProp::Rgb(c)) => Reflectance::Colour(c),
-                    Some(ColourProp::Texture(t)) => {
-                        Reflectance::Texture(self.texture(t, &format!("{name}-reflectance"))?)
-                    }
-                    Some(ColourProp::Ref(r, id)) => {
-                        let t = self.lookup(r, &id)?;
-                        Reflectance::Texture(self.texture(t, &id)?)
-                    }
-                };
-                MaterialSpec::Diffuse { reflectance, two_sided }
+            "diffuse" => MaterialSpec::Diffuse { reflectance: self.reflectance(&p, "reflectance", name)?, two_sided },
+            "plastic" => {
+                let ior = p.float_or_name("int_ior", named_ior)?.unwrap_or(1.49);
+                let outside_ior = p.float_or_name("ext_ior", named_ior)?.unwrap_or(1.000277);
+                MaterialSpec::Plastic {
+                    reflectance: self.reflectance(&p, "diffuse_reflectance", name)?,
+                    specular: p.rgb("specular_reflectance")?.unwrap_or([1.0; 3]),
+                    ior,
+                    outside_ior,
+                    nonlinear: p.boolean("nonlinear")?.unwrap_or(false),
+                    two_sided,
+                }
             }
             "dielectric" | "thindielectric" | "roughdielectric" => {
                 let int = p.float_or_name("int_ior", named_ior)?.unwrap_or(1.5046);
@@ -434,8 +433,21 @@ impl<'a> Cx<'a> {
             "conductor" | "roughconductor" => self.conductor(b, &p, two_sided)?,
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
         };
-        p.finish("the parameters of diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor and twosided")?;
+        p.finish("the parameters of diffuse, plastic, dielectric, roughdielectric, thindielectric, conductor, roughconductor and twosided")?;
         Ok(spec)
+    }
+
+    /// A reflectance property (Mitsuba's default 0.5): a colour, or a texture nested or referenced.
+    fn reflectance(&mut self, p: &Props<'a>, key: &str, name: &str) -> Result<Reflectance, SceneError> {
+        Ok(match p.colour(key)? {
+            None => Reflectance::Colour([0.5; 3]),
+            Some(ColourProp::Rgb(c)) => Reflectance::Colour(c),
+            Some(ColourProp::Texture(t)) => Reflectance::Texture(self.texture(t, &format!("{name}-{key}"))?),
+            Some(ColourProp::Ref(r, id)) => {
+                let t = self.lookup(r, &id)?;
+                Reflectance::Texture(self.texture(t, &id)?)
+            }
+        })
     }
 
     fn conductor(&mut self, b: &Node, p: &Props, two_sided: bool) -> Result<MaterialSpec, SceneError> {
@@ -635,7 +647,11 @@ fn cylinder(
     if !fine {
         return Err(n.error(format!("needs a radius > 0 and p0 ≠ p1 (got radius {radius}, p0 {p0}, p1 {p1})")));
     }
-    if let Some(MaterialSpec::Diffuse { reflectance: Reflectance::Texture(_), .. }) = materials.get(&material) {
+    if let Some(
+        MaterialSpec::Diffuse { reflectance: Reflectance::Texture(_), .. }
+        | MaterialSpec::Plastic { reflectance: Reflectance::Texture(_), .. },
+    ) = materials.get(&material)
+    {
         return Err(
             n.error("a textured BSDF on a cylinder is not supported (caustica's cylinder has no texture coordinates)")
         );
