@@ -210,7 +210,7 @@ fn includes_defaults_and_version_0_6_names_are_read() {
 fn what_is_not_read_is_refused_naming_the_line() {
     let d = tmp("refuse");
     let cases: &[(&str, &str, &[&str])] = &[
-        ("plastic", r#"<bsdf type="plastic"/>"#, &["line 8", "plastic", "diffuse, dielectric"]),
+        ("roughplastic", r#"<bsdf type="roughplastic"/>"#, &["line 8", "roughplastic", "diffuse, plastic, dielectric"]),
         (
             "unknown-prop",
             r#"<bsdf type="diffuse"><float name="roughness" value="0.2"/></bsdf>"#,
