@@ -101,7 +101,7 @@ impl PhotonMap {
     /// Flux-weighted sum Σ w_p ΔΦ_p over the photons within radius `r` of `si` that pass the surface
     /// tests (box kernel) and whose paths fit in `budget` scattering events (as in `radiance`): divided
     /// by π r² it is the irradiance the progressive estimators accumulate. Under a plastic's `coat` each
-    /// photon also counts the share its coat lets through (`DiffuseLobe::transmitted`). Returns (sum,
+    /// photon also counts the share its coat lets through (`coat_transmission`). Returns (sum,
     /// photons counted).
     pub fn flux_within(
         &self,

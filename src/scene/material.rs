@@ -414,7 +414,8 @@ impl Material {
 
     /// A plastic's probability of sampling its mirror lobe for a path arriving along `wo` (Mitsuba's
     /// choice: F·s / (F·s + (1 − F)(1 − s)) with s the specular colour's mean over the sum of both
-    /// colours' means); 0 for every other BSDF.
+    /// colours' means; under a texture the texel's colour, where Mitsuba takes the texture's mean, which
+    /// changes only the noise); 0 for every other BSDF.
     pub fn coat_share(&self, wo: Vec3, n: Vec3) -> f32 {
         let Material::Plastic { diffuse, specular, ior, .. } = self else {
             return 0.0;
