@@ -430,17 +430,13 @@ fn build_material(
             texture: Some(texture_index(cx, key, name, textures)?),
         },
         MaterialSpec::Plastic { reflectance, specular, ior, outside_ior, nonlinear, two_sided } => {
-            for (k, v) in [("ior", ior), ("outside_ior", outside_ior)] {
-                if !(*v >= 1.0 / 4.0 && *v <= 4.0) {
-                    return Err(cx.err(&format!("{key}.{k}"), format!("must be in [0.25, 4], got {v}")));
-                }
-            }
+            let ior = relative_ior(cx, key, *ior, *outside_ior)?;
             let (diffuse, texture) = match reflectance {
                 Reflectance::Colour(c) => (cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?, None),
                 Reflectance::Texture(name) => (Rgb::ZERO, Some(texture_index(cx, key, name, textures)?)),
             };
             let specular = cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?;
-            let bsdf = Material::Plastic { diffuse, specular, ior: ior / outside_ior, nonlinear: *nonlinear };
+            let bsdf = Material::Plastic { diffuse, specular, ior, nonlinear: *nonlinear };
             SurfaceMaterial { bsdf, two_sided: *two_sided, texture }
         }
         MaterialSpec::Mirror { specular, roughness, distribution, two_sided } => {
@@ -470,13 +466,8 @@ fn build_material(
         }
         MaterialSpec::Dielectric { ior, outside_ior, tint, .. }
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
-            for (k, v) in [("ior", ior), ("outside_ior", outside_ior)] {
-                if !(*v >= 1.0 / 4.0 && *v <= 4.0) {
-                    return Err(cx.err(&format!("{key}.{k}"), format!("must be in [0.25, 4], got {v}")));
-                }
-            }
-            // Only the ratio matters at an interface: glass (1.5) in water (1.33) bends light by 1.5/1.33.
-            let (ior, tint) = (ior / outside_ior, cx.colour(&format!("{key}.tint"), *tint, Some(1.0))?);
+            let (ior, tint) =
+                (relative_ior(cx, key, *ior, *outside_ior)?, cx.colour(&format!("{key}.tint"), *tint, Some(1.0))?);
             if let MaterialSpec::Dielectric { roughness, distribution, .. } = spec {
                 SurfaceMaterial::new(Material::Dielectric {
                     ior,
@@ -489,6 +480,17 @@ fn build_material(
             }
         }
     })
+}
+
+/// An interface's index inside over outside, both checked to lie in [0.25, 4]: only the ratio matters
+/// at an interface (glass, 1.5, in water, 1.33, bends light by 1.5/1.33).
+fn relative_ior(cx: &Ctx, key: &str, ior: f32, outside_ior: f32) -> Result<f32, SceneError> {
+    for (k, v) in [("ior", ior), ("outside_ior", outside_ior)] {
+        if !(0.25..=4.0).contains(&v) {
+            return Err(cx.err(&format!("{key}.{k}"), format!("must be in [0.25, 4], got {v}")));
+        }
+    }
+    Ok(ior / outside_ior)
 }
 
 /// The `[textures]` entry a material's `reflectance` names; refused if unknown or above 1 anywhere.

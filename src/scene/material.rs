@@ -417,21 +417,22 @@ impl Material {
     /// colours' means; under a texture the texel's colour, where Mitsuba takes the texture's mean, which
     /// changes only the noise); 0 for every other BSDF.
     pub fn coat_share(&self, wo: Vec3, n: Vec3) -> f32 {
+        self.coat_fresnel_and_share(wo, n).1
+    }
+
+    /// A plastic's coat reflectance F at `wo` and `coat_share` (0, 0 for every other BSDF).
+    fn coat_fresnel_and_share(&self, wo: Vec3, n: Vec3) -> (f32, f32) {
         let Material::Plastic { diffuse, specular, ior, .. } = self else {
-            return 0.0;
+            return (0.0, 0.0);
         };
+        let f = fresnel_dielectric(wo.dot(n).abs().min(1.0), *ior).0;
         let (d_mean, s_mean) = (diffuse.element_sum() / 3.0, specular.element_sum() / 3.0);
         if s_mean <= 0.0 {
-            return 0.0;
+            return (f, 0.0);
         }
         let w = s_mean / (d_mean + s_mean);
-        let f = fresnel_dielectric(wo.dot(n).abs().min(1.0), *ior).0;
         let (ps, pd) = (f * w, (1.0 - f) * (1.0 - w));
-        if ps + pd > 0.0 {
-            ps / (ps + pd)
-        } else {
-            1.0
-        }
+        (f, if ps + pd > 0.0 { ps / (ps + pd) } else { 1.0 })
     }
 
     /// The lobe the photon estimates gather with for a path leaving along `wo` (None where no photons are
@@ -566,15 +567,14 @@ impl Material {
                 let pdf = wi.dot(side) / PI;
                 (pdf > 0.0).then_some(sample(wi, *reflectance, pdf, false, false, 1.0))
             }
-            Material::Plastic { specular, ior, .. } => {
-                let share = self.coat_share(wo, n);
+            Material::Plastic { specular, .. } => {
+                let (fr, share) = self.coat_fresnel_and_share(wo, n);
                 if uc < share {
-                    let wi = reflect(wo, side);
-                    let fr = fresnel_dielectric(wo.dot(side).min(1.0), *ior).0;
-                    return Some(sample(wi, *specular * (fr / share), share, true, false, 1.0));
+                    return Some(sample(reflect(wo, side), *specular * (fr / share), share, true, false, 1.0));
                 }
                 let wi = sampling::cosine_around(side, u);
-                let pdf = self.pdf(wo, wi, n);
+                // `pdf`'s value, with the share already at hand.
+                let pdf = (1.0 - share) * wi.dot(side).max(0.0) / PI;
                 if pdf <= 0.0 {
                     return None;
                 }

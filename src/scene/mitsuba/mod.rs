@@ -625,7 +625,6 @@ pub fn rebase(file: &mut SceneFile, from: &Path, to: &Path) -> Result<(), String
     Ok(())
 }
 
-/// `target` as seen from folder `base` (both absolute): `../x/y` where needed.
 /// Mitsuba's `cylinder`: the open tube (no caps) of `radius` from `p0` to `p1` under `to_world`, as a
 /// 256-sided lathe with smooth normals (its silhouette within 7.6e-5 radii of the circle); normals
 /// outward, inward with `flip_normals`. The lathe has no texture coordinates, so a textured BSDF on
@@ -696,6 +695,7 @@ fn microfacet(b: &Node, p: &Props) -> Result<(f32, crate::scene::material::Micro
     Ok((alpha, distribution))
 }
 
+/// `target` as seen from folder `base` (both absolute): `../x/y` where needed.
 fn relative_path(base: &Path, target: &Path) -> PathBuf {
     let (b, t): (Vec<_>, Vec<_>) = (base.components().collect(), target.components().collect());
     let common = b.iter().zip(&t).take_while(|(x, y)| x == y).count();
