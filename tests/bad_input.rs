@@ -174,6 +174,24 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["materials.white.reflectance", "unknown texture `wood`"],
         ),
         (
+            "rough_plastic_roughness",
+            GOOD.replace(
+                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+                "white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], roughness = 2.0 }",
+            ),
+            vec![],
+            vec!["materials.white.roughness", "[0, 1]", "got 2"],
+        ),
+        (
+            "rough_plastic_distribution",
+            GOOD.replace(
+                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
+                "white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], roughness = 0.2, distribution = \"blinn\" }",
+            ),
+            vec![],
+            vec!["line 9", "blinn", "ggx", "beckmann"],
+        ),
+        (
             "glass_distribution",
             GOOD.replace(
                 "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",

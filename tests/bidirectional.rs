@@ -182,6 +182,9 @@ enum Ball {
     /// Plastic (a mirror coat over a diffuse base, nonlinear), under the lights PT can also see in its
     /// coat: a vertex there is connected and merged by its base, and passed through by its mirror.
     Plastic,
+    /// Rough plastic (a GGX coat, α 0.25, over a nonlinear base) under every light: its glossy lobe is
+    /// connected and merged like the base, so even the delta lights' highlights are PT's.
+    RoughPlastic,
 }
 
 /// An open scene with every kind of light (quad, sphere, point, spot, distant, constant sky) over
@@ -201,6 +204,7 @@ fn every_light(ball: Ball) -> Scene {
         Ball::Glass => (sphere("glass"), String::new()),
         Ball::RoughGlass => (sphere("frosted"), format!("{delta}{inside}")),
         Ball::Plastic => (sphere("plastic"), String::new()),
+        Ball::RoughPlastic => (sphere("rough_plastic"), delta.to_string()),
     };
     common::scene(&format!(
         "[camera]\norigin = [0.0, 1.6, 2.6]\ntarget = [0.0, 0.3, 0.0]\nfov = 45\nresolution = [24, 24]\n\
@@ -209,6 +213,7 @@ fn every_light(ball: Ball) -> Scene {
          glass = {{ type = \"dielectric\", ior = 1.5 }}\n\
          frosted = {{ type = \"dielectric\", ior = 1.5, roughness = 0.3 }}\n\
          plastic = {{ type = \"plastic\", reflectance = [0.1, 0.3, 0.5], ior = 3.0, nonlinear = true }}\n\
+         rough_plastic = {{ type = \"plastic\", reflectance = [0.1, 0.3, 0.5], ior = 2.0, nonlinear = true, roughness = 0.25 }}\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, -1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 1.5, 0.0]\nmaterial = \"m\"\n\
          {ball}[[shapes]]\ntype = \"box\"\nmin = [-0.9, 0.0, -0.6]\nmax = [-0.3, 0.5, 0.0]\nmaterial = \"gold\"\n\
@@ -221,7 +226,7 @@ fn every_light(ball: Ball) -> Scene {
 
 #[test]
 fn mis_weights_sum_to_one_for_every_kind_of_light() {
-    for ball in [Ball::None, Ball::Glass, Ball::RoughGlass, Ball::Plastic] {
+    for ball in [Ball::None, Ball::Glass, Ball::RoughGlass, Ball::Plastic, Ball::RoughPlastic] {
         let mut s = every_light(ball);
         s.render.max_depth = 6;
         let a = Accel::new(&s).unwrap();

@@ -341,6 +341,7 @@ const XML_TYPES: &[&str] = &[
     "box",
     "spot",
     "plastic",
+    "roughplastic",
     "roughdielectric",
     "cylinder",
     "",
@@ -363,6 +364,8 @@ const XML_EXTRAS: &[&str] = &[
     r#"<bsdf type="roughdielectric" id="rd8"><float name="alpha" value="1e-38"/></bsdf><shape type="sphere"><ref id="rd8"/></shape>"#,
     r#"<bsdf type="plastic" id="p9"><float name="int_ior" value="0"/></bsdf><shape type="sphere"><ref id="p9"/></shape>"#,
     r#"<bsdf type="plastic" id="p8"><rgb name="diffuse_reflectance" value="7"/><boolean name="nonlinear" value="true"/></bsdf><shape type="sphere"><ref id="p8"/></shape>"#,
+    r#"<bsdf type="roughplastic" id="rp9"><float name="alpha" value="1e-38"/><string name="int_ior" value="water"/></bsdf><shape type="sphere"><ref id="rp9"/></shape>"#,
+    r#"<bsdf type="roughplastic" id="rp8"><float name="alpha" value="7"/><string name="distribution" value="ggx"/></bsdf><shape type="sphere"><ref id="rp8"/></shape>"#,
     r#"<shape type="sphere"><ref id="nowhere"/></shape>"#,
     r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="ball.ply"/></texture></bsdf></shape>"#,
 ];

@@ -106,6 +106,11 @@ fn plastic_xml_matches_mitsuba() {
     matches_mitsuba("plastic", 1024, 0.003);
 }
 
+#[test]
+fn rough_plastic_xml_matches_mitsuba() {
+    matches_mitsuba("roughplastic", 1024, 0.003);
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let p = dir.join(name);
@@ -210,7 +215,7 @@ fn includes_defaults_and_version_0_6_names_are_read() {
 fn what_is_not_read_is_refused_naming_the_line() {
     let d = tmp("refuse");
     let cases: &[(&str, &str, &[&str])] = &[
-        ("roughplastic", r#"<bsdf type="roughplastic"/>"#, &["line 8", "roughplastic", "diffuse, plastic, dielectric"]),
+        ("principled", r#"<bsdf type="principled"/>"#, &["line 8", "principled", "diffuse, plastic, roughplastic"]),
         (
             "unknown-prop",
             r#"<bsdf type="diffuse"><float name="roughness" value="0.2"/></bsdf>"#,

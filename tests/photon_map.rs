@@ -720,6 +720,35 @@ fn photon_mappers_render_plastic() {
     photon_modes_match_pt_within("plastic", &text, 0.015);
 }
 
+/// Rough plastic (Mitsuba's `roughplastic`) in the photon mappers: photons are stored on the base and
+/// go on by either lobe, the coat's glossy reflection counting as a specular bounce; camera chains that
+/// meet it follow the glossy lobe by its share (with a light sample there, as at rough metal) or end at
+/// the base, where each photon is weighed by the coat's transmittance table in its own direction and
+/// light samples and final gather see the base alone. A room of rough red plastic walls (GGX, α 0.3), a
+/// textured rough floor (Beckmann, α 0.15, IOR 1.6), a nonlinear ball with a barely rough coat (GGX,
+/// α 0.05) and a diffuse ball, under a quad light and a point light whose glossy highlights and their
+/// reflections on the diffuse surfaces the path tracer finds by light samples at the coats.
+#[test]
+fn photon_mappers_render_rough_plastic() {
+    let text = format!(
+        "[camera]\norigin = [0.3, 0.2, 0.95]\ntarget = [-0.2, -0.5, -0.5]\nfov = 70\nresolution = [32, 24]\n\
+         [textures]\nchecks = {{ type = \"checkerboard\", color0 = [0.8, 0.8, 0.7], color1 = [0.1, 0.2, 0.3], scale = [4.0, 4.0] }}\n\
+         [materials]\nwall = {{ type = \"plastic\", reflectance = [0.75, 0.3, 0.25], ior = 1.5, roughness = 0.3 }}\n\
+         floor = {{ type = \"plastic\", reflectance = \"checks\", ior = 1.6, specular = [0.8, 0.8, 0.8], roughness = 0.15, distribution = \"beckmann\" }}\n\
+         ball = {{ type = \"plastic\", reflectance = [0.2, 0.8, 0.3], nonlinear = true, roughness = 0.05 }}\n\
+         white = {{ type = \"diffuse\", reflectance = [0.8, 0.8, 0.8] }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, -1.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [-0.4, -0.65, -0.3]\nradius = 0.35\nmaterial = \"ball\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.45, -0.75, -0.5]\nradius = 0.25\nmaterial = \"white\"\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [-0.3, 0.98, -0.3]\nedge_u = [0.6, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.6]\npower = [10.0, 10.0, 10.0]\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.5, 0.3, 0.2]\npower = [3.0, 3.0, 3.0]\n\
+         [render]\nmax_depth = 6\npm_spp = 16\n{}",
+        // The box's walls and ceiling (its floor is the textured quad above).
+        common::inward_box(-1.0, 1.0, "wall", None).split("\n\n").skip(1).collect::<Vec<_>>().join("\n\n")
+    );
+    photon_modes_match_pt_within("rough plastic", &text, 0.015);
+}
+
 /// `render.max_depth` limits the whole path in the path tracer: the camera's bounces through glass
 /// plus what the light did before. Photon maps must cut the same paths: a photon gathered where the
 /// camera ray arrived after k bounces counts only if its own path (the gather included) has at most

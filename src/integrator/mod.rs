@@ -107,9 +107,11 @@ pub fn specular_chain(
         let Some(crate::accel::Interaction { si, wo, .. }) = found else {
             break;
         };
-        let mat = scene.bsdf(&si, wo);
-        // Where photons are held the chain ends, except that a plastic's mirror lobe, taken by its share
-        // of the choice, carries the chain on (the end then weighs 1 / the base's share).
+        let mut mat = scene.bsdf(&si, wo);
+        // Where photons are held the chain ends, except that a plastic's coat lobe, taken by its share
+        // of the choice, carries the chain on (the end then weighs 1 / the base's share). A smooth coat's
+        // mirror is the lobe `sample` draws for the same choice; a rough coat's glossy lobe is followed
+        // alone, as a rough metal is, weighed by 1 / its share.
         let mut forced_uc = None;
         if mat.holds_photons() {
             let share = mat.coat_share(wo, si.ns);
@@ -117,8 +119,15 @@ pub fn specular_chain(
             if uc >= share {
                 return (emitted, Some(ChainEnd { si, wo, beta: beta / (1.0 - share), depth }));
             }
-            forced_uc = Some(uc);
-        } else if count && !mat.is_delta() && depth < scene.render.max_depth {
+            match mat.coat_lobe() {
+                Some(coat) => {
+                    beta /= share;
+                    mat = coat;
+                }
+                None => forced_uc = Some(uc),
+            }
+        }
+        if !mat.holds_photons() && count && !mat.is_delta() && depth < scene.render.max_depth {
             let mis = direct::DirectStrategy::Mis;
             emitted += beta * emit_scale * direct::estimate_direct_with(scene, tracer, &si, wo, &mat, rng, c, mis);
         }

@@ -2,7 +2,7 @@
 //! glass by sampling until a diffuse hit, where direct light (shadow rays or the direct map), caustics
 //! (caustic map) and indirect light (indirect map, or a final gather that reads the maps one bounce
 //! further) are added. Also the map views: photon splats and single-map estimates.
-use super::direct::{estimate_direct, estimate_direct_with, DirectStrategy};
+use super::direct::{estimate_direct_with, DirectStrategy};
 use super::{ChainLight, Counters};
 use crate::accel::Tracer;
 use crate::color::{luminance, Rgb};
@@ -386,7 +386,16 @@ impl<'a> PhotonMapper<'a> {
         } else {
             // Final-gather ends keep the light sample alone (a BSDF sample there is not worth its ray).
             let strategy = if in_gather { DirectStrategy::LightOnly } else { DirectStrategy::eye_pass(self.scene) };
-            estimate_direct(self.scene, self.tracer, si, wo, rng, c, strategy)
+            estimate_direct_with(
+                self.scene,
+                self.tracer,
+                si,
+                wo,
+                &self.scene.bsdf(si, wo).base_only(),
+                rng,
+                c,
+                strategy,
+            )
         };
         let caustic = self.map_radiance(CAUSTIC, si, wo, lobe, budget);
         if fg > 0 {
@@ -410,7 +419,8 @@ impl<'a> PhotonMapper<'a> {
         if budget <= 1 {
             return Rgb::ZERO;
         }
-        let mat = self.scene.bsdf(si, wo);
+        // A rough plastic's coat lobe is the chain's to follow: only its base gathers.
+        let mat = self.scene.bsdf(si, wo).base_only();
         // The gather rays' first hits are one bounce further into the path than this point.
         let first = self.scene.render.max_depth - budget + 1;
         let mut sum = Rgb::ZERO;

@@ -17,7 +17,7 @@
 //! n discs (a ratio of sums: consistent, and exact where the disc is whole).
 //! Every pixel updates only its own state, in parallel: no shared sums, the same bits on any thread
 //! count.
-use super::direct::{estimate_direct, DirectStrategy};
+use super::direct::{estimate_direct_with, DirectStrategy};
 use super::photon_map::build_maps;
 use super::ppm::{initial_radius, pass_request, PassRecord};
 use super::{specular_chain, ChainEnd, ChainLight, Counters};
@@ -225,7 +225,8 @@ impl<'a> Sppm<'a> {
                 return (l, end);
             }
             let strategy = DirectStrategy::eye_pass(scene);
-            l += e.beta * estimate_direct(scene, self.tracer, &e.si, e.wo, rng, c, strategy);
+            let base = scene.bsdf(&e.si, e.wo).base_only();
+            l += e.beta * estimate_direct_with(scene, self.tracer, &e.si, e.wo, &base, rng, c, strategy);
         }
         (l, end)
     }

@@ -8,7 +8,7 @@ use crate::math::face_forward;
 use crate::photon::kdtree::{KdError, KdTree, KnnResult};
 use crate::photon::photon::{events, within_depth, PhotonPayload, EVENTS_CAP};
 use crate::photon::trace::MapPhotons;
-use crate::scene::material::{coat_transmission, DiffuseLobe};
+use crate::scene::material::{Coat, DiffuseLobe};
 use crate::scene::SurfaceHit;
 use glam::Vec3;
 
@@ -101,7 +101,7 @@ impl PhotonMap {
     /// Flux-weighted sum Σ w_p ΔΦ_p over the photons within radius `r` of `si` that pass the surface
     /// tests (box kernel) and whose paths fit in `budget` scattering events (as in `radiance`): divided
     /// by π r² it is the irradiance the progressive estimators accumulate. Under a plastic's `coat` each
-    /// photon also counts the share its coat lets through (`coat_transmission`). Returns (sum,
+    /// photon also counts the share its coat lets through (`Coat::transmission`). Returns (sum,
     /// photons counted).
     pub fn flux_within(
         &self,
@@ -109,7 +109,7 @@ impl PhotonMap {
         wo: Vec3,
         r: f32,
         budget: u32,
-        coat: Option<f32>,
+        coat: Option<Coat>,
         res: &mut KnnResult,
     ) -> (Rgb, u32) {
         if self.is_empty() || r.is_nan() || r <= 0.0 {
@@ -139,11 +139,11 @@ struct PhotonFilter {
     r: f32,
     budget: u32,
     /// A plastic's coat (its index): each photon counts the share it lets through.
-    coat: Option<f32>,
+    coat: Option<Coat>,
 }
 
 impl PhotonFilter {
-    fn new(si: &SurfaceHit, wo: Vec3, r: f32, budget: u32, coat: Option<f32>) -> PhotonFilter {
+    fn new(si: &SurfaceHit, wo: Vec3, r: f32, budget: u32, coat: Option<Coat>) -> PhotonFilter {
         PhotonFilter {
             p: si.p,
             n: si.ng,
@@ -186,8 +186,8 @@ impl PhotonFilter {
         let w = if self.smooth { (-wi).dot(self.ns_side).max(0.0) / wi.dot(self.n).abs().max(1e-6) } else { 1.0 };
         match self.coat {
             None => Some(w),
-            // Mitsuba's plastic takes the Fresnel factor at the shading normal.
-            Some(eta) => Some(w * coat_transmission(eta, (-wi).dot(self.ns_side))),
+            // Mitsuba's plastic takes the coat's factor at the shading normal.
+            Some(coat) => Some(w * coat.transmission((-wi).dot(self.ns_side))),
         }
     }
 }

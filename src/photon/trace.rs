@@ -315,9 +315,23 @@ fn trace_one(
         } else if last {
             return;
         }
-        let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
+        // A rough plastic: its glossy coat (a specular bounce) or its base (a diffuse one), each chosen
+        // by its share and weighed by 1 / that share.
+        let (mat, lobe_p) = match mat.coat_lobe() {
+            Some(coat) => {
+                let share = mat.coat_share(wo, si.ns);
+                if rng.next_f32() < share {
+                    (coat, share)
+                } else {
+                    (mat.base_only(), 1.0 - share)
+                }
+            }
+            None => (mat, 1.0),
+        };
+        let Some((mut bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
             return;
         };
+        bs.weight /= lobe_p;
         if !bs.delta && mat.holds_photons() {
             // A plastic's base: a diffuse bounce, with Russian roulette on the sample's weight.
             if s.want[INDIRECT] == 0 {

@@ -130,9 +130,10 @@ pub enum MaterialSpec {
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         two_sided: bool,
     },
-    /// Plastic: a diffuse base (`reflectance`, a colour or a texture) under a smooth clear coat of index
-    /// `ior` (default 1.49, polypropylene) that mirrors F·`specular`; `nonlinear` darkens and saturates
-    /// the base as light bouncing inside the coat does (Mitsuba's `plastic`).
+    /// Plastic: a diffuse base (`reflectance`, a colour or a texture) under a clear coat of index `ior`
+    /// (default 1.49, polypropylene) that mirrors F·`specular`; `nonlinear` darkens and saturates the
+    /// base as light bouncing inside the coat does (Mitsuba's `plastic`). A coat `roughness` α > 0 makes
+    /// its reflection glossy, with the GGX (default) or Beckmann `distribution` (Mitsuba's `roughplastic`).
     Plastic {
         reflectance: Reflectance,
         #[serde(default = "one3")]
@@ -143,6 +144,10 @@ pub enum MaterialSpec {
         outside_ior: f32,
         #[serde(default, skip_serializing_if = "is_false")]
         nonlinear: bool,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        roughness: f32,
+        #[serde(default, skip_serializing_if = "is_ggx")]
+        distribution: crate::scene::material::Microfacet,
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         two_sided: bool,
     },

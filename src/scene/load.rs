@@ -4,7 +4,7 @@ use crate::color::Rgb;
 use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
 use crate::scene::light::{Lights, PointLight, Spot};
-use crate::scene::material::{conductor_preset, Fresnel, Material, SurfaceMaterial};
+use crate::scene::material::{conductor_preset, Fresnel, Material, RoughCoat, SurfaceMaterial};
 use crate::scene::mesh::{self, TriMesh};
 use crate::scene::texture::{load_image, Texture, UvMap};
 use crate::scene::{Camera, Geometry, Scene, SceneError, Shape};
@@ -429,14 +429,25 @@ fn build_material(
             two_sided: *two_sided,
             texture: Some(texture_index(cx, key, name, textures)?),
         },
-        MaterialSpec::Plastic { reflectance, specular, ior, outside_ior, nonlinear, two_sided } => {
+        MaterialSpec::Plastic {
+            reflectance,
+            specular,
+            ior,
+            outside_ior,
+            nonlinear,
+            roughness,
+            distribution,
+            two_sided,
+        } => {
             let ior = relative_ior(cx, key, *ior, *outside_ior)?;
             let (diffuse, texture) = match reflectance {
                 Reflectance::Colour(c) => (cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?, None),
                 Reflectance::Texture(name) => (Rgb::ZERO, Some(texture_index(cx, key, name, textures)?)),
             };
             let specular = cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?;
-            let bsdf = Material::Plastic { diffuse, specular, ior, nonlinear: *nonlinear };
+            let alpha = rough(*roughness)?;
+            let rough = (alpha > 0.0).then(|| RoughCoat::get(alpha, *distribution, ior));
+            let bsdf = Material::Plastic { diffuse, specular, ior, nonlinear: *nonlinear, rough };
             SurfaceMaterial { bsdf, two_sided: *two_sided, texture }
         }
         MaterialSpec::Mirror { specular, roughness, distribution, two_sided } => {

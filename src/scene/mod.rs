@@ -309,8 +309,9 @@ impl Scene {
             (Some(t), Material::Diffuse { .. }) => {
                 Material::Diffuse { reflectance: self.textures[t as usize].eval(si.uv) }
             }
-            (Some(t), Material::Plastic { specular, ior, nonlinear, .. }) => {
-                Material::Plastic { diffuse: self.textures[t as usize].eval(si.uv), specular, ior, nonlinear }
+            (Some(t), Material::Plastic { specular, ior, nonlinear, rough, .. }) => {
+                let diffuse = self.textures[t as usize].eval(si.uv);
+                Material::Plastic { diffuse, specular, ior, nonlinear, rough }
             }
             (_, bsdf) => bsdf,
         }

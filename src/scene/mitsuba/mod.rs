@@ -24,8 +24,8 @@ pub struct Converted {
 }
 
 const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere, cylinder";
-const BSDFS: &str =
-    "diffuse, plastic, dielectric, roughdielectric, thindielectric, conductor, roughconductor (ggx, beckmann), twosided";
+const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
+                     roughconductor (ggx, beckmann), twosided";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
@@ -396,10 +396,19 @@ impl<'a> Cx<'a> {
                 self.bsdf(one, true, name)?
             }
             "diffuse" => MaterialSpec::Diffuse { reflectance: self.reflectance(&p, "reflectance", name)?, two_sided },
-            "plastic" => {
+            "plastic" | "roughplastic" => {
                 let ior = p.float_or_name("int_ior", named_ior)?.unwrap_or(1.49);
                 let outside_ior = p.float_or_name("ext_ior", named_ior)?.unwrap_or(1.000277);
+                // Mitsuba's roughplastic reads one isotropic `alpha` (default 0.1), Beckmann by default.
+                let (roughness, distribution) = if kind == "roughplastic" {
+                    let distribution = microfacet_distribution(b, &p)?;
+                    (p.float("alpha")?.unwrap_or(0.1), distribution)
+                } else {
+                    (0.0, Default::default())
+                };
                 MaterialSpec::Plastic {
+                    roughness,
+                    distribution,
                     reflectance: self.reflectance(&p, "diffuse_reflectance", name)?,
                     specular: p.rgb("specular_reflectance")?.unwrap_or([1.0; 3]),
                     ior,
@@ -433,7 +442,10 @@ impl<'a> Cx<'a> {
             "conductor" | "roughconductor" => self.conductor(b, &p, two_sided)?,
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
         };
-        p.finish("the parameters of diffuse, plastic, dielectric, roughdielectric, thindielectric, conductor, roughconductor and twosided")?;
+        p.finish(
+            "the parameters of diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
+             roughconductor and twosided",
+        )?;
         Ok(spec)
     }
 
@@ -679,13 +691,7 @@ fn cylinder(
 /// A rough BSDF's isotropic roughness α (Mitsuba's default 0.1) and microfacet distribution (Mitsuba's
 /// default Beckmann); `sample_visible` only changes how Mitsuba samples, so it is read and ignored.
 fn microfacet(b: &Node, p: &Props) -> Result<(f32, crate::scene::material::Microfacet), SceneError> {
-    use crate::scene::material::Microfacet;
-    let distribution = match p.string("distribution")?.as_deref() {
-        Some("ggx") => Microfacet::Ggx,
-        None | Some("beckmann") => Microfacet::Beckmann,
-        Some(d) => return Err(b.error(format!("microfacet distribution `{d}` (read: beckmann, ggx)"))),
-    };
-    p.boolean("sample_visible")?;
+    let distribution = microfacet_distribution(b, p)?;
     let alpha = match (p.float("alpha")?, p.float("alpha_u")?, p.float("alpha_v")?) {
         (Some(a), None, None) => a,
         (None, Some(u), Some(v)) if u == v => u,
@@ -693,6 +699,19 @@ fn microfacet(b: &Node, p: &Props) -> Result<(f32, crate::scene::material::Micro
         _ => return Err(b.error("anisotropic roughness (alpha_u ≠ alpha_v) is not supported")),
     };
     Ok((alpha, distribution))
+}
+
+/// A microfacet BSDF's `distribution` (Mitsuba's default Beckmann) and `sample_visible` (read and
+/// ignored: it only changes how Mitsuba samples).
+fn microfacet_distribution(b: &Node, p: &Props) -> Result<crate::scene::material::Microfacet, SceneError> {
+    use crate::scene::material::Microfacet;
+    let distribution = match p.string("distribution")?.as_deref() {
+        Some("ggx") => Microfacet::Ggx,
+        None | Some("beckmann") => Microfacet::Beckmann,
+        Some(d) => return Err(b.error(format!("microfacet distribution `{d}` (read: beckmann, ggx)"))),
+    };
+    p.boolean("sample_visible")?;
+    Ok(distribution)
 }
 
 /// `target` as seen from folder `base` (both absolute): `../x/y` where needed.
