@@ -166,7 +166,7 @@ pub fn render_path_share(scene: &Scene, tracer: &dyn Tracer, spp: u32, share: Sh
     let r = &scene.render;
     let pt = PathTracer { scene, tracer, max_depth: r.max_depth, rr_depth: r.rr_depth };
     let cam = &scene.camera;
-    render_share(cam.width, cam.height, spp, r.sampler, r.seed, share, "path", quiet, |x, y, rng, c: &mut Counters| {
+    render_share(cam, spp, r.sampler, r.seed, share, "path", quiet, |x, y, rng, c: &mut Counters| {
         pt.li(cam.ray(x, y), rng, c)
     })
 }
@@ -245,8 +245,7 @@ pub fn render_photon_map_share(
     }
     let cam = &scene.camera;
     render_share(
-        cam.width,
-        cam.height,
+        cam,
         scene.render.pm_spp,
         scene.render.sampler,
         scene.render.seed,

@@ -6,6 +6,7 @@ use crate::film::{Image, Sums};
 use crate::integrator::Counters;
 use crate::math::rng::Sampler;
 use crate::math::Rng;
+use crate::scene::Camera;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -65,11 +66,10 @@ impl ShareOutput {
 }
 
 /// Renders `spp` samples per pixel with `sample(x, y, rng, counters)` returning one radiance sample for
-/// a film position; the sampler for (pixel, sample) is keyed by `seed`, so threads never change the result.
+/// a film position (drawn by the camera's pixel filter, `Camera::film_position`); the sampler for (pixel, sample) is keyed by `seed`, so threads never change the result.
 #[allow(clippy::too_many_arguments)]
 pub fn render<F>(
-    width: u32,
-    height: u32,
+    cam: &Camera,
     spp: u32,
     sampler: Sampler,
     seed: u64,
@@ -80,15 +80,14 @@ pub fn render<F>(
 where
     F: Fn(f32, f32, &mut Rng, &mut Counters) -> Rgb + Sync,
 {
-    render_share(width, height, spp, sampler, seed, Share::All, label, quiet, sample).finish()
+    render_share(cam, spp, sampler, seed, Share::All, label, quiet, sample).finish()
 }
 
 /// `render`'s share `share`: each pixel's samples are summed in f64 in sample order, so the sums of
 /// sample-index shares add up to the whole render's sums (to f64 rounding).
 #[allow(clippy::too_many_arguments)]
 pub fn render_share<F>(
-    width: u32,
-    height: u32,
+    cam: &Camera,
     spp: u32,
     sampler: Sampler,
     seed: u64,
@@ -100,6 +99,7 @@ pub fn render_share<F>(
 where
     F: Fn(f32, f32, &mut Rng, &mut Counters) -> Rgb + Sync,
 {
+    let (width, height) = (cam.width, cam.height);
     let t0 = Instant::now();
     let tiles: Vec<(u32, u32)> =
         (0..height.div_ceil(TILE)).flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx, ty))).collect();
@@ -118,8 +118,8 @@ where
                     let mut sum = [0.0f64; 3];
                     for s in range.clone() {
                         let mut rng = Rng::camera(sampler, seed, pixel, s as u64);
-                        let [jx, jy] = rng.next_2d();
-                        let v = sample(x as f32 + jx, y as f32 + jy, &mut rng, &mut c);
+                        let (fx, fy) = cam.film_position(x, y, rng.next_2d());
+                        let v = sample(fx, fy, &mut rng, &mut c);
                         if v.is_finite() {
                             for k in 0..3 {
                                 sum[k] += v[k] as f64;

@@ -174,6 +174,18 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["materials.white.reflectance", "unknown texture `wood`"],
         ),
         (
+            "filter_stddev",
+            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"gaussian\", stddev = 5.0 }"),
+            vec![],
+            vec!["camera.filter.stddev", "[0.1, 1]", "got 5"],
+        ),
+        (
+            "filter_kind",
+            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"mitchell\" }"),
+            vec![],
+            vec!["line 7", "mitchell", "box", "tent", "gaussian"],
+        ),
+        (
             "rough_plastic_roughness",
             GOOD.replace(
                 "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",

@@ -342,6 +342,8 @@ const XML_TYPES: &[&str] = &[
     "spot",
     "plastic",
     "roughplastic",
+    "gaussian",
+    "tent",
     "roughdielectric",
     "cylinder",
     "",

@@ -120,7 +120,7 @@ impl<'a> Sppm<'a> {
                 // Iteration i is camera sample i − 1 of each pixel: stratified across iterations.
                 let mut rng = Rng::camera(sampler, base_seed, k as u64, (i - 1) as u64);
                 let mut c = Counters::default();
-                let (x, y) = ((k % width) as f32, (k / width) as f32);
+                let (x, y) = ((k % width) as u32, (k / width) as u32);
                 let (mut l, vp) = self.camera_path(x, y, &mut rng, &mut c);
                 let extra = self.extra[k] as u64;
                 for j in 0..extra {
@@ -214,10 +214,10 @@ impl<'a> Sppm<'a> {
     /// A camera sample through pixel (x, y): the light it finds before (and at) its first diffuse hit,
     /// and that hit as a visible point. Direct light there comes from shadow rays, unless the scene reads
     /// it from photons (`render.direct_light = "photon_map"`, gathered like the rest).
-    fn camera_path(&self, x: f32, y: f32, rng: &mut Rng, c: &mut Counters) -> (Rgb, Option<ChainEnd>) {
+    fn camera_path(&self, x: u32, y: u32, rng: &mut Rng, c: &mut Counters) -> (Rgb, Option<ChainEnd>) {
         let scene = self.scene;
-        let [u, v] = rng.next_2d();
-        let ray = scene.camera.ray(x + u, y + v);
+        let (fx, fy) = scene.camera.film_position(x, y, rng.next_2d());
+        let ray = scene.camera.ray(fx, fy);
         let (mut l, end) = specular_chain(scene, self.tracer, ray, Rgb::ONE, rng, c, ChainLight::CountSplitFirst);
         if let (Some(e), DirectLight::ShadowRays) = (&end, scene.render.direct_light) {
             // No light sample where the path tracer's depth leaves none (`ChainEnd::budget`).

@@ -611,8 +611,8 @@ pub fn iterate(scene: &Scene, tracer: &dyn Tracer, setup: &Setup, i: u32) -> Ite
         .map(|k| {
             let mut rng = Rng::camera(sampler, seed, k as u64, (i - 1) as u64);
             let mut c = Counters::default();
-            let [u, uv] = rng.next_2d();
-            let l = v.camera_path(((k % w) as f32 + u, (k / w) as f32 + uv), k, &light, &mut rng, &mut c);
+            let film = cam.film_position((k % w) as u32, (k / w) as u32, rng.next_2d());
+            let l = v.camera_path(film, k, &light, &mut rng, &mut c);
             (l, c)
         })
         .collect();
@@ -840,8 +840,7 @@ impl Vcm<'_> {
         if self.tracer.occluded(&lv.si.spawn_to(cam.origin)) {
             return;
         }
-        let pixel = (py as u32).min(cam.height - 1) * cam.width + (px as u32).min(cam.width - 1);
-        splats.push((pixel, val));
+        cam.splat(px, py, |pixel, w| splats.push((pixel, if w == 1.0 { val } else { val * w })));
     }
 
     /// One camera subpath through film position `film`, paired with light subpath `k`.

@@ -1,7 +1,148 @@
-//! Pinhole camera: `origin`, `target`, `up`, `fov` (degrees) along `fov_axis`, `resolution`.
+//! Pinhole camera: `origin`, `target`, `up`, `fov` (degrees) along `fov_axis`, `resolution`, and the
+//! pixel reconstruction filter.
 use crate::math::Ray;
 use crate::scene::file::FovAxis;
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+/// A pixel reconstruction filter as written in a scene (Mitsuba's `rfilter`): `box` (caustica's
+/// default: each pixel averages the light over its own square), `tent` of a `radius` in pixels (Mitsuba's
+/// default 1) or `gaussian` of a standard deviation `stddev` (Mitsuba's default 0.5, cut at 4 stddev
+/// with the value there subtracted, as Mitsuba's is; Mitsuba's film's default filter).
+#[derive(Clone, Copy, Debug, PartialEq, Default, Deserialize, Serialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum FilterSpec {
+    #[default]
+    Box,
+    Tent {
+        #[serde(default = "tent_radius")]
+        radius: f32,
+    },
+    Gaussian {
+        #[serde(default = "gaussian_stddev")]
+        stddev: f32,
+    },
+}
+
+fn tent_radius() -> f32 {
+    1.0
+}
+
+fn gaussian_stddev() -> f32 {
+    0.5
+}
+
+impl FilterSpec {
+    /// The filter's reach in pixels from a pixel's centre.
+    pub fn radius(&self) -> f32 {
+        match *self {
+            FilterSpec::Box => 0.5,
+            FilterSpec::Tent { radius } => radius,
+            FilterSpec::Gaussian { stddev } => 4.0 * stddev,
+        }
+    }
+
+    /// The filter's value at an offset of `t` pixels along one axis (it is separable).
+    fn eval(&self, t: f32) -> f32 {
+        let r = self.radius();
+        match *self {
+            FilterSpec::Box => (t.abs() <= 0.5) as u8 as f32,
+            FilterSpec::Tent { radius } => (1.0 - t.abs() / radius).max(0.0),
+            FilterSpec::Gaussian { stddev } => {
+                let a = -1.0 / (2.0 * stddev * stddev);
+                ((t * t * a).exp() - (r * r * a).exp()).max(0.0)
+            }
+        }
+    }
+}
+
+/// Bins of a filter's tabulated distribution over [−radius, radius].
+const FILTER_BINS: usize = 512;
+
+/// A reconstruction filter ready to draw with. Box: a pixel's samples are uniform over its square.
+/// Tent and Gaussian: each sample's film position is drawn from the filter around the pixel's centre
+/// (tabulated in `FILTER_BINS` steps, the step function being the filter rendered), cut to the film, as
+/// Mitsuba's film (without `sample_border`) only samples inside it; every sample then weighs 1, so a
+/// pixel converges to ∫ f(x − c) L(x) dx / ∫ f, both over the film, the weighted average Mitsuba's film
+/// accumulates. Light tracing's splats (`splat`) give each pixel in reach the same normalised weight.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PixelFilter {
+    pub spec: FilterSpec,
+    radius: f32,
+    /// The filter's cumulative distribution at the bins' edges (FILTER_BINS + 1 entries, 0 to 1); empty
+    /// for the box.
+    cdf: Vec<f32>,
+}
+
+impl PixelFilter {
+    pub fn new(spec: FilterSpec) -> PixelFilter {
+        let radius = spec.radius();
+        if spec == FilterSpec::Box {
+            return PixelFilter { spec, radius, cdf: Vec::new() };
+        }
+        let width = 2.0 * radius as f64 / FILTER_BINS as f64;
+        // Each bin's share: the filter averaged over the bin (16 midpoints), in f64.
+        let mut cdf = vec![0.0f64; FILTER_BINS + 1];
+        for k in 0..FILTER_BINS {
+            let bin: f64 = (0..16)
+                .map(|j| spec.eval((-radius as f64 + (k as f64 + (j as f64 + 0.5) / 16.0) * width) as f32) as f64)
+                .sum();
+            cdf[k + 1] = cdf[k] + bin;
+        }
+        let total = cdf[FILTER_BINS];
+        PixelFilter { spec, radius, cdf: cdf.iter().map(|c| (c / total) as f32).collect() }
+    }
+
+    /// The offsets from pixel `i`'s centre (of `n` along this axis) that stay on the film and in reach.
+    fn bounds(&self, i: u32, n: u32) -> (f32, f32) {
+        let c = i as f32 + 0.5;
+        ((-self.radius).max(-c), self.radius.min(n as f32 - c))
+    }
+
+    /// The cumulative distribution at offset `t` ∈ [−radius, radius] (linear within a bin).
+    fn cdf_at(&self, t: f32) -> f32 {
+        let s = ((t + self.radius) / (2.0 * self.radius) * FILTER_BINS as f32).clamp(0.0, FILTER_BINS as f32);
+        let k = (s as usize).min(FILTER_BINS - 1);
+        self.cdf[k] + (self.cdf[k + 1] - self.cdf[k]) * (s - k as f32)
+    }
+
+    /// A film coordinate for pixel `i` of `n` along one axis from a uniform `u`.
+    fn sample_axis(&self, i: u32, n: u32, u: f32) -> f32 {
+        let (lo, hi) = self.bounds(i, n);
+        let (a, b) = (self.cdf_at(lo), self.cdf_at(hi));
+        let v = a + u * (b - a);
+        // The bin holding v: the last edge at or below it.
+        let k = (self.cdf.partition_point(|&c| c <= v).max(1) - 1).min(FILTER_BINS - 1);
+        let span = self.cdf[k + 1] - self.cdf[k];
+        let frac = if span > 0.0 { ((v - self.cdf[k]) / span).clamp(0.0, 1.0) } else { 0.5 };
+        let t = -self.radius + (k as f32 + frac) * (2.0 * self.radius / FILTER_BINS as f32);
+        i as f32 + 0.5 + t.clamp(lo, hi)
+    }
+
+    /// The density along one axis with which pixel `i` of `n` draws film coordinate `x` (0 out of reach).
+    fn weight_axis(&self, i: u32, n: u32, x: f32) -> f32 {
+        let (lo, hi) = self.bounds(i, n);
+        let t = x - (i as f32 + 0.5);
+        if !(t >= lo && t < hi) {
+            return 0.0;
+        }
+        let s = (t + self.radius) / (2.0 * self.radius) * FILTER_BINS as f32;
+        let k = (s as usize).min(FILTER_BINS - 1);
+        let pdf = (self.cdf[k + 1] - self.cdf[k]) * FILTER_BINS as f32 / (2.0 * self.radius);
+        let mass = self.cdf_at(hi) - self.cdf_at(lo);
+        if mass > 0.0 {
+            pdf / mass
+        } else {
+            0.0
+        }
+    }
+}
+
+impl Default for PixelFilter {
+    fn default() -> Self {
+        PixelFilter::new(FilterSpec::Box)
+    }
+}
 
 #[derive(Clone, Debug)]
 pub struct Camera {
@@ -12,6 +153,7 @@ pub struct Camera {
     pub tan_half: [f32; 2],
     pub width: u32,
     pub height: u32,
+    pub filter: PixelFilter,
 }
 
 impl Camera {
@@ -25,7 +167,48 @@ impl Camera {
             FovAxis::X => [t, t / aspect],
             FovAxis::Y => [t * aspect, t],
         };
-        Camera { origin, right, up, forward, tan_half, width: res[0], height: res[1] }
+        Camera { origin, right, up, forward, tan_half, width: res[0], height: res[1], filter: PixelFilter::default() }
+    }
+
+    /// The film position of a sample of pixel (`x`, `y`) from the uniform pair `u`: within the pixel for
+    /// the box filter (x + u exactly), else drawn from the filter around its centre (`PixelFilter`).
+    #[inline]
+    pub fn film_position(&self, x: u32, y: u32, u: [f32; 2]) -> (f32, f32) {
+        let f = &self.filter;
+        if f.cdf.is_empty() {
+            return (x as f32 + u[0], y as f32 + u[1]);
+        }
+        (f.sample_axis(x, self.width, u[0]), f.sample_axis(y, self.height, u[1]))
+    }
+
+    /// Light landing at film position (`x`, `y`) (on the film): `add(pixel index, weight)` for each
+    /// pixel it counts in, with the weight a sample of that pixel would give it: the pixel under it,
+    /// weight 1, for the box filter; every pixel whose filter reaches it otherwise, each weighted by
+    /// the density of that pixel's film positions there (so each pixel's share integrates to one).
+    pub fn splat(&self, x: f32, y: f32, mut add: impl FnMut(u32, f32)) {
+        let (w, h) = (self.width, self.height);
+        let f = &self.filter;
+        if f.cdf.is_empty() {
+            add((y as u32).min(h - 1) * w + (x as u32).min(w - 1), 1.0);
+            return;
+        }
+        let reach = |c: f32, n: u32| {
+            let lo = (c - 0.5 - f.radius).floor().max(0.0) as u32;
+            let hi = ((c - 0.5 + f.radius).ceil().max(0.0) as u32).min(n - 1);
+            lo..=hi
+        };
+        for py in reach(y, h) {
+            let wy = f.weight_axis(py, h, y);
+            if wy <= 0.0 {
+                continue;
+            }
+            for px in reach(x, w) {
+                let wx = f.weight_axis(px, w, x);
+                if wx > 0.0 {
+                    add(py * w + px, wx * wy);
+                }
+            }
+        }
     }
 
     /// Primary ray through film position (x, y) in pixels, (0,0) = top-left corner.
@@ -70,6 +253,82 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A pixel's film positions follow its filter, cut to the film: a histogram of 400,000 draws per
+    /// axis equals the filter's values over the pixels it reaches (normalised over the film), within 2%
+    /// of the largest bin; light landing anywhere gives each pixel the density of that pixel's draws
+    /// there (`splat`), so each pixel's weights integrate to 1 over the film, at its edge too.
+    #[test]
+    fn filters_draw_and_splat_alike() {
+        for spec in [FilterSpec::Gaussian { stddev: 0.5 }, FilterSpec::Tent { radius: 1.5 }, FilterSpec::Box] {
+            let mut cam = Camera::new(Vec3::ZERO, Vec3::Z, Vec3::Y, 40.0, FovAxis::X, [9, 7]);
+            cam.filter = PixelFilter::new(spec);
+            let mut r = crate::math::Rng::new(5, 0, 0);
+            for (px, py) in [(4u32, 3u32), (0, 0), (8, 6), (1, 5)] {
+                // Draws: histogram in 1/8-pixel bins over the film.
+                let (bins_x, bins_y) = (9 * 8, 7 * 8);
+                let (mut hx, mut hy) = (vec![0.0f64; bins_x], vec![0.0f64; bins_y]);
+                let n = 400_000;
+                for _ in 0..n {
+                    let (x, y) = cam.film_position(px, py, r.next_2d());
+                    assert!((0.0..=9.0).contains(&x) && (0.0..=7.0).contains(&y), "{spec:?}: ({x}, {y}) off the film");
+                    hx[((x * 8.0) as usize).min(bins_x - 1)] += 1.0 / n as f64;
+                    hy[((y * 8.0) as usize).min(bins_y - 1)] += 1.0 / n as f64;
+                }
+                // The splat weights of this pixel over the same bins (16 points per bin), and their integral.
+                let (mut wx, mut wy, mut total) = (vec![0.0f64; bins_x], vec![0.0f64; bins_y], 0.0f64);
+                let step = 1.0 / 128.0;
+                for iy in 0..7 * 128 {
+                    for ix in 0..9 * 128 {
+                        let (x, y) = ((ix as f32 + 0.5) * step, (iy as f32 + 0.5) * step);
+                        cam.splat(x, y, |pixel, w| {
+                            if pixel == py * 9 + px {
+                                let a = (w * step * step) as f64;
+                                total += a;
+                                wx[ix / 16] += a;
+                                wy[iy / 16] += a;
+                            }
+                        });
+                    }
+                }
+                assert!((total - 1.0).abs() < 2e-3, "{spec:?} pixel ({px}, {py}): splat weights integrate to {total}");
+                for (h, w) in [(&hx, &wx), (&hy, &wy)] {
+                    let peak = w.iter().cloned().fold(0.0, f64::max);
+                    for (k, (a, b)) in h.iter().zip(w.iter()).enumerate() {
+                        assert!(
+                            (a - b).abs() < 0.02 * peak,
+                            "{spec:?} pixel ({px}, {py}) bin {k}: drawn {a} vs splat {b}"
+                        );
+                    }
+                }
+            }
+            // The box draws x + u exactly.
+            if spec == FilterSpec::Box {
+                assert_eq!(cam.film_position(3, 2, [0.25, 0.75]), (3.25, 2.75));
+            }
+        }
+    }
+
+    /// The Gaussian is Mitsuba's (stddev 0.5, cut at 2 pixels with its value there subtracted): its
+    /// tabulated distribution's mass within half a pixel of the centre equals the closed form.
+    #[test]
+    fn gaussian_is_mitsubas() {
+        let f = PixelFilter::new(FilterSpec::Gaussian { stddev: 0.5 });
+        // ∫_{-a}^{a} (e^{-2t²} − e^{-8}) dt / ∫_{-2}^{2} (…): erf by its series, in f64.
+        let erf = |x: f64| {
+            let mut sum = 0.0;
+            let mut term = x;
+            for k in 0..60 {
+                sum += term / (2 * k + 1) as f64;
+                term *= -x * x / (k + 1) as f64;
+            }
+            2.0 / std::f64::consts::PI.sqrt() * sum
+        };
+        let mass = |a: f64| (std::f64::consts::PI / 2.0).sqrt() * erf(2f64.sqrt() * a) - 2.0 * a * (-8f64).exp();
+        let expected = mass(0.5) / mass(2.0);
+        let got = (f.cdf_at(0.5) - f.cdf_at(-0.5)) as f64;
+        assert!((got - expected).abs() < 1e-4, "mass within half a pixel {got} vs {expected}");
+    }
     #[test]
     fn project_inverts_ray() {
         let c = Camera::new(Vec3::new(0.0, 1.0, 4.0), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 40.0, FovAxis::X, [320, 200]);

@@ -67,6 +67,14 @@ pub struct CameraSpec {
     pub fov_axis: FovAxis,
     #[serde(default = "default_resolution")]
     pub resolution: [u32; 2],
+    /// Pixel reconstruction filter: `{ type = "box" }` (default), `{ type = "tent", radius = 1.0 }` or
+    /// `{ type = "gaussian", stddev = 0.5 }` (Mitsuba's film's default).
+    #[serde(default, skip_serializing_if = "is_box_filter")]
+    pub filter: crate::scene::camera::FilterSpec,
+}
+
+fn is_box_filter(f: &crate::scene::camera::FilterSpec) -> bool {
+    *f == crate::scene::camera::FilterSpec::Box
 }
 
 fn default_up() -> V3 {

@@ -1,6 +1,7 @@
 //! Scene file → `Scene`: TOML parsing, `--set` overrides, and every check a user's mistake needs,
 //! each error naming the file and the key (TOML syntax and type errors also give the line).
 use crate::color::Rgb;
+use crate::scene::camera::{FilterSpec, PixelFilter};
 use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
 use crate::scene::light::{Lights, PointLight, Spot};
@@ -270,7 +271,18 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
             format!("{w}×{h} needs about {} MiB of film; the limit is {MAX_PIXELS} pixels", px * 40 / (1 << 20)),
         ));
     }
-    Ok(Camera::new(o, t, up, c.fov, c.fov_axis, c.resolution))
+    let mut camera = Camera::new(o, t, up, c.fov, c.fov_axis, c.resolution);
+    let (key, value, range) = match c.filter {
+        FilterSpec::Box => ("", 1.0, 0.0..=2.0),
+        FilterSpec::Tent { radius } => ("camera.filter.radius", radius, 0.5..=4.0),
+        FilterSpec::Gaussian { stddev } => ("camera.filter.stddev", stddev, 0.1..=1.0),
+    };
+    if !range.contains(&value) {
+        let (lo, hi) = (range.start(), range.end());
+        return Err(cx.err(key, format!("must be in [{lo}, {hi}] pixels, got {value}")));
+    }
+    camera.filter = PixelFilter::new(c.filter);
+    Ok(camera)
 }
 
 fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {

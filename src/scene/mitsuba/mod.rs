@@ -76,6 +76,8 @@ fn empty_file() -> SceneFile {
         fov: 40.0,
         fov_axis: FovAxis::X,
         resolution: [768, 576],
+        // Mitsuba's film's default; replaced by what the film says.
+        filter: crate::scene::camera::FilterSpec::Gaussian { stddev: 0.5 },
     };
     let mut render = RenderSettings { max_depth: UNLIMITED_DEPTH, ..Default::default() };
     render.spp = 4;
@@ -203,15 +205,34 @@ impl<'a> Cx<'a> {
         p.boolean("banner")?;
         p.boolean("high_quality_edges")?;
         p.boolean("sample_border")?;
+        // Mitsuba's film filters with a Gaussian (stddev 0.5) unless told otherwise.
+        use crate::scene::camera::FilterSpec;
         let filters = p.objects("rfilter");
-        let filter = filters.first().and_then(|r| r.attr("type")).unwrap_or("gaussian");
-        if filter != "box" {
-            self.warnings.push(format!(
-                "{}: line {}: reconstruction filter `{filter}` is rendered with caustica's box filter (edges a little sharper)",
-                f.file.display(),
-                f.line
-            ));
-        }
+        self.file.camera.filter = match filters.first() {
+            None => FilterSpec::Gaussian { stddev: 0.5 },
+            Some(r) => {
+                let rp = Props::new(r);
+                let kind = r.attr("type").unwrap_or("");
+                let spec = match kind {
+                    "box" => FilterSpec::Box,
+                    "tent" => FilterSpec::Tent { radius: rp.float("radius")?.unwrap_or(1.0) },
+                    "gaussian" => FilterSpec::Gaussian { stddev: rp.float("stddev")?.unwrap_or(0.5) },
+                    _ => {
+                        self.warnings.push(format!(
+                            "{}: line {}: reconstruction filter `{kind}` is rendered with caustica's box filter \
+                             (read: box, tent, gaussian; edges a little sharper)",
+                            f.file.display(),
+                            r.line
+                        ));
+                        FilterSpec::Box
+                    }
+                };
+                if matches!(kind, "box" | "tent" | "gaussian") {
+                    rp.finish("radius (tent), stddev (gaussian)")?;
+                }
+                spec
+            }
+        };
         p.finish("width, height, rfilter, pixel_format, component_format, file_format (crops are not read)")
     }
 
