@@ -18,16 +18,25 @@ pub fn compare(a: &Image, r: &Image) -> Option<Errors> {
     compare_masked(a, r, &vec![true; r.pixels.len()])
 }
 
-/// Pixels in which no camera ray (of a `sub`×`sub` grid) sees an emitter directly. Error metrics leave
-/// the others out: a light's edge pixels measure only anti-aliasing noise and swamp every other error.
+/// Pixels in which no camera ray (of a `sub`×`sub` grid over the pixel's filter: the pixel itself for
+/// the box) sees an emitter directly. Error metrics leave the others out: a light's edge pixels measure
+/// only anti-aliasing noise and swamp every other error.
 pub fn light_free_pixels(scene: &Scene, tracer: &dyn Tracer, sub: u32) -> Vec<bool> {
     let cam = &scene.camera;
+    // The grid spans the filter's reach: 1 pixel for the box, 2 × radius otherwise.
+    let span = 2.0 * cam.filter.spec.radius();
     let mut keep = Vec::with_capacity((cam.width * cam.height) as usize);
     for y in 0..cam.height {
         for x in 0..cam.width {
             let sees_light = (0..sub * sub).any(|i| {
                 let (fx, fy) = ((i % sub) as f32 + 0.5, (i / sub) as f32 + 0.5);
-                let ray = cam.ray(x as f32 + fx / sub as f32, y as f32 + fy / sub as f32);
+                let (ox, oy) = if span == 1.0 {
+                    (x as f32 + fx / sub as f32, y as f32 + fy / sub as f32)
+                } else {
+                    let at = |p: u32, f: f32| p as f32 + 0.5 + (f / sub as f32 - 0.5) * span;
+                    (at(x, fx), at(y, fy))
+                };
+                let ray = cam.ray(ox, oy);
                 tracer.intersect(&ray).is_some_and(|h| scene.shapes[h.shape as usize].emission != glam::Vec3::ZERO)
             });
             keep.push(!sees_light);
