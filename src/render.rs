@@ -66,7 +66,8 @@ impl ShareOutput {
 }
 
 /// Renders `spp` samples per pixel with `sample(x, y, rng, counters)` returning one radiance sample for
-/// a film position (drawn by the camera's pixel filter, `Camera::film_position`); the sampler for (pixel, sample) is keyed by `seed`, so threads never change the result.
+/// a film position (drawn by the camera's pixel filter, `Camera::film_position`); the sampler for
+/// (pixel, sample) is keyed by `seed`, so threads never change the result.
 #[allow(clippy::too_many_arguments)]
 pub fn render<F>(
     cam: &Camera,

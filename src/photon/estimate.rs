@@ -138,7 +138,7 @@ struct PhotonFilter {
     smooth: bool,
     r: f32,
     budget: u32,
-    /// A plastic's coat (its index): each photon counts the share it lets through.
+    /// A plastic's coat (smooth or rough): each photon counts the share it lets through.
     coat: Option<Coat>,
 }
 

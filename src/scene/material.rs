@@ -1,6 +1,7 @@
 //! BSDFs: Lambertian diffuse, smooth or rough (GGX or Beckmann) mirror/conductor (constant, Schlick or exact
 //! complex-IOR Fresnel), smooth or rough dielectric (exact Fresnel, TIR; Walter et al. 2007's microfacet
-//! transmission) and thin dielectric (a pane: reflect or pass straight).
+//! transmission), thin dielectric (a pane: reflect or pass straight) and plastic (a diffuse base under a
+//! smooth or rough clear coat, Mitsuba's `plastic` and `roughplastic`).
 //! Directions point away from the surface; `n` is the shading normal (any side).
 use crate::color::Rgb;
 use crate::math::{face_forward, reflect, refract, sampling, Frame};
@@ -789,10 +790,17 @@ impl Material {
             }
             Material::Plastic { specular, rough, .. } => {
                 let (fr, share) = self.coat_fresnel_and_share(wo, n);
-                if let Some(lobe) = rough.and_then(|_| self.coat_lobe()) {
-                    // Rough: one lobe's direction, weighed by the whole mixture.
+                if let Some(c) = rough {
+                    // Rough: one lobe's direction (the coat's as `coat_lobe` samples it), weighed by the
+                    // whole mixture.
                     let wi = if uc < share {
-                        lobe.sample(wo, n, u, 0.0, mode)?.wi
+                        let f = Frame::from_normal(side);
+                        let lo = f.to_local(wo);
+                        let li = reflect(lo, c.distribution.sample_h(lo, u, c.alpha));
+                        if li.z <= 0.0 || lo.z <= 0.0 {
+                            return None;
+                        }
+                        f.to_world(li)
                     } else {
                         sampling::cosine_around(side, u)
                     };
