@@ -26,6 +26,11 @@ position = [0.0, 1.5, 0.0]
 power = [10.0, 10.0, 10.0]
 "#;
 
+/// `GOOD` with its one material, `white`, replaced by `line` (a whole `white = …` line).
+fn with_white(line: &str) -> String {
+    GOOD.replace("white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }", line)
+}
+
 fn dir() -> PathBuf {
     let d = std::env::temp_dir().join(format!("caustica-bad-input-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -139,37 +144,25 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "glass_roughness",
-            GOOD.replace(
-                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
-                "white = { type = \"dielectric\", ior = 1.5, roughness = 1.5 }",
-            ),
+            with_white("white = { type = \"dielectric\", ior = 1.5, roughness = 1.5 }"),
             vec![],
             vec!["materials.white.roughness", "[0, 1]", "got 1.5"],
         ),
         (
             "plastic_ior",
-            GOOD.replace(
-                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
-                "white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], ior = 0.1 }",
-            ),
+            with_white("white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], ior = 0.1 }"),
             vec![],
             vec!["materials.white.ior", "[0.25, 4]", "got 0.1"],
         ),
         (
             "plastic_reflectance",
-            GOOD.replace(
-                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
-                "white = { type = \"plastic\", reflectance = [0.5, 1.5, 0.5] }",
-            ),
+            with_white("white = { type = \"plastic\", reflectance = [0.5, 1.5, 0.5] }"),
             vec![],
             vec!["materials.white.reflectance"],
         ),
         (
             "plastic_texture",
-            GOOD.replace(
-                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
-                "white = { type = \"plastic\", reflectance = \"wood\" }",
-            ),
+            with_white("white = { type = \"plastic\", reflectance = \"wood\" }"),
             vec![],
             vec!["materials.white.reflectance", "unknown texture `wood`"],
         ),
@@ -187,28 +180,19 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "rough_plastic_roughness",
-            GOOD.replace(
-                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
-                "white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], roughness = 2.0 }",
-            ),
+            with_white("white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], roughness = 2.0 }"),
             vec![],
             vec!["materials.white.roughness", "[0, 1]", "got 2"],
         ),
         (
             "rough_plastic_distribution",
-            GOOD.replace(
-                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
-                "white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], roughness = 0.2, distribution = \"blinn\" }",
-            ),
+            with_white("white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], roughness = 0.2, distribution = \"blinn\" }"),
             vec![],
             vec!["line 9", "blinn", "ggx", "beckmann"],
         ),
         (
             "glass_distribution",
-            GOOD.replace(
-                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
-                "white = { type = \"dielectric\", ior = 1.5, roughness = 0.2, distribution = \"phong\" }",
-            ),
+            with_white("white = { type = \"dielectric\", ior = 1.5, roughness = 0.2, distribution = \"phong\" }"),
             vec![],
             vec!["line 9", "phong", "ggx", "beckmann"],
         ),
@@ -297,10 +281,7 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "unknown_preset",
-            GOOD.replace(
-                "white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }",
-                "white = { type = \"conductor\", preset = \"Unobtainium\" }",
-            ),
+            with_white("white = { type = \"conductor\", preset = \"Unobtainium\" }"),
             vec![],
             vec!["materials.white.preset", "unknown metal"],
         ),
