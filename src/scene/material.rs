@@ -302,6 +302,18 @@ impl Microfacet {
         }
     }
 
+    /// A direction reflected about a microfacet normal `sample_h` draws, for a path leaving along `wo` on
+    /// `side`'s side of the surface: (wi, cos θi about `side`), or None where it would leave below.
+    fn sample_reflection(self, wo: Vec3, side: Vec3, u: [f32; 2], alpha: f32) -> Option<(Vec3, f32)> {
+        let f = Frame::from_normal(side);
+        let lo = f.to_local(wo);
+        let li = reflect(lo, self.sample_h(lo, u, alpha));
+        if li.z <= 0.0 || lo.z <= 0.0 {
+            return None;
+        }
+        Some((f.to_world(li), li.z))
+    }
+
     /// Density of `sample_h` drawing h for a path arriving along `lo` (lo.z > 0).
     fn pdf_h(self, lo: Vec3, h: Vec3, alpha: f32) -> f32 {
         let d = self.d(h, alpha);
@@ -350,12 +362,6 @@ impl DiffuseLobe {
     }
 }
 
-/// The share 1 − F(θ) of light a plastic's coat (index `eta`) lets through at |cos θ| = `cos`.
-#[inline]
-pub fn coat_transmission(eta: f32, cos: f32) -> f32 {
-    1.0 - fresnel_dielectric(cos.abs().min(1.0), eta).0
-}
-
 /// A plastic's coat as the light crossing it sees it: smooth (index `ior`, 1 − F) or rough (its table).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Coat {
@@ -364,11 +370,11 @@ pub enum Coat {
 }
 
 impl Coat {
-    /// The share of light the coat lets through at |cos θ| = `cos`, either way.
+    /// The share of light the coat lets through at |cos θ| = `cos`: 1 − F(θ) for a smooth coat.
     #[inline]
     pub fn transmission(self, cos: f32) -> f32 {
         match self {
-            Coat::Smooth(eta) => coat_transmission(eta, cos),
+            Coat::Smooth(eta) => 1.0 - fresnel_dielectric(cos.abs().min(1.0), eta).0,
             Coat::Rough(c) => c.transmittance(cos),
         }
     }
@@ -397,7 +403,7 @@ pub struct RoughCoat {
 
 impl RoughCoat {
     /// The coat for these parameters, computed once per process and shared (`Material` is `Copy`, a
-    /// scene holds few distinct coats; each costs about 10 ms to compute and 280 bytes to keep).
+    /// scene holds few distinct coats; each costs 30–60 ms to compute and 280 bytes to keep).
     pub fn get(alpha: f32, distribution: Microfacet, ior: f32) -> &'static RoughCoat {
         use std::sync::{Mutex, OnceLock};
         static COATS: OnceLock<Mutex<Vec<&'static RoughCoat>>> = OnceLock::new();
@@ -652,6 +658,16 @@ impl Material {
         }
     }
 
+    /// A plastic's `pdf`, given its coat's share at `wo` (`sample` has it at hand): the base's cosine
+    /// lobe by the rest, and a rough coat's glossy lobe by the share.
+    fn plastic_pdf(&self, share: f32, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
+        let base = (1.0 - share) * wi.dot(face_forward(n, wo)).max(0.0) / PI;
+        match self.coat_lobe() {
+            Some(lobe) if share > 0.0 => base + share * lobe.pdf(wo, wi, n),
+            _ => base,
+        }
+    }
+
     /// ρ' of a plastic: the base's reflectance with the light the coat reflects back onto it.
     fn plastic_base(&self) -> Rgb {
         let Material::Plastic { diffuse, ior, nonlinear, rough, .. } = self else {
@@ -743,14 +759,7 @@ impl Material {
     pub fn pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
         match self {
             Material::Diffuse { .. } => wi.dot(face_forward(n, wo)).max(0.0) / PI,
-            Material::Plastic { .. } => {
-                let share = self.coat_share(wo, n);
-                let base = (1.0 - share) * wi.dot(face_forward(n, wo)).max(0.0) / PI;
-                match self.coat_lobe() {
-                    Some(lobe) if share > 0.0 => base + share * lobe.pdf(wo, wi, n),
-                    _ => base,
-                }
-            }
+            Material::Plastic { .. } => self.plastic_pdf(self.coat_share(wo, n), wo, wi, n),
             Material::Conductor { alpha, distribution: m, .. } if *alpha > 0.0 => {
                 let f = Frame::from_normal(face_forward(n, wo));
                 let (lo, li) = (f.to_local(wo), f.to_local(wi));
@@ -794,17 +803,11 @@ impl Material {
                     // Rough: one lobe's direction (the coat's as `coat_lobe` samples it), weighed by the
                     // whole mixture.
                     let wi = if uc < share {
-                        let f = Frame::from_normal(side);
-                        let lo = f.to_local(wo);
-                        let li = reflect(lo, c.distribution.sample_h(lo, u, c.alpha));
-                        if li.z <= 0.0 || lo.z <= 0.0 {
-                            return None;
-                        }
-                        f.to_world(li)
+                        c.distribution.sample_reflection(wo, side, u, c.alpha)?.0
                     } else {
                         sampling::cosine_around(side, u)
                     };
-                    let pdf = self.pdf(wo, wi, n);
+                    let pdf = self.plastic_pdf(share, wo, wi, n);
                     if pdf <= 0.0 || wi.dot(side) <= 0.0 {
                         return None;
                     }
@@ -815,8 +818,7 @@ impl Material {
                     return Some(sample(reflect(wo, side), *specular * (fr / share), share, true, false, 1.0));
                 }
                 let wi = sampling::cosine_around(side, u);
-                // `pdf`'s value, with the share already at hand.
-                let pdf = (1.0 - share) * wi.dot(side).max(0.0) / PI;
+                let pdf = self.plastic_pdf(share, wo, wi, n);
                 if pdf <= 0.0 {
                     return None;
                 }
@@ -829,18 +831,12 @@ impl Material {
                     let fr = fresnel.eval(wi.dot(side));
                     return Some(sample(wi, fr, 1.0, true, false, 1.0));
                 }
-                let f = Frame::from_normal(side);
-                let lo = f.to_local(wo);
-                let li = reflect(lo, distribution.sample_h(lo, u, *alpha));
-                if li.z <= 0.0 || lo.z <= 0.0 {
-                    return None;
-                }
-                let wi = f.to_world(li);
+                let (wi, cos) = distribution.sample_reflection(wo, side, u, *alpha)?;
                 let pdf = self.pdf(wo, wi, n);
                 if pdf <= 0.0 {
                     return None;
                 }
-                let weight = self.eval(wo, wi, n, mode) * li.z / pdf;
+                let weight = self.eval(wo, wi, n, mode) * cos / pdf;
                 Some(sample(wi, weight, pdf, false, false, 1.0))
             }
             Material::Dielectric { ior, tint, alpha, distribution } if *alpha > 0.0 => {
