@@ -362,7 +362,8 @@ impl<'a> PhotonMapper<'a> {
             // The path tracer counts only emission here (the chain did).
             return Rgb::ZERO;
         }
-        let Some(lobe) = self.scene.bsdf(si, wo).diffuse_lobe(wo, si.ns) else {
+        let mat = self.scene.bsdf(si, wo);
+        let Some(lobe) = mat.diffuse_lobe(wo, si.ns) else {
             return Rgb::ZERO;
         };
         if let Some(m) = self.only {
@@ -386,16 +387,7 @@ impl<'a> PhotonMapper<'a> {
         } else {
             // Final-gather ends keep the light sample alone (a BSDF sample there is not worth its ray).
             let strategy = if in_gather { DirectStrategy::LightOnly } else { DirectStrategy::eye_pass(self.scene) };
-            estimate_direct_with(
-                self.scene,
-                self.tracer,
-                si,
-                wo,
-                &self.scene.bsdf(si, wo).base_only(),
-                rng,
-                c,
-                strategy,
-            )
+            estimate_direct_with(self.scene, self.tracer, si, wo, &mat.base_only(), rng, c, strategy)
         };
         let caustic = self.map_radiance(CAUSTIC, si, wo, lobe, budget);
         if fg > 0 {
