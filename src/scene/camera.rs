@@ -24,12 +24,16 @@ pub enum FilterSpec {
     },
 }
 
+/// Mitsuba's default `radius` of a `tent` filter and `stddev` of a `gaussian` one (its film's default).
+pub const TENT_RADIUS: f32 = 1.0;
+pub const GAUSSIAN_STDDEV: f32 = 0.5;
+
 fn tent_radius() -> f32 {
-    1.0
+    TENT_RADIUS
 }
 
 fn gaussian_stddev() -> f32 {
-    0.5
+    GAUSSIAN_STDDEV
 }
 
 impl FilterSpec {

@@ -272,12 +272,12 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         ));
     }
     let mut camera = Camera::new(o, t, up, c.fov, c.fov_axis, c.resolution);
-    let (key, value, range) = match c.filter {
-        FilterSpec::Box => ("", 1.0, 0.0..=2.0),
-        FilterSpec::Tent { radius } => ("camera.filter.radius", radius, 0.5..=4.0),
-        FilterSpec::Gaussian { stddev } => ("camera.filter.stddev", stddev, 0.1..=1.0),
+    let bounded = match c.filter {
+        FilterSpec::Box => None,
+        FilterSpec::Tent { radius } => Some(("camera.filter.radius", radius, 0.5..=4.0)),
+        FilterSpec::Gaussian { stddev } => Some(("camera.filter.stddev", stddev, 0.1..=1.0)),
     };
-    if !range.contains(&value) {
+    if let Some((key, value, range)) = bounded.filter(|(_, v, range)| !range.contains(v)) {
         let (lo, hi) = (range.start(), range.end());
         return Err(cx.err(key, format!("must be in [{lo}, {hi}] pixels, got {value}")));
     }

@@ -77,7 +77,7 @@ fn empty_file() -> SceneFile {
         fov_axis: FovAxis::X,
         resolution: [768, 576],
         // Mitsuba's film's default; replaced by what the film says.
-        filter: crate::scene::camera::FilterSpec::Gaussian { stddev: 0.5 },
+        filter: crate::scene::camera::FilterSpec::Gaussian { stddev: crate::scene::camera::GAUSSIAN_STDDEV },
     };
     let mut render = RenderSettings { max_depth: UNLIMITED_DEPTH, ..Default::default() };
     render.spp = 4;
@@ -205,18 +205,18 @@ impl<'a> Cx<'a> {
         p.boolean("banner")?;
         p.boolean("high_quality_edges")?;
         p.boolean("sample_border")?;
-        // Mitsuba's film filters with a Gaussian (stddev 0.5) unless told otherwise.
-        use crate::scene::camera::FilterSpec;
+        // Mitsuba's film filters with a Gaussian unless told otherwise.
+        use crate::scene::camera::{FilterSpec, GAUSSIAN_STDDEV, TENT_RADIUS};
         let filters = p.objects("rfilter");
         self.file.camera.filter = match filters.first() {
-            None => FilterSpec::Gaussian { stddev: 0.5 },
+            None => FilterSpec::Gaussian { stddev: GAUSSIAN_STDDEV },
             Some(r) => {
                 let rp = Props::new(r);
                 let kind = r.attr("type").unwrap_or("");
                 let spec = match kind {
                     "box" => FilterSpec::Box,
-                    "tent" => FilterSpec::Tent { radius: rp.float("radius")?.unwrap_or(1.0) },
-                    "gaussian" => FilterSpec::Gaussian { stddev: rp.float("stddev")?.unwrap_or(0.5) },
+                    "tent" => FilterSpec::Tent { radius: rp.float("radius")?.unwrap_or(TENT_RADIUS) },
+                    "gaussian" => FilterSpec::Gaussian { stddev: rp.float("stddev")?.unwrap_or(GAUSSIAN_STDDEV) },
                     _ => {
                         self.warnings.push(format!(
                             "{}: line {}: reconstruction filter `{kind}` is rendered with caustica's box filter \
