@@ -702,22 +702,29 @@ fn photon_mappers_render_rough_glass() {
 /// tracer finds by sampling the same BSDF.
 #[test]
 fn photon_mappers_render_plastic() {
-    let text = format!(
+    photon_modes_match_pt_within("plastic", &plastic_room(["", "", ""], ""), 0.015);
+}
+
+/// The room of the plastic tests: red plastic walls and ceiling, a textured plastic floor of index 1.6
+/// with a dimmed coat, a nonlinear plastic ball and a diffuse one, under a quad light. `coats` adds keys
+/// to the walls', the floor's and the ball's materials; `lights` adds lights.
+fn plastic_room(coats: [&str; 3], lights: &str) -> String {
+    let [wall, floor, ball] = coats;
+    format!(
         "[camera]\norigin = [0.3, 0.2, 0.95]\ntarget = [-0.2, -0.5, -0.5]\nfov = 70\nresolution = [32, 24]\n\
          [textures]\nchecks = {{ type = \"checkerboard\", color0 = [0.8, 0.8, 0.7], color1 = [0.1, 0.2, 0.3], scale = [4.0, 4.0] }}\n\
-         [materials]\nwall = {{ type = \"plastic\", reflectance = [0.75, 0.3, 0.25], ior = 1.5 }}\n\
-         floor = {{ type = \"plastic\", reflectance = \"checks\", ior = 1.6, specular = [0.8, 0.8, 0.8] }}\n\
-         ball = {{ type = \"plastic\", reflectance = [0.2, 0.8, 0.3], nonlinear = true }}\n\
+         [materials]\nwall = {{ type = \"plastic\", reflectance = [0.75, 0.3, 0.25], ior = 1.5{wall} }}\n\
+         floor = {{ type = \"plastic\", reflectance = \"checks\", ior = 1.6, specular = [0.8, 0.8, 0.8]{floor} }}\n\
+         ball = {{ type = \"plastic\", reflectance = [0.2, 0.8, 0.3], nonlinear = true{ball} }}\n\
          white = {{ type = \"diffuse\", reflectance = [0.8, 0.8, 0.8] }}\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, -1.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
          [[shapes]]\ntype = \"sphere\"\ncenter = [-0.4, -0.65, -0.3]\nradius = 0.35\nmaterial = \"ball\"\n\
          [[shapes]]\ntype = \"sphere\"\ncenter = [0.45, -0.75, -0.5]\nradius = 0.25\nmaterial = \"white\"\n\
          [[lights]]\ntype = \"quad\"\ncorner = [-0.3, 0.98, -0.3]\nedge_u = [0.6, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.6]\npower = [10.0, 10.0, 10.0]\n\
-         [render]\nmax_depth = 6\npm_spp = 16\n{}",
+         {lights}[render]\nmax_depth = 6\npm_spp = 16\n{}",
         // The box's walls and ceiling (its floor is the textured quad above).
         common::inward_box(-1.0, 1.0, "wall", None).split("\n\n").skip(1).collect::<Vec<_>>().join("\n\n")
-    );
-    photon_modes_match_pt_within("plastic", &text, 0.015);
+    )
 }
 
 /// Rough plastic (Mitsuba's `roughplastic`) in the photon mappers: photons are stored on the base and
@@ -730,23 +737,9 @@ fn photon_mappers_render_plastic() {
 /// reflections on the diffuse surfaces the path tracer finds by light samples at the coats.
 #[test]
 fn photon_mappers_render_rough_plastic() {
-    let text = format!(
-        "[camera]\norigin = [0.3, 0.2, 0.95]\ntarget = [-0.2, -0.5, -0.5]\nfov = 70\nresolution = [32, 24]\n\
-         [textures]\nchecks = {{ type = \"checkerboard\", color0 = [0.8, 0.8, 0.7], color1 = [0.1, 0.2, 0.3], scale = [4.0, 4.0] }}\n\
-         [materials]\nwall = {{ type = \"plastic\", reflectance = [0.75, 0.3, 0.25], ior = 1.5, roughness = 0.3 }}\n\
-         floor = {{ type = \"plastic\", reflectance = \"checks\", ior = 1.6, specular = [0.8, 0.8, 0.8], roughness = 0.15, distribution = \"beckmann\" }}\n\
-         ball = {{ type = \"plastic\", reflectance = [0.2, 0.8, 0.3], nonlinear = true, roughness = 0.05 }}\n\
-         white = {{ type = \"diffuse\", reflectance = [0.8, 0.8, 0.8] }}\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, -1.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
-         [[shapes]]\ntype = \"sphere\"\ncenter = [-0.4, -0.65, -0.3]\nradius = 0.35\nmaterial = \"ball\"\n\
-         [[shapes]]\ntype = \"sphere\"\ncenter = [0.45, -0.75, -0.5]\nradius = 0.25\nmaterial = \"white\"\n\
-         [[lights]]\ntype = \"quad\"\ncorner = [-0.3, 0.98, -0.3]\nedge_u = [0.6, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.6]\npower = [10.0, 10.0, 10.0]\n\
-         [[lights]]\ntype = \"point\"\nposition = [0.5, 0.3, 0.2]\npower = [3.0, 3.0, 3.0]\n\
-         [render]\nmax_depth = 6\npm_spp = 16\n{}",
-        // The box's walls and ceiling (its floor is the textured quad above).
-        common::inward_box(-1.0, 1.0, "wall", None).split("\n\n").skip(1).collect::<Vec<_>>().join("\n\n")
-    );
-    photon_modes_match_pt_within("rough plastic", &text, 0.015);
+    let coats = [", roughness = 0.3", ", roughness = 0.15, distribution = \"beckmann\"", ", roughness = 0.05"];
+    let point = "[[lights]]\ntype = \"point\"\nposition = [0.5, 0.3, 0.2]\npower = [3.0, 3.0, 3.0]\n";
+    photon_modes_match_pt_within("rough plastic", &plastic_room(coats, point), 0.015);
 }
 
 /// `render.max_depth` limits the whole path in the path tracer: the camera's bounces through glass
