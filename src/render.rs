@@ -119,8 +119,8 @@ where
                     let mut sum = [0.0f64; 3];
                     for s in range.clone() {
                         let mut rng = Rng::camera(sampler, seed, pixel, s as u64);
-                        let (fx, fy) = cam.film_position(x, y, rng.next_2d());
-                        let v = sample(fx, fy, &mut rng, &mut c);
+                        let (fx, fy, weight) = cam.film_position(x, y, rng.next_2d());
+                        let v = sample(fx, fy, &mut rng, &mut c) * weight;
                         if v.is_finite() {
                             for k in 0..3 {
                                 sum[k] += v[k] as f64;

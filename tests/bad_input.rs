@@ -174,9 +174,21 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "filter_kind",
-            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"mitchell\" }"),
+            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"sinc\" }"),
             vec![],
-            vec!["line 7", "mitchell", "box", "tent", "gaussian"],
+            vec!["line 7", "sinc", "box", "tent", "gaussian", "mitchell", "catmullrom", "lanczos"],
+        ),
+        (
+            "filter_mitchell_c",
+            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"mitchell\", c = 3.0 }"),
+            vec![],
+            vec!["camera.filter.c", "[0, 1]", "got 3"],
+        ),
+        (
+            "filter_lanczos_lobes",
+            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"lanczos\", lobes = 40 }"),
+            vec![],
+            vec!["camera.filter.lobes", "[1, 8]", "got 40"],
         ),
         (
             "rough_plastic_roughness",

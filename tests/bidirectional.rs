@@ -294,7 +294,11 @@ fn light_tracing_splats_through_the_pixel_filter() {
         render_path(s, &a, 8192, true).image
     };
     let boxed = pt_with(&mut s, 1);
-    for spec in [FilterSpec::Gaussian { stddev: 0.5 }, FilterSpec::Tent { radius: 1.0 }] {
+    for spec in [
+        FilterSpec::Gaussian { stddev: 0.5 },
+        FilterSpec::Tent { radius: 1.0 },
+        FilterSpec::Mitchell { b: 1.0 / 3.0, c: 1.0 / 3.0 },
+    ] {
         s.camera.filter = PixelFilter::new(spec);
         let (pt1, pt2) = (pt_with(&mut s, 1), pt_with(&mut s, 2));
         s.render.seed = 3;

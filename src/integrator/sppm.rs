@@ -216,9 +216,12 @@ impl<'a> Sppm<'a> {
     /// it from photons (`render.direct_light = "photon_map"`, gathered like the rest).
     fn camera_path(&self, x: u32, y: u32, rng: &mut Rng, c: &mut Counters) -> (Rgb, Option<ChainEnd>) {
         let scene = self.scene;
-        let (fx, fy) = scene.camera.film_position(x, y, rng.next_2d());
+        // The filter's weight (±, for a filter with negative lobes) rides in the throughput, so the
+        // visible point's photons count with it too.
+        let (fx, fy, weight) = scene.camera.film_position(x, y, rng.next_2d());
         let ray = scene.camera.ray(fx, fy);
-        let (mut l, end) = specular_chain(scene, self.tracer, ray, Rgb::ONE, rng, c, ChainLight::CountSplitFirst);
+        let beta = Rgb::splat(weight);
+        let (mut l, end) = specular_chain(scene, self.tracer, ray, beta, rng, c, ChainLight::CountSplitFirst);
         if let (Some(e), DirectLight::ShadowRays) = (&end, scene.render.direct_light) {
             // No light sample where the path tracer's depth leaves none (`ChainEnd::budget`).
             if e.budget(scene, 0) == 0 {

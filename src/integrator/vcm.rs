@@ -611,8 +611,8 @@ pub fn iterate(scene: &Scene, tracer: &dyn Tracer, setup: &Setup, i: u32) -> Ite
         .map(|k| {
             let mut rng = Rng::camera(sampler, seed, k as u64, (i - 1) as u64);
             let mut c = Counters::default();
-            let film = cam.film_position((k % w) as u32, (k / w) as u32, rng.next_2d());
-            let l = v.camera_path(film, k, &light, &mut rng, &mut c);
+            let (fx, fy, weight) = cam.film_position((k % w) as u32, (k / w) as u32, rng.next_2d());
+            let l = v.camera_path((fx, fy), k, &light, &mut rng, &mut c) * weight;
             (l, c)
         })
         .collect();

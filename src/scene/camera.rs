@@ -8,7 +8,10 @@ use serde::{Deserialize, Serialize};
 /// A pixel reconstruction filter as written in a scene (Mitsuba's `rfilter`): `box` (caustica's
 /// default: each pixel averages the light over its own square), `tent` of a `radius` in pixels (Mitsuba's
 /// default 1) or `gaussian` of a standard deviation `stddev` (Mitsuba's default 0.5, cut at 4 stddev
-/// with the value there subtracted, as Mitsuba's is; Mitsuba's film's default filter).
+/// with the value there subtracted, as Mitsuba's is; Mitsuba's film's default filter); and three with
+/// negative lobes, which sharpen: `mitchell` (Mitchell & Netravali's cubic, parameters `b` and `c`,
+/// 1/3 each by default, reach 2 pixels), `catmullrom` (the same cubic with b = 0, c = 1/2) and
+/// `lanczos` (sinc windowed by a wider sinc, `lobes` pixels of reach, 3 by default).
 #[derive(Clone, Copy, Debug, PartialEq, Default, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum FilterSpec {
@@ -22,11 +25,25 @@ pub enum FilterSpec {
         #[serde(default = "gaussian_stddev")]
         stddev: f32,
     },
+    Mitchell {
+        #[serde(default = "mitchell_bc")]
+        b: f32,
+        #[serde(default = "mitchell_bc")]
+        c: f32,
+    },
+    CatmullRom,
+    Lanczos {
+        #[serde(default = "lanczos_lobes")]
+        lobes: u32,
+    },
 }
 
-/// Mitsuba's default `radius` of a `tent` filter and `stddev` of a `gaussian` one (its film's default).
+/// Mitsuba's default `radius` of a `tent` filter, `stddev` of a `gaussian` one (its film's default),
+/// `B` and `C` of a `mitchell` one and `lobes` of a `lanczos` one.
 pub const TENT_RADIUS: f32 = 1.0;
 pub const GAUSSIAN_STDDEV: f32 = 0.5;
+pub const MITCHELL_BC: f32 = 1.0 / 3.0;
+pub const LANCZOS_LOBES: u32 = 3;
 
 fn tent_radius() -> f32 {
     TENT_RADIUS
@@ -36,6 +53,28 @@ fn gaussian_stddev() -> f32 {
     GAUSSIAN_STDDEV
 }
 
+fn mitchell_bc() -> f32 {
+    MITCHELL_BC
+}
+
+fn lanczos_lobes() -> u32 {
+    LANCZOS_LOBES
+}
+
+/// Mitchell & Netravali's cubic of parameters `b` and `c` at |x| (reach 2).
+fn mitchell(x: f32, b: f32, c: f32) -> f32 {
+    let x = x.abs();
+    let (x2, x3) = (x * x, x * x * x);
+    let v = if x < 1.0 {
+        (12.0 - 9.0 * b - 6.0 * c) * x3 + (-18.0 + 12.0 * b + 6.0 * c) * x2 + (6.0 - 2.0 * b)
+    } else if x < 2.0 {
+        (-b - 6.0 * c) * x3 + (6.0 * b + 30.0 * c) * x2 + (-12.0 * b - 48.0 * c) * x + (8.0 * b + 24.0 * c)
+    } else {
+        0.0
+    };
+    v / 6.0
+}
+
 impl FilterSpec {
     /// The filter's reach in pixels from a pixel's centre.
     pub fn radius(&self) -> f32 {
@@ -43,6 +82,8 @@ impl FilterSpec {
             FilterSpec::Box => 0.5,
             FilterSpec::Tent { radius } => radius,
             FilterSpec::Gaussian { stddev } => 4.0 * stddev,
+            FilterSpec::Mitchell { .. } | FilterSpec::CatmullRom => 2.0,
+            FilterSpec::Lanczos { lobes } => lobes as f32,
         }
     }
 
@@ -56,6 +97,18 @@ impl FilterSpec {
                 let a = -1.0 / (2.0 * stddev * stddev);
                 ((t * t * a).exp() - (r * r * a).exp()).max(0.0)
             }
+            FilterSpec::Mitchell { b, c } => mitchell(t, b, c),
+            FilterSpec::CatmullRom => mitchell(t, 0.0, 0.5),
+            FilterSpec::Lanczos { .. } => {
+                let x = std::f32::consts::PI * t.abs();
+                if t.abs() > r {
+                    0.0
+                } else if x < 1e-6 {
+                    1.0
+                } else {
+                    x.sin() * (x / r).sin() / (x * x / r)
+                }
+            }
         }
     }
 }
@@ -64,37 +117,44 @@ impl FilterSpec {
 const FILTER_BINS: usize = 512;
 
 /// A reconstruction filter ready to draw with. Box: a pixel's samples are uniform over its square.
-/// Tent and Gaussian: each sample's film position is drawn from the filter around the pixel's centre
-/// (tabulated in `FILTER_BINS` steps, the step function being the filter rendered), cut to the film, as
-/// Mitsuba's film (without `sample_border`) only samples inside it; every sample then weighs 1, so a
-/// pixel converges to ∫ f(x − c) L(x) dx / ∫ f, both over the film, the weighted average Mitsuba's film
-/// accumulates. Light tracing's splats (`splat`) give each pixel in reach the same normalised weight.
+/// Otherwise each sample's film position is drawn from the filter's magnitude |f| around the pixel's
+/// centre (tabulated in `FILTER_BINS` steps, the step function being the filter rendered), cut to the
+/// film, as Mitsuba's film (without `sample_border`) only samples inside it, and weighs
+/// sign(f) · ∫|f| / ∫f, both over the film: 1 for a filter without negative lobes. A pixel then converges
+/// to ∫ f(x − c) L(x) dx / ∫ f, both over the film, the weighted average Mitsuba's film accumulates.
+/// Light tracing's splats (`splat`) give each pixel in reach f / ∫f there, the same in expectation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PixelFilter {
     pub spec: FilterSpec,
     radius: f32,
-    /// The filter's cumulative distribution at the bins' edges (FILTER_BINS + 1 entries, 0 to 1); empty
+    /// The cumulative distribution of |f| at the bins' edges (FILTER_BINS + 1 entries, 0 to 1); empty
     /// for the box.
     cdf: Vec<f32>,
+    /// The cumulative sum of f itself on the same scale, for a filter with a negative bin; else empty
+    /// (it would equal `cdf`).
+    signed: Vec<f32>,
 }
 
 impl PixelFilter {
     pub fn new(spec: FilterSpec) -> PixelFilter {
         let radius = spec.radius();
         if spec == FilterSpec::Box {
-            return PixelFilter { spec, radius, cdf: Vec::new() };
+            return PixelFilter { spec, radius, cdf: Vec::new(), signed: Vec::new() };
         }
         let width = 2.0 * radius as f64 / FILTER_BINS as f64;
-        // Each bin's share: the filter averaged over the bin (16 midpoints), in f64.
-        let mut cdf = vec![0.0f64; FILTER_BINS + 1];
+        // Each bin's value: the filter averaged over the bin (16 midpoints), in f64.
+        let (mut cdf, mut signed) = (vec![0.0f64; FILTER_BINS + 1], vec![0.0f64; FILTER_BINS + 1]);
         for k in 0..FILTER_BINS {
             let bin: f64 = (0..16)
                 .map(|j| spec.eval((-radius as f64 + (k as f64 + (j as f64 + 0.5) / 16.0) * width) as f32) as f64)
                 .sum();
-            cdf[k + 1] = cdf[k] + bin;
+            cdf[k + 1] = cdf[k] + bin.abs();
+            signed[k + 1] = signed[k] + bin;
         }
         let total = cdf[FILTER_BINS];
-        PixelFilter { spec, radius, cdf: cdf.iter().map(|c| (c / total) as f32).collect() }
+        let scale = |v: &[f64]| v.iter().map(|c| (c / total) as f32).collect::<Vec<f32>>();
+        let signed = if signed == cdf { Vec::new() } else { scale(&signed) };
+        PixelFilter { spec, radius, cdf: scale(&cdf), signed }
     }
 
     /// The offsets from pixel `i`'s centre (of `n` along this axis) that stay on the film and in reach.
@@ -103,15 +163,32 @@ impl PixelFilter {
         ((-self.radius).max(-c), self.radius.min(n as f32 - c))
     }
 
-    /// The cumulative distribution at offset `t` ∈ [−radius, radius] (linear within a bin).
-    fn cdf_at(&self, t: f32) -> f32 {
+    /// The bin holding offset `t` ∈ [−radius, radius], and how far into it `t` lies (in bins).
+    fn bin(&self, t: f32) -> (usize, f32) {
         let s = ((t + self.radius) / (2.0 * self.radius) * FILTER_BINS as f32).clamp(0.0, FILTER_BINS as f32);
         let k = (s as usize).min(FILTER_BINS - 1);
-        self.cdf[k] + (self.cdf[k + 1] - self.cdf[k]) * (s - k as f32)
+        (k, s - k as f32)
     }
 
-    /// A film coordinate for pixel `i` of `n` along one axis from a uniform `u`.
-    fn sample_axis(&self, i: u32, n: u32, u: f32) -> f32 {
+    /// A cumulative table (`cdf` or `signed`) at offset `t` ∈ [−radius, radius] (linear within a bin).
+    fn table_at(&self, table: &[f32], t: f32) -> f32 {
+        let (k, frac) = self.bin(t);
+        table[k] + (table[k + 1] - table[k]) * frac
+    }
+
+    /// The cumulative distribution of |f| at offset `t`.
+    fn cdf_at(&self, t: f32) -> f32 {
+        self.table_at(&self.cdf, t)
+    }
+
+    /// The filter's integral over [`lo`, `hi`] on the scale of the tables (of |f| over its whole reach = 1).
+    fn signed_mass(&self, lo: f32, hi: f32) -> f32 {
+        self.table_at(&self.signed, hi) - self.table_at(&self.signed, lo)
+    }
+
+    /// A film coordinate for pixel `i` of `n` along one axis from a uniform `u`, and its weight along
+    /// this axis (1 unless the filter has negative lobes).
+    fn sample_axis(&self, i: u32, n: u32, u: f32) -> (f32, f32) {
         let (lo, hi) = self.bounds(i, n);
         let (a, b) = (self.cdf_at(lo), self.cdf_at(hi));
         let v = a + u * (b - a);
@@ -120,22 +197,32 @@ impl PixelFilter {
         let span = self.cdf[k + 1] - self.cdf[k];
         let frac = if span > 0.0 { ((v - self.cdf[k]) / span).clamp(0.0, 1.0) } else { 0.5 };
         let t = -self.radius + (k as f32 + frac) * (2.0 * self.radius / FILTER_BINS as f32);
-        i as f32 + 0.5 + t.clamp(lo, hi)
+        let x = i as f32 + 0.5 + t.clamp(lo, hi);
+        if self.signed.is_empty() {
+            return (x, 1.0);
+        }
+        // Drawn from |f| over [lo, hi]: weighs sign(f) · ∫|f| / ∫f there.
+        let negative = self.signed[k + 1] < self.signed[k];
+        let w = (b - a) / self.signed_mass(lo, hi);
+        (x, if negative { -w } else { w })
     }
 
-    /// The density along one axis with which pixel `i` of `n` draws film coordinate `x` (0 out of reach).
+    /// Pixel `i`'s (of `n`) splat weight along one axis at film coordinate `x`: f / ∫f over the film
+    /// (0 out of reach), which for a filter without negative lobes is the density of its draws.
     fn weight_axis(&self, i: u32, n: u32, x: f32) -> f32 {
         let (lo, hi) = self.bounds(i, n);
         let t = x - (i as f32 + 0.5);
         if !(t >= lo && t < hi) {
             return 0.0;
         }
-        let s = (t + self.radius) / (2.0 * self.radius) * FILTER_BINS as f32;
-        let k = (s as usize).min(FILTER_BINS - 1);
-        let pdf = (self.cdf[k + 1] - self.cdf[k]) * FILTER_BINS as f32 / (2.0 * self.radius);
-        let mass = self.cdf_at(hi) - self.cdf_at(lo);
+        let (k, _) = self.bin(t);
+        let (value, mass) = if self.signed.is_empty() {
+            (self.cdf[k + 1] - self.cdf[k], self.cdf_at(hi) - self.cdf_at(lo))
+        } else {
+            (self.signed[k + 1] - self.signed[k], self.signed_mass(lo, hi))
+        };
         if mass > 0.0 {
-            pdf / mass
+            value * FILTER_BINS as f32 / (2.0 * self.radius) / mass
         } else {
             0.0
         }
@@ -174,21 +261,25 @@ impl Camera {
         Camera { origin, right, up, forward, tan_half, width: res[0], height: res[1], filter: PixelFilter::default() }
     }
 
-    /// The film position of a sample of pixel (`x`, `y`) from the uniform pair `u`: within the pixel for
-    /// the box filter (x + u exactly), else drawn from the filter around its centre (`PixelFilter`).
+    /// The film position of a sample of pixel (`x`, `y`) from the uniform pair `u`, and the weight its
+    /// radiance counts with: within the pixel for the box filter (x + u exactly), else drawn from the
+    /// filter around its centre (`PixelFilter`); the weight is 1 unless the filter has negative lobes,
+    /// where it is ± a constant of the pixel (negative where the filter is).
     #[inline]
-    pub fn film_position(&self, x: u32, y: u32, u: [f32; 2]) -> (f32, f32) {
+    pub fn film_position(&self, x: u32, y: u32, u: [f32; 2]) -> (f32, f32, f32) {
         let f = &self.filter;
         if f.cdf.is_empty() {
-            return (x as f32 + u[0], y as f32 + u[1]);
+            return (x as f32 + u[0], y as f32 + u[1], 1.0);
         }
-        (f.sample_axis(x, self.width, u[0]), f.sample_axis(y, self.height, u[1]))
+        let ((fx, wx), (fy, wy)) = (f.sample_axis(x, self.width, u[0]), f.sample_axis(y, self.height, u[1]));
+        (fx, fy, wx * wy)
     }
 
     /// Light landing at film position (`x`, `y`) (on the film): `add(pixel index, weight)` for each
     /// pixel it counts in, with the weight a sample of that pixel would give it: the pixel under it,
     /// weight 1, for the box filter; every pixel whose filter reaches it otherwise, each weighted by
-    /// the density of that pixel's film positions there (so each pixel's share integrates to one).
+    /// that pixel's filter there over its integral on the film (so each pixel's share integrates to
+    /// one; for a filter without negative lobes, the density of that pixel's film positions there).
     pub fn splat(&self, x: f32, y: f32, mut add: impl FnMut(u32, f32)) {
         let (w, h) = (self.width, self.height);
         let f = &self.filter;
@@ -203,12 +294,12 @@ impl Camera {
         };
         for py in reach(y, h) {
             let wy = f.weight_axis(py, h, y);
-            if wy <= 0.0 {
+            if wy == 0.0 {
                 continue;
             }
             for px in reach(x, w) {
                 let wx = f.weight_axis(px, w, x);
-                if wx > 0.0 {
+                if wx != 0.0 {
                     add(py * w + px, wx * wy);
                 }
             }
@@ -259,12 +350,21 @@ mod tests {
     use super::*;
 
     /// A pixel's film positions follow its filter, cut to the film: a histogram of 400,000 draws per
-    /// axis equals the filter's values over the pixels it reaches (normalised over the film), within 2%
-    /// of the largest bin; light landing anywhere gives each pixel the density of that pixel's draws
-    /// there (`splat`), so each pixel's weights integrate to 1 over the film, at its edge too.
+    /// axis, each counted with its weight (±, for a filter with negative lobes), equals the filter's
+    /// values over the pixels it reaches (normalised over the film), within 2% of the largest bin; light
+    /// landing anywhere gives each pixel the same weight there (`splat`), so each pixel's weights
+    /// integrate to 1 over the film, at its edge too.
     #[test]
     fn filters_draw_and_splat_alike() {
-        for spec in [FilterSpec::Gaussian { stddev: 0.5 }, FilterSpec::Tent { radius: 1.5 }, FilterSpec::Box] {
+        let specs = [
+            FilterSpec::Gaussian { stddev: 0.5 },
+            FilterSpec::Tent { radius: 1.5 },
+            FilterSpec::Box,
+            FilterSpec::Mitchell { b: MITCHELL_BC, c: MITCHELL_BC },
+            FilterSpec::CatmullRom,
+            FilterSpec::Lanczos { lobes: 3 },
+        ];
+        for spec in specs {
             let mut cam = Camera::new(Vec3::ZERO, Vec3::Z, Vec3::Y, 40.0, FovAxis::X, [9, 7]);
             cam.filter = PixelFilter::new(spec);
             let mut r = crate::math::Rng::new(5, 0, 0);
@@ -274,13 +374,13 @@ mod tests {
                 let (mut hx, mut hy) = (vec![0.0f64; bins_x], vec![0.0f64; bins_y]);
                 let n = 400_000;
                 for _ in 0..n {
-                    let (x, y) = cam.film_position(px, py, r.next_2d());
+                    let (x, y, weight) = cam.film_position(px, py, r.next_2d());
                     assert!((0.0..=9.0).contains(&x) && (0.0..=7.0).contains(&y), "{spec:?}: ({x}, {y}) off the film");
-                    hx[((x * 8.0) as usize).min(bins_x - 1)] += 1.0 / n as f64;
-                    hy[((y * 8.0) as usize).min(bins_y - 1)] += 1.0 / n as f64;
+                    hx[((x * 8.0) as usize).min(bins_x - 1)] += weight as f64 / n as f64;
+                    hy[((y * 8.0) as usize).min(bins_y - 1)] += weight as f64 / n as f64;
                 }
                 // The splat weights of this pixel over the same bins (16 points per bin), and their integral.
-                let (mut wx, mut wy, mut total) = (vec![0.0f64; bins_x], vec![0.0f64; bins_y], 0.0f64);
+                let (mut wx, mut wy) = (vec![0.0f64; bins_x], vec![0.0f64; bins_y]);
                 let step = 1.0 / 128.0;
                 for iy in 0..7 * 128 {
                     for ix in 0..9 * 128 {
@@ -288,14 +388,39 @@ mod tests {
                         cam.splat(x, y, |pixel, w| {
                             if pixel == py * 9 + px {
                                 let a = (w * step * step) as f64;
-                                total += a;
                                 wx[ix / 16] += a;
                                 wy[iy / 16] += a;
                             }
                         });
                     }
                 }
-                assert!((total - 1.0).abs() < 2e-3, "{spec:?} pixel ({px}, {py}): splat weights integrate to {total}");
+                // The weights' integral over the film. They are separable, so it is the product of their
+                // integrals along the row and the column through the pixel's centre over the value there;
+                // each line is summed at 64 points per bin of the filter's table (a grid on which the table's
+                // steps do not alias).
+                let at = |x: f64, y: f64| {
+                    let mut v = 0.0f64;
+                    cam.splat(x as f32, y as f32, |pixel, w| {
+                        if pixel == py * 9 + px {
+                            v = w as f64;
+                        }
+                    });
+                    v
+                };
+                let (cx, cy) = (px as f64 + 0.5, py as f64 + 0.5);
+                let r = cam.filter.radius as f64;
+                let points = FILTER_BINS * 64;
+                let dt = 2.0 * r / points as f64;
+                let line = |dx: f64, dy: f64| -> f64 {
+                    (0..points)
+                        .map(|k| -r + (k as f64 + 0.5) * dt)
+                        .map(|t| (cx + t * dx, cy + t * dy))
+                        .filter(|&(x, y)| (0.0..9.0).contains(&x) && (0.0..7.0).contains(&y))
+                        .map(|(x, y)| at(x, y) * dt)
+                        .sum()
+                };
+                let total = line(1.0, 0.0) * line(0.0, 1.0) / at(cx, cy);
+                assert!((total - 1.0).abs() < 1e-3, "{spec:?} pixel ({px}, {py}): splat weights integrate to {total}");
                 for (h, w) in [(&hx, &wx), (&hy, &wy)] {
                     let peak = w.iter().cloned().fold(0.0, f64::max);
                     for (k, (a, b)) in h.iter().zip(w.iter()).enumerate() {
@@ -308,7 +433,7 @@ mod tests {
             }
             // The box draws x + u exactly.
             if spec == FilterSpec::Box {
-                assert_eq!(cam.film_position(3, 2, [0.25, 0.75]), (3.25, 2.75));
+                assert_eq!(cam.film_position(3, 2, [0.25, 0.75]), (3.25, 2.75, 1.0));
             }
         }
     }
@@ -333,6 +458,85 @@ mod tests {
         let got = (f.cdf_at(0.5) - f.cdf_at(-0.5)) as f64;
         assert!((got - expected).abs() < 1e-4, "mass within half a pixel {got} vs {expected}");
     }
+    /// The filters with negative lobes are Mitsuba's: Mitchell & Netravali's cubic is a partition of unity
+    /// for any B and C (its copies one pixel apart sum to 1), is 1 − B/3 at 0 (its 6 − 2B over 6) and
+    /// has its negative lobe where the closed form puts it; Catmull-Rom is the cubic with B = 0, C = ½
+    /// (1 at 0, 0 at the integers); Lanczos is 1 at 0, 0 at every integer, sinc(x) sinc(x/lobes) between.
+    #[test]
+    fn negative_lobed_filters_are_mitsubas() {
+        for (b, c) in [(1.0 / 3.0, 1.0 / 3.0), (0.0, 0.5), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
+            let f = FilterSpec::Mitchell { b, c };
+            for x in [0.0f32, 0.13, 0.5, 0.77] {
+                let sum: f32 = (-3..=3).map(|k| f.eval(x - k as f32)).sum();
+                assert!((sum - 1.0).abs() < 1e-5, "Mitchell B {b} C {c}: copies sum to {sum} at {x}");
+            }
+            assert!((f.eval(0.0) - (1.0 - b / 3.0)).abs() < 1e-6);
+            assert_eq!(f.eval(2.0), 0.0);
+        }
+        // B = C = 1/3 at 1.5: (−7/3 · 3.375 + 12 · 2.25 − 20 · 1.5 + 32/3) / 6 = −0.0347…
+        let m = FilterSpec::Mitchell { b: MITCHELL_BC, c: MITCHELL_BC };
+        assert!((m.eval(1.5) - (-7.0 / 3.0 * 3.375 + 27.0 - 30.0 + 32.0 / 3.0) / 6.0).abs() < 1e-6);
+        assert!(m.eval(1.5) < 0.0);
+        let cr = FilterSpec::CatmullRom;
+        for x in [0.0f32, 0.3, 1.0, 1.4, 2.0] {
+            assert_eq!(cr.eval(x), FilterSpec::Mitchell { b: 0.0, c: 0.5 }.eval(x));
+        }
+        assert!((cr.eval(0.0) - 1.0).abs() < 1e-6 && cr.eval(1.0).abs() < 1e-6);
+        for lobes in [1u32, 2, 3, 5] {
+            let l = FilterSpec::Lanczos { lobes };
+            assert_eq!(l.radius(), lobes as f32);
+            assert!((l.eval(0.0) - 1.0).abs() < 1e-6);
+            for k in 1..=lobes {
+                assert!(l.eval(k as f32).abs() < 1e-5, "Lanczos {lobes}: {} at {k}", l.eval(k as f32));
+            }
+            let x = 0.6f64;
+            let pi = std::f64::consts::PI;
+            let want = (pi * x).sin() / (pi * x) * (pi * x / lobes as f64).sin() / (pi * x / lobes as f64);
+            assert!((l.eval(x as f32) as f64 - want).abs() < 1e-5);
+            assert_eq!(l.eval(lobes as f32 + 0.1), 0.0);
+        }
+    }
+
+    /// Over the parameters a scene may give (B and C in [0, 1], 1 to 8 lobes), a pixel's filter keeps a
+    /// clearly positive integral however the film cuts it (a pixel at the film's edge, on a film one
+    /// pixel wide), so its samples' weights sign(f) · ∫|f| / ∫f stay bounded; they are exactly 1 for
+    /// filters without negative lobes.
+    #[test]
+    fn cut_filters_keep_a_positive_integral() {
+        let mut specs = vec![FilterSpec::CatmullRom];
+        for b in [0.0, 0.5, 1.0] {
+            for c in [0.0, 0.5, 1.0] {
+                specs.push(FilterSpec::Mitchell { b, c });
+            }
+        }
+        specs.extend((1..=8).map(|lobes| FilterSpec::Lanczos { lobes }));
+        for spec in specs {
+            let f = PixelFilter::new(spec);
+            // Mitchell's cubic is B (2 − x)³ / 6 between 1 and 2 when C = 0, negative there otherwise;
+            // Lanczos of one lobe is sinc², its main lobe alone.
+            let positive = matches!(spec, FilterSpec::Mitchell { c: 0.0, .. } | FilterSpec::Lanczos { lobes: 1 });
+            assert_eq!(f.signed.is_empty(), positive, "{spec:?}: has negative lobes {}", !positive);
+            if positive {
+                continue;
+            }
+            for n in [1u32, 2, 40] {
+                for i in [0, n / 2, n - 1] {
+                    let (lo, hi) = f.bounds(i, n);
+                    let ratio = (f.cdf_at(hi) - f.cdf_at(lo)) / f.signed_mass(lo, hi);
+                    assert!((0.9999..2.5).contains(&ratio), "{spec:?} pixel {i} of {n}: ∫|f| / ∫f = {ratio}");
+                }
+            }
+        }
+        for spec in [FilterSpec::Gaussian { stddev: 0.1 }, FilterSpec::Tent { radius: 4.0 }] {
+            let cam = Camera {
+                filter: PixelFilter::new(spec),
+                ..Camera::new(Vec3::ZERO, Vec3::Z, Vec3::Y, 40.0, FovAxis::X, [3, 2])
+            };
+            assert!(cam.filter.signed.is_empty());
+            assert_eq!(cam.film_position(0, 1, [0.9, 0.1]).2, 1.0);
+        }
+    }
+
     #[test]
     fn project_inverts_ray() {
         let c = Camera::new(Vec3::new(0.0, 1.0, 4.0), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 40.0, FovAxis::X, [320, 200]);

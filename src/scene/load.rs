@@ -272,14 +272,20 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         ));
     }
     let mut camera = Camera::new(o, t, up, c.fov, c.fov_axis, c.resolution);
-    let bounded = match c.filter {
-        FilterSpec::Box => None,
-        FilterSpec::Tent { radius } => Some(("camera.filter.radius", radius, 0.5..=4.0)),
-        FilterSpec::Gaussian { stddev } => Some(("camera.filter.stddev", stddev, 0.1..=1.0)),
+    // Each parameter's bounds: a reach a film sample can afford, and for the filters with negative lobes
+    // a clearly positive integral however the film cuts them (`PixelFilter`'s weights stay bounded).
+    let bounded: &[(&str, f32, std::ops::RangeInclusive<f32>, &str)] = match c.filter {
+        FilterSpec::Box | FilterSpec::CatmullRom => &[],
+        FilterSpec::Tent { radius } => &[("camera.filter.radius", radius, 0.5..=4.0, " pixels")],
+        FilterSpec::Gaussian { stddev } => &[("camera.filter.stddev", stddev, 0.1..=1.0, " pixels")],
+        FilterSpec::Mitchell { b, c } => {
+            &[("camera.filter.b", b, 0.0..=1.0, ""), ("camera.filter.c", c, 0.0..=1.0, "")]
+        }
+        FilterSpec::Lanczos { lobes } => &[("camera.filter.lobes", lobes as f32, 1.0..=8.0, "")],
     };
-    if let Some((key, value, range)) = bounded.filter(|(_, v, range)| !range.contains(v)) {
+    if let Some((key, value, range, unit)) = bounded.iter().find(|(_, v, range, _)| !range.contains(v)) {
         let (lo, hi) = (range.start(), range.end());
-        return Err(cx.err(key, format!("must be in [{lo}, {hi}] pixels, got {value}")));
+        return Err(cx.err(key, format!("must be in [{lo}, {hi}]{unit}, got {value}")));
     }
     camera.filter = PixelFilter::new(c.filter);
     Ok(camera)

@@ -206,30 +206,36 @@ impl<'a> Cx<'a> {
         p.boolean("high_quality_edges")?;
         p.boolean("sample_border")?;
         // Mitsuba's film filters with a Gaussian unless told otherwise.
-        use crate::scene::camera::{FilterSpec, GAUSSIAN_STDDEV, TENT_RADIUS};
+        use crate::scene::camera::{FilterSpec, GAUSSIAN_STDDEV, LANCZOS_LOBES, MITCHELL_BC, TENT_RADIUS};
         let filters = p.objects("rfilter");
         self.file.camera.filter = match filters.first() {
             None => FilterSpec::Gaussian { stddev: GAUSSIAN_STDDEV },
             Some(r) => {
                 let rp = Props::new(r);
-                let kind = r.attr("type").unwrap_or("");
-                let spec = match kind {
+                let spec = match r.attr("type").unwrap_or("") {
                     "box" => FilterSpec::Box,
                     "tent" => FilterSpec::Tent { radius: rp.float("radius")?.unwrap_or(TENT_RADIUS) },
                     "gaussian" => FilterSpec::Gaussian { stddev: rp.float("stddev")?.unwrap_or(GAUSSIAN_STDDEV) },
-                    _ => {
-                        self.warnings.push(format!(
-                            "{}: line {}: reconstruction filter `{kind}` is rendered with caustica's box filter \
-                             (read: box, tent, gaussian; edges a little sharper)",
-                            f.file.display(),
-                            r.line
-                        ));
-                        FilterSpec::Box
+                    "mitchell" => FilterSpec::Mitchell {
+                        b: rp.float("B")?.unwrap_or(MITCHELL_BC),
+                        c: rp.float("C")?.unwrap_or(MITCHELL_BC),
+                    },
+                    "catmullrom" => FilterSpec::CatmullRom,
+                    "lanczos" => {
+                        let lobes = rp.int("lobes")?.unwrap_or(LANCZOS_LOBES as i64);
+                        if !(1..=8).contains(&lobes) {
+                            return Err(r.error(format!("lobes must be 1 to 8, got {lobes}")));
+                        }
+                        FilterSpec::Lanczos { lobes: lobes as u32 }
+                    }
+                    kind => {
+                        return Err(r.error(format!(
+                            "reconstruction filter `{kind}` not read (read: box, tent, gaussian, mitchell, \
+                             catmullrom, lanczos)"
+                        )))
                     }
                 };
-                if matches!(kind, "box" | "tent" | "gaussian") {
-                    rp.finish("radius (tent), stddev (gaussian)")?;
-                }
+                rp.finish("radius (tent), stddev (gaussian), B and C (mitchell), lobes (lanczos)")?;
                 spec
             }
         };
