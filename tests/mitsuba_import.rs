@@ -1,5 +1,6 @@
 //! Mitsuba 3 XML import, held to Mitsuba itself: caustica path-traces tests/mitsuba/*.xml and is compared
-//! with Mitsuba 3.9's renders of the very same files (tests/mitsuba/ref/*.exr, 16384 spp, box filter,
+//! with Mitsuba 3.9's renders of the very same files (tests/mitsuba/ref/*.exr, 16384 spp, 65536 for the
+//! pixel-by-pixel filter scenes; box filter unless the scene names another,
 //! made by `scripts/mitsuba-refs`). The showcase scene has what the import reads: one-sided and twosided
 //! diffuse, checkerboard and bitmap textures (on a rectangle and on an OBJ with texture coordinates),
 //! named IORs, a rough gold (GGX, named conductor), a mirror, a thin pane, an area and a point light;
@@ -114,9 +115,10 @@ fn rough_plastic_xml_matches_mitsuba() {
 /// The film's default reconstruction filter, held to Mitsuba pixel by pixel: `filter.xml` names no
 /// `<rfilter>`, so Mitsuba filters with its Gaussian (stddev 0.5) and so must caustica. Its hard edges
 /// (a fine checkerboard, a ball's silhouette, an emitter's rim) make the filter visible: the per-pixel
-/// RMSE against Mitsuba's 16384-spp image must be within 15% of what caustica's own noise at 1024 spp
-/// explains (two renders of different seeds: their RMSE / √2), and rendering with the box filter must
-/// miss by far more.
+/// RMSE against Mitsuba's 65536-spp image (the filter scenes' references are 4× as long as the others,
+/// so that their own noise stays small beside caustica's) must be within 15% of what caustica's own
+/// noise at 1024 spp explains (two renders of different seeds: their RMSE / √2), and rendering with the
+/// box filter must miss by far more.
 #[test]
 fn the_default_gaussian_filter_matches_mitsuba_pixel_by_pixel() {
     use caustica::scene::camera::FilterSpec;
