@@ -72,6 +72,7 @@ fn each_malformed_scene_gets_its_own_message() {
     let d = dir();
     std::fs::write(d.join("nan.obj"), "v 0 0 0\nv 1 0 nan\nv 0 1 0\nv inf 1 1\nf 1 2 3\nf 1 3 4\n").unwrap();
     std::fs::write(d.join("nomtl.obj"), "mtllib gone.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(d.join("text.serialized"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     std::fs::write(d.join("short.ply"), "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n").unwrap();
     let cases: Vec<(&str, String, Vec<&str>, Vec<&str>)> = vec![
         ("syntax", GOOD.replace("fov = 40", "fov = = 40"), vec![], vec!["line 5"]),
@@ -290,6 +291,24 @@ fn each_malformed_scene_gets_its_own_message() {
             ),
             vec![],
             vec!["short.ply", "header says 3"],
+        ),
+        (
+            "serialized_index",
+            GOOD.replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+                "type = \"mesh\"\nfile = \"nan.obj\"\nshape_index = 1",
+            ),
+            vec![],
+            vec!["shapes[0].file", "nan.obj", "shape_index is for a Mitsuba `.serialized` file"],
+        ),
+        (
+            "serialized_garbage",
+            GOOD.replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+                "type = \"mesh\"\nfile = \"text.serialized\"",
+            ),
+            vec![],
+            vec!["text.serialized", "not a Mitsuba serialized mesh"],
         ),
         (
             "unknown_preset",

@@ -301,6 +301,9 @@ pub enum ShapeSpec {
         /// Turn the surface inside out (reverse every triangle and normal).
         #[serde(default, skip_serializing_if = "is_false")]
         flip_normals: bool,
+        /// Which mesh of a Mitsuba `.serialized` file (0, the first, by default; only for those).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        shape_index: Option<u32>,
     },
     /// Analytic sphere (exact hits; not tessellated).
     Sphere {

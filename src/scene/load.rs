@@ -585,22 +585,31 @@ fn build_shape(
     let emission = |e: &Option<V3>| -> Result<Rgb, SceneError> {
         e.map_or(Ok(Rgb::ZERO), |c| cx.colour(&format!("{key}.emission"), c, None))
     };
-    // A mesh turned inside out if asked, then transformed, becomes the shape.
-    let push =
-        |shapes: &mut Vec<Shape>, mut mesh: TriMesh, flip: bool, transform: &TransformSpec, material: u32, em: Rgb| {
-            if flip {
-                mesh.flip();
-            }
-            mesh.transform(&transform_matrix(key, transform, cx.shown)?);
-            shapes.push(Shape { name: key.into(), geometry: Geometry::Mesh(mesh), material, emission: em });
-            Ok::<(), SceneError>(())
-        };
+    // A mesh turned inside out if asked, then transformed, becomes the shape; smooth normals it lacks
+    // (`smooth` with none in the file) are computed as placed.
+    let push = |shapes: &mut Vec<Shape>,
+                mut mesh: TriMesh,
+                flip: bool,
+                transform: &TransformSpec,
+                material: u32,
+                em: Rgb,
+                smooth: bool| {
+        if flip {
+            mesh.flip();
+        }
+        mesh.transform(&transform_matrix(key, transform, cx.shown)?);
+        if smooth && mesh.normals.is_none() {
+            mesh.compute_smooth_normals();
+        }
+        shapes.push(Shape { name: key.into(), geometry: Geometry::Mesh(mesh), material, emission: em });
+        Ok::<(), SceneError>(())
+    };
     match spec {
-        ShapeSpec::Mesh { file, material, transform, emission: e, smooth, flip_normals } => {
+        ShapeSpec::Mesh { file, material, transform, emission: e, smooth, flip_normals, shape_index } => {
             let path = dir.join(file);
             let shown_mesh = path.display().to_string();
             let in_scene = |e: SceneError| cx.err(&format!("{key}.file"), e.to_string());
-            let loaded = mesh::load_mesh_file(&path, &shown_mesh, *smooth).map_err(in_scene)?;
+            let loaded = mesh::load_mesh_file(&path, &shown_mesh, *smooth, *shape_index).map_err(in_scene)?;
             for lm in loaded {
                 lm.mesh.validate(&shown_mesh).map_err(in_scene)?;
                 let mat = match (material, lm.mtl_diffuse, &lm.mtl_texture) {
@@ -619,11 +628,7 @@ fn build_shape(
                         );
                     }
                 };
-                let mut m = lm.mesh;
-                if *smooth && m.normals.is_none() {
-                    m.compute_smooth_normals();
-                }
-                push(out.shapes, m, *flip_normals, transform, mat, emission(e)?)?;
+                push(out.shapes, lm.mesh, *flip_normals, transform, mat, emission(e)?, *smooth)?;
             }
         }
         ShapeSpec::Sphere { center, radius, material, transform, emission: e } => {
@@ -632,17 +637,17 @@ fn build_shape(
         }
         ShapeSpec::Heightfield { material, transform, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, false, transform, lookup(material)?, Rgb::ZERO)?;
+            push(out.shapes, mesh, false, transform, lookup(material)?, Rgb::ZERO, false)?;
         }
         ShapeSpec::Quad { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Disk { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Box { material, transform, emission: e, flip_normals: flip, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e)?)?;
+            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e)?, false)?;
         }
         ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, false, transform, lookup(material)?, emission(e)?)?;
+            push(out.shapes, mesh, false, transform, lookup(material)?, emission(e)?, false)?;
         }
     }
     Ok(())

@@ -1,5 +1,6 @@
 //! Triangle meshes: OBJ (tobj, with MTL colours), PLY (ply-rs-bw header and binary payloads, a fast
-//! parallel reader for ASCII payloads, optional .gz), and generated quads, disks and boxes.
+//! parallel reader for ASCII payloads, optional .gz), Mitsuba's `.serialized` meshes, and generated
+//! quads, disks and boxes.
 use crate::scene::SceneError;
 use glam::{Mat4, Vec3};
 use rayon::prelude::*;
@@ -62,15 +63,28 @@ impl TriMesh {
         }
     }
 
-    /// Area-weighted vertex normals.
+    /// Vertex normals as Mitsuba computes them for a mesh without any (Thürmer & Wüthrich 1998): each
+    /// face's unit normal weighted by the face's angle at the vertex. Call it on the mesh as placed in
+    /// the scene (angles change under a non-uniform scale), as Mitsuba does after `to_world`.
     pub fn compute_smooth_normals(&mut self) {
+        // The angle between unit vectors a and b, accurate near 0 and π (Mitsuba's `unit_angle`).
+        let unit_angle = |a: Vec3, b: Vec3| {
+            if a.dot(b) < 0.0 {
+                std::f32::consts::PI - 2.0 * ((a + b).length() * 0.5).min(1.0).asin()
+            } else {
+                2.0 * ((a - b).length() * 0.5).min(1.0).asin()
+            }
+        };
         let mut ns = vec![Vec3::ZERO; self.positions.len()];
         for t in &self.indices {
-            let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
-            let n = (self.positions[b] - self.positions[a]).cross(self.positions[c] - self.positions[a]);
-            ns[a] += n;
-            ns[b] += n;
-            ns[c] += n;
+            let v = t.map(|i| self.positions[i as usize]);
+            let Some(n) = (v[1] - v[0]).cross(v[2] - v[0]).try_normalize() else { continue };
+            for k in 0..3 {
+                let (e1, e2) = (v[(k + 1) % 3] - v[k], v[(k + 2) % 3] - v[k]);
+                if let (Some(e1), Some(e2)) = (e1.try_normalize(), e2.try_normalize()) {
+                    ns[t[k] as usize] += n * unit_angle(e1, e2);
+                }
+            }
         }
         for n in &mut ns {
             *n = n.normalize_or_zero();
@@ -118,16 +132,29 @@ pub struct LoadedMesh {
     pub mtl_error: Option<String>,
 }
 
-/// Loads an OBJ or PLY (optionally gzip-compressed) file. Vertex normals are read only when `normals`
-/// (smooth shading asked for); texture coordinates whenever the file has them; other per-vertex
-/// properties never are.
-pub fn load_mesh_file(path: &Path, shown: &str, normals: bool) -> Result<Vec<LoadedMesh>, SceneError> {
+/// Loads an OBJ, a PLY (optionally gzip-compressed) or mesh `shape_index` (0 unless given) of a Mitsuba
+/// `.serialized` file. Vertex normals are read only when `normals` (smooth shading asked for); texture
+/// coordinates whenever the file has them; other per-vertex properties never are.
+pub fn load_mesh_file(
+    path: &Path,
+    shown: &str,
+    normals: bool,
+    shape_index: Option<u32>,
+) -> Result<Vec<LoadedMesh>, SceneError> {
     let name = path.to_string_lossy().to_lowercase();
     let err = |msg: String| SceneError::Mesh { file: shown.into(), msg };
     if !path.exists() {
         return Err(SceneError::MissingFile { file: shown.into() });
     }
-    if name.ends_with(".obj") {
+    let serialized = name.ends_with(".serialized");
+    if shape_index.is_some() && !serialized {
+        return Err(err("shape_index is for a Mitsuba `.serialized` file, which holds several meshes".into()));
+    }
+    if serialized {
+        let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
+        let mesh = parse_serialized(&bytes, shape_index.unwrap_or(0), normals).map_err(err)?;
+        Ok(vec![LoadedMesh { mesh, mtl_diffuse: None, mtl_texture: None, mtl_error: None }])
+    } else if name.ends_with(".obj") {
         load_obj(path, normals).map_err(err)
     } else if name.ends_with(".ply") || name.ends_with(".ply.gz") {
         let f = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
@@ -142,7 +169,7 @@ pub fn load_mesh_file(path: &Path, shown: &str, normals: bool) -> Result<Vec<Loa
         let mesh = parse_ply(&bytes, normals).map_err(err)?;
         Ok(vec![LoadedMesh { mesh, mtl_diffuse: None, mtl_texture: None, mtl_error: None }])
     } else {
-        Err(err("unknown mesh format (accepted: .obj, .ply, .ply.gz)".into()))
+        Err(err("unknown mesh format (accepted: .obj, .ply, .ply.gz, .serialized)".into()))
     }
 }
 
@@ -329,6 +356,111 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
     Ok(TriMesh { positions, indices, normals, uvs })
 }
 
+/// A `.serialized` file's mark and the versions read (Mitsuba 0.4 to 3 write 4; 3 lacks the mesh name).
+const SERIALIZED_MARK: u16 = 0x041C;
+
+/// Mesh `index` of a Mitsuba `.serialized` file (little-endian): each mesh is a 2-byte mark 0x041C, a
+/// 2-byte version (3 or 4) and a zlib stream of flags (u32: 1 vertex normals, 2 texture coordinates,
+/// 8 vertex colours, 0x2000 double precision), the mesh's name (version 4, NUL-terminated), vertex and
+/// triangle counts (u64), positions, then normals, texture coordinates and colours as the flags say,
+/// then u32 vertex indices; the file ends with each mesh's offset (u64; u32 in version 3) and their
+/// count (u32). As Mitsuba 3 reads it: texture coordinates as stored, colours and the face-normals
+/// flag ignored (the `face_normals` parameter decides).
+pub fn parse_serialized(bytes: &[u8], index: u32, want_normals: bool) -> Result<TriMesh, String> {
+    let u32_at = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap()));
+    let version_at = |at: usize| -> Result<u16, String> {
+        let head = bytes.get(at..at + 4).ok_or("the file ends before a mesh's header")?;
+        let (mark, version) = (u16::from_le_bytes([head[0], head[1]]), u16::from_le_bytes([head[2], head[3]]));
+        if mark != SERIALIZED_MARK {
+            return Err(format!("not a Mitsuba serialized mesh (mark {mark:#06x} at byte {at}, expected 0x041c)"));
+        }
+        if version != 3 && version != 4 {
+            return Err(format!("serialized format version {version} (read: 3, 4)"));
+        }
+        Ok(version)
+    };
+    let version = version_at(0)?;
+    let start = if index == 0 {
+        0
+    } else {
+        // The end-of-file dictionary: each mesh's offset, then their count.
+        let count = bytes.len().checked_sub(4).and_then(u32_at).ok_or("the file is too short for its mesh count")?;
+        if index >= count {
+            return Err(format!("shape_index {index}: the file holds {count} meshes (0 to {})", count.max(1) - 1));
+        }
+        let back = (count - index) as usize;
+        let offset = if version == 4 {
+            let at = bytes.len().checked_sub(4 + 8 * back).ok_or("the file is too short for its mesh offsets")?;
+            u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap())
+        } else {
+            let at = bytes.len().checked_sub(4 + 4 * back).ok_or("the file is too short for its mesh offsets")?;
+            u32_at(at).unwrap() as u64
+        };
+        let offset = usize::try_from(offset)
+            .ok()
+            .filter(|&o| o < bytes.len())
+            .ok_or(format!("mesh {index} starts at byte {offset}, past the file's {} bytes", bytes.len()))?;
+        if version_at(offset)? != version {
+            return Err(format!("mesh {index} has another format version than the file's first"));
+        }
+        offset
+    };
+    let mut z = flate2::read::ZlibDecoder::new(&bytes[start + 4..]);
+    // Reads exactly n bytes, growing the buffer as data arrives (a count the stream cannot back is an
+    // error, not an allocation).
+    let mut take = |n: u64, what: &str| -> Result<Vec<u8>, String> {
+        let mut out = Vec::new();
+        (&mut z).take(n).read_to_end(&mut out).map_err(|e| format!("mesh {index}: {what}: {e}"))?;
+        if (out.len() as u64) < n {
+            return Err(format!("mesh {index}: the data ends inside its {what}"));
+        }
+        Ok(out)
+    };
+    let flags = u32::from_le_bytes(take(4, "flags")?.try_into().unwrap());
+    if version == 4 {
+        let mut name = 0;
+        while take(1, "name")?[0] != 0 {
+            name += 1;
+            if name > 1 << 16 {
+                return Err(format!("mesh {index}: its name runs past 65,536 bytes"));
+            }
+        }
+    }
+    let counts = take(16, "vertex and triangle counts")?;
+    let nv = u64::from_le_bytes(counts[..8].try_into().unwrap());
+    let nf = u64::from_le_bytes(counts[8..].try_into().unwrap());
+    if nv > u32::MAX as u64 || nf > u32::MAX as u64 {
+        return Err(format!("mesh {index}: {nv} vertices and {nf} triangles (at most {} of each)", u32::MAX));
+    }
+    let size = if flags & 0x2000 != 0 { 8 } else { 4 };
+    let mut floats = |dim: u64, what: &str| -> Result<Vec<f32>, String> {
+        let raw = take(nv * dim * size, what)?;
+        Ok(if size == 8 {
+            raw.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap()) as f32).collect()
+        } else {
+            raw.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect()
+        })
+    };
+    let vec3s = |v: Vec<f32>| v.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect::<Vec<Vec3>>();
+    let positions = vec3s(floats(3, "positions")?);
+    let normals = if flags & 1 != 0 { Some(vec3s(floats(3, "normals")?)) } else { None };
+    let uvs = if flags & 2 != 0 {
+        Some(floats(2, "texture coordinates")?.chunks_exact(2).map(|c| [c[0], c[1]]).collect())
+    } else {
+        None
+    };
+    if flags & 8 != 0 {
+        floats(3, "vertex colours")?;
+    }
+    let raw = take(nf * 12, "triangles")?;
+    let indices = raw
+        .chunks_exact(12)
+        .map(|c| std::array::from_fn(|k| u32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
+        .collect();
+    let normals = normals.filter(|_| want_normals).map(|ns| ns.into_iter().map(|n| n.normalize_or_zero()).collect());
+    Ok(TriMesh { positions, indices, normals, uvs })
+}
+
 /// The fewest bytes one binary record of `def` can take: its scalars, and the count of each list.
 fn min_record_bytes(def: &ply_rs_bw::ply::ElementDef) -> usize {
     use ply_rs_bw::ply::{PropertyType, ScalarType};
@@ -500,6 +632,96 @@ pub fn cuboid(min: Vec3, max: Vec3) -> TriMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One mesh of a `.serialized` file: header, then the zlib stream (version 3 has no name).
+    fn serialized_mesh(version: u16, flags: u32, positions: &[f64], extra: &[f64], tris: &[u32]) -> Vec<u8> {
+        use std::io::Write;
+        let mut body = flags.to_le_bytes().to_vec();
+        if version == 4 {
+            body.extend_from_slice(b"part\0");
+        }
+        body.extend_from_slice(&(positions.len() as u64 / 3).to_le_bytes());
+        body.extend_from_slice(&(tris.len() as u64 / 3).to_le_bytes());
+        for &v in positions.iter().chain(extra) {
+            if flags & 0x2000 != 0 {
+                body.extend_from_slice(&v.to_le_bytes());
+            } else {
+                body.extend_from_slice(&(v as f32).to_le_bytes());
+            }
+        }
+        for &i in tris {
+            body.extend_from_slice(&i.to_le_bytes());
+        }
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(&body).unwrap();
+        let mut out = 0x041Cu16.to_le_bytes().to_vec();
+        out.extend_from_slice(&version.to_le_bytes());
+        out.extend(z.finish().unwrap());
+        out
+    }
+
+    /// Both versions of Mitsuba's serialized format, single and double precision, several meshes found
+    /// through the end-of-file offsets (u32 in version 3, u64 in 4); normals kept only when asked for and
+    /// normalised, texture coordinates as stored, colours skipped; damaged files refused with what is
+    /// wrong, a count the data cannot back refused without allocating for it.
+    #[test]
+    fn serialized_meshes_read_as_mitsuba_writes_them() {
+        let tri = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0, 0.0];
+        let quad = [0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0];
+        for version in [3u16, 4] {
+            let a = serialized_mesh(version, 0x1000, &tri, &[], &[0, 1, 2]);
+            // Normals (unnormalised in the file), uvs and colours, in double precision.
+            let mut extra = [0.0, 0.0, 2.0].repeat(4);
+            extra.extend([0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0]);
+            extra.extend([0.5; 12]);
+            let b = serialized_mesh(version, 0x2000 | 1 | 2 | 8, &quad, &extra, &[0, 1, 2, 0, 2, 3]);
+            let mut file = a.clone();
+            file.extend(&b);
+            if version == 4 {
+                file.extend(0u64.to_le_bytes());
+                file.extend((a.len() as u64).to_le_bytes());
+            } else {
+                file.extend(0u32.to_le_bytes());
+                file.extend((a.len() as u32).to_le_bytes());
+            }
+            file.extend(2u32.to_le_bytes());
+            let m0 = parse_serialized(&file, 0, true).unwrap();
+            assert_eq!(m0.positions, vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 2.0, 0.0)]);
+            assert_eq!((m0.indices.clone(), m0.normals.is_none(), m0.uvs.is_none()), (vec![[0, 1, 2]], true, true));
+            let m1 = parse_serialized(&file, 1, true).unwrap();
+            assert_eq!(m1.indices, vec![[0, 1, 2], [0, 2, 3]]);
+            assert_eq!(m1.positions[2], Vec3::new(1.0, 1.0, 1.0));
+            assert_eq!(m1.normals.as_ref().unwrap()[3], Vec3::Z);
+            assert_eq!(m1.uvs.as_ref().unwrap()[2], [1.0, 1.0]);
+            assert!(parse_serialized(&file, 1, false).unwrap().normals.is_none());
+            let past = parse_serialized(&file, 2, true).unwrap_err();
+            assert!(past.contains("holds 2 meshes"), "{past}");
+            // Truncated inside the second mesh's triangles.
+            let cut = parse_serialized(&b[..b.len() - 6], 0, true).unwrap_err();
+            assert!(cut.contains("triangles") || cut.contains("mesh 0"), "{cut}");
+        }
+        let mut wrong = serialized_mesh(4, 0, &tri, &[], &[0, 1, 2]);
+        wrong[0] = 0x1D;
+        assert!(parse_serialized(&wrong, 0, true).unwrap_err().contains("not a Mitsuba serialized mesh"));
+        let mut v5 = serialized_mesh(4, 0, &tri, &[], &[0, 1, 2]);
+        v5[2] = 5;
+        assert!(parse_serialized(&v5, 0, true).unwrap_err().contains("version 5"));
+        // A header claiming four billion triangles over a few bytes of data.
+        let mut huge = serialized_mesh(4, 0, &tri, &[], &[0, 1, 2]);
+        let body: Vec<u8> = {
+            let mut d = flate2::read::ZlibDecoder::new(&huge[4..]);
+            let mut v = Vec::new();
+            d.read_to_end(&mut v).unwrap();
+            v[4 + 5 + 8..4 + 5 + 16].copy_from_slice(&(u32::MAX as u64).to_le_bytes());
+            v
+        };
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        std::io::Write::write_all(&mut z, &body).unwrap();
+        huge.truncate(4);
+        huge.extend(z.finish().unwrap());
+        let e = parse_serialized(&huge, 0, true).unwrap_err();
+        assert!(e.contains("ends inside its triangles"), "{e}");
+    }
 
     #[test]
     fn cuboid_normals_point_outward_and_area_is_right() {

@@ -23,7 +23,7 @@ pub struct Converted {
     pub warnings: Vec<String>,
 }
 
-const SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere, cylinder";
+const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
                      roughconductor (ggx, beckmann), twosided";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
@@ -315,11 +315,21 @@ impl<'a> Cx<'a> {
         }
         let material = self.shape_material(n, &p, index, emission.is_some())?;
         let spec = match n.attr("type").unwrap_or("") {
-            kind @ ("obj" | "ply") => {
+            kind @ ("obj" | "ply" | "serialized") => {
                 let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
                 let face_normals = p.boolean("face_normals")?.unwrap_or(false);
                 if kind == "obj" && p.boolean("flip_tex_coords")? == Some(false) {
                     return Err(n.error("flip_tex_coords = false is not supported (OBJ texture rows are flipped)"));
+                }
+                let shape_index = match p.int("shape_index")? {
+                    Some(i) if kind == "serialized" => {
+                        Some(u32::try_from(i).map_err(|_| n.error(format!("shape_index must be ≥ 0, got {i}")))?)
+                    }
+                    Some(_) => return Err(n.error("shape_index is only read on a `serialized` shape")),
+                    None => None,
+                };
+                if kind == "serialized" && !file.to_lowercase().ends_with(".serialized") {
+                    return Err(n.error(format!("a `serialized` shape's file must end in .serialized, got `{file}`")));
                 }
                 ShapeSpec::Mesh {
                     file: self.resolve(n, &file),
@@ -328,6 +338,7 @@ impl<'a> Cx<'a> {
                     emission,
                     smooth: !face_normals,
                     flip_normals,
+                    shape_index,
                 }
             }
             "rectangle" => ShapeSpec::Quad {
@@ -362,7 +373,7 @@ impl<'a> Cx<'a> {
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
         };
         p.finish(
-            "to_world, filename, face_normals, flip_normals, center, radius, p0, p1, a bsdf or <ref>, an area emitter",
+            "to_world, filename, face_normals, flip_normals, shape_index, center, radius, p0, p1, a bsdf or <ref>, an area emitter",
         )?;
         self.file.shapes.push(spec);
         Ok(())
