@@ -349,6 +349,7 @@ const XML_TYPES: &[&str] = &[
     "lanczos",
     "roughdielectric",
     "cylinder",
+    "serialized",
     "",
 ];
 
@@ -423,6 +424,7 @@ const ASSETS: &[(&str, &str)] = &[
     ("ball.ply", "mixed.xml"),
     ("label.png", "showcase.xml"),
     ("tile.obj", "showcase.xml"),
+    ("meshes.serialized", "serialized.xml"),
 ];
 
 proptest! {
