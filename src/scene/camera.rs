@@ -181,9 +181,19 @@ impl PixelFilter {
         self.table_at(&self.cdf, t)
     }
 
+    /// The cumulative table of f itself: `signed`, or `cdf` where the two are equal.
+    fn f_table(&self) -> &[f32] {
+        if self.signed.is_empty() {
+            &self.cdf
+        } else {
+            &self.signed
+        }
+    }
+
     /// The filter's integral over [`lo`, `hi`] on the scale of the tables (of |f| over its whole reach = 1).
     fn signed_mass(&self, lo: f32, hi: f32) -> f32 {
-        self.table_at(&self.signed, hi) - self.table_at(&self.signed, lo)
+        let table = self.f_table();
+        self.table_at(table, hi) - self.table_at(table, lo)
     }
 
     /// A film coordinate for pixel `i` of `n` along one axis from a uniform `u`, and its weight along
@@ -216,11 +226,8 @@ impl PixelFilter {
             return 0.0;
         }
         let (k, _) = self.bin(t);
-        let (value, mass) = if self.signed.is_empty() {
-            (self.cdf[k + 1] - self.cdf[k], self.cdf_at(hi) - self.cdf_at(lo))
-        } else {
-            (self.signed[k + 1] - self.signed[k], self.signed_mass(lo, hi))
-        };
+        let table = self.f_table();
+        let (value, mass) = (table[k + 1] - table[k], self.signed_mass(lo, hi));
         if mass > 0.0 {
             value * FILTER_BINS as f32 / (2.0 * self.radius) / mass
         } else {
