@@ -31,6 +31,19 @@ fn with_white(line: &str) -> String {
     GOOD.replace("white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }", line)
 }
 
+/// `GOOD` with its quad's type and geometry (the lines before its material) replaced by `shape`.
+fn with_shape(shape: &str) -> String {
+    GOOD.replace(
+        "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+        shape,
+    )
+}
+
+/// `GOOD` with the camera's pixel filter `filter` (an inline table).
+fn with_filter(filter: &str) -> String {
+    GOOD.replace("resolution = [8, 8]", &format!("resolution = [8, 8]\nfilter = {filter}"))
+}
+
 fn dir() -> PathBuf {
     let d = std::env::temp_dir().join(format!("caustica-bad-input-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -86,10 +99,7 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "missing_mesh",
-            GOOD.replace(
-                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
-                "type = \"mesh\"\nfile = \"nowhere.ply\"",
-            ),
+            with_shape("type = \"mesh\"\nfile = \"nowhere.ply\""),
             vec![],
             vec!["nowhere.ply", "not found"],
         ),
@@ -169,25 +179,25 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "filter_stddev",
-            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"gaussian\", stddev = 5.0 }"),
+            with_filter("{ type = \"gaussian\", stddev = 5.0 }"),
             vec![],
             vec!["camera.filter.stddev", "[0.1, 1]", "got 5"],
         ),
         (
             "filter_kind",
-            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"sinc\" }"),
+            with_filter("{ type = \"sinc\" }"),
             vec![],
             vec!["line 7", "sinc", "box", "tent", "gaussian", "mitchell", "catmullrom", "lanczos"],
         ),
         (
             "filter_mitchell_c",
-            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"mitchell\", c = 3.0 }"),
+            with_filter("{ type = \"mitchell\", c = 3.0 }"),
             vec![],
             vec!["camera.filter.c", "[0, 1]", "got 3"],
         ),
         (
             "filter_lanczos_lobes",
-            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\nfilter = { type = \"lanczos\", lobes = 40 }"),
+            with_filter("{ type = \"lanczos\", lobes = 40 }"),
             vec![],
             vec!["camera.filter.lobes", "[1, 8]", "got 40"],
         ),
@@ -276,37 +286,25 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "nan_mesh",
-            GOOD.replace(
-                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
-                "type = \"mesh\"\nfile = \"nan.obj\"",
-            ),
+            with_shape("type = \"mesh\"\nfile = \"nan.obj\""),
             vec![],
             vec!["nan.obj", "2 vertices have NaN or infinite"],
         ),
         (
             "truncated_ply",
-            GOOD.replace(
-                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
-                "type = \"mesh\"\nfile = \"short.ply\"",
-            ),
+            with_shape("type = \"mesh\"\nfile = \"short.ply\""),
             vec![],
             vec!["short.ply", "header says 3"],
         ),
         (
             "serialized_index",
-            GOOD.replace(
-                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
-                "type = \"mesh\"\nfile = \"nan.obj\"\nshape_index = 1",
-            ),
+            with_shape("type = \"mesh\"\nfile = \"nan.obj\"\nshape_index = 1"),
             vec![],
             vec!["shapes[0].file", "nan.obj", "shape_index is for a Mitsuba `.serialized` file"],
         ),
         (
             "serialized_garbage",
-            GOOD.replace(
-                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
-                "type = \"mesh\"\nfile = \"text.serialized\"",
-            ),
+            with_shape("type = \"mesh\"\nfile = \"text.serialized\""),
             vec![],
             vec!["text.serialized", "not a Mitsuba serialized mesh"],
         ),
@@ -330,10 +328,7 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "sphere_radius",
-            GOOD.replace(
-                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
-                "type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.0",
-            ),
+            with_shape("type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.0"),
             vec![],
             vec!["shapes[0].radius", "must be > 0"],
         ),
