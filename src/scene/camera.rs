@@ -44,6 +44,8 @@ pub const TENT_RADIUS: f32 = 1.0;
 pub const GAUSSIAN_STDDEV: f32 = 0.5;
 pub const MITCHELL_BC: f32 = 1.0 / 3.0;
 pub const LANCZOS_LOBES: u32 = 3;
+/// The Lanczos lobes a scene may ask for (a splat reaches (2 · lobes)² pixels).
+pub const LANCZOS_LOBES_RANGE: std::ops::RangeInclusive<u32> = 1..=8;
 
 fn tent_radius() -> f32 {
     TENT_RADIUS
@@ -516,7 +518,7 @@ mod tests {
                 specs.push(FilterSpec::Mitchell { b, c });
             }
         }
-        specs.extend((1..=8).map(|lobes| FilterSpec::Lanczos { lobes }));
+        specs.extend(LANCZOS_LOBES_RANGE.map(|lobes| FilterSpec::Lanczos { lobes }));
         for spec in specs {
             let f = PixelFilter::new(spec);
             // Mitchell's cubic is B (2 − x)³ / 6 between 1 and 2 when C = 0, negative there otherwise;

@@ -1,7 +1,7 @@
 //! Scene file → `Scene`: TOML parsing, `--set` overrides, and every check a user's mistake needs,
 //! each error naming the file and the key (TOML syntax and type errors also give the line).
 use crate::color::Rgb;
-use crate::scene::camera::{FilterSpec, PixelFilter};
+use crate::scene::camera::{FilterSpec, PixelFilter, LANCZOS_LOBES_RANGE};
 use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
 use crate::scene::light::{Lights, PointLight, Spot};
@@ -281,7 +281,10 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         FilterSpec::Mitchell { b, c } => {
             &[("camera.filter.b", b, 0.0..=1.0, ""), ("camera.filter.c", c, 0.0..=1.0, "")]
         }
-        FilterSpec::Lanczos { lobes } => &[("camera.filter.lobes", lobes as f32, 1.0..=8.0, "")],
+        FilterSpec::Lanczos { lobes } => {
+            let (lo, hi) = (*LANCZOS_LOBES_RANGE.start() as f32, *LANCZOS_LOBES_RANGE.end() as f32);
+            &[("camera.filter.lobes", lobes as f32, lo..=hi, "")]
+        }
     };
     if let Some((key, value, range, unit)) = bounded.iter().find(|(_, v, range, _)| !range.contains(v)) {
         let (lo, hi) = (range.start(), range.end());

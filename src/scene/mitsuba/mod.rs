@@ -206,7 +206,9 @@ impl<'a> Cx<'a> {
         p.boolean("high_quality_edges")?;
         p.boolean("sample_border")?;
         // Mitsuba's film filters with a Gaussian unless told otherwise.
-        use crate::scene::camera::{FilterSpec, GAUSSIAN_STDDEV, LANCZOS_LOBES, MITCHELL_BC, TENT_RADIUS};
+        use crate::scene::camera::{
+            FilterSpec, GAUSSIAN_STDDEV, LANCZOS_LOBES, LANCZOS_LOBES_RANGE, MITCHELL_BC, TENT_RADIUS,
+        };
         let filters = p.objects("rfilter");
         self.file.camera.filter = match filters.first() {
             None => FilterSpec::Gaussian { stddev: GAUSSIAN_STDDEV },
@@ -223,8 +225,10 @@ impl<'a> Cx<'a> {
                     "catmullrom" => FilterSpec::CatmullRom,
                     "lanczos" => {
                         let lobes = rp.int("lobes")?.unwrap_or(LANCZOS_LOBES as i64);
-                        if !(1..=8).contains(&lobes) {
-                            return Err(r.error(format!("lobes must be 1 to 8, got {lobes}")));
+                        let range = LANCZOS_LOBES_RANGE;
+                        if !(*range.start() as i64..=*range.end() as i64).contains(&lobes) {
+                            let (lo, hi) = (range.start(), range.end());
+                            return Err(r.error(format!("lobes must be {lo} to {hi}, got {lobes}")));
                         }
                         FilterSpec::Lanczos { lobes: lobes as u32 }
                     }
