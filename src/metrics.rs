@@ -30,13 +30,8 @@ pub fn light_free_pixels(scene: &Scene, tracer: &dyn Tracer, sub: u32) -> Vec<bo
         for x in 0..cam.width {
             let sees_light = (0..sub * sub).any(|i| {
                 let (fx, fy) = ((i % sub) as f32 + 0.5, (i / sub) as f32 + 0.5);
-                let (ox, oy) = if span == 1.0 {
-                    (x as f32 + fx / sub as f32, y as f32 + fy / sub as f32)
-                } else {
-                    let at = |p: u32, f: f32| p as f32 + 0.5 + (f / sub as f32 - 0.5) * span;
-                    (at(x, fx), at(y, fy))
-                };
-                let ray = cam.ray(ox, oy);
+                let at = |p: u32, f: f32| p as f32 + 0.5 + (f / sub as f32 - 0.5) * span;
+                let ray = cam.ray(at(x, fx), at(y, fy));
                 tracer.intersect(&ray).is_some_and(|h| scene.shapes[h.shape as usize].emission != glam::Vec3::ZERO)
             });
             keep.push(!sees_light);
