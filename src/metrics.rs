@@ -19,20 +19,28 @@ pub fn compare(a: &Image, r: &Image) -> Option<Errors> {
 }
 
 /// Pixels in which no camera ray (of a `sub`×`sub` grid over the pixel's filter: the pixel itself for
-/// the box) sees an emitter directly. Error metrics leave the others out: a light's edge pixels measure
-/// only anti-aliasing noise and swamp every other error.
+/// the box; from the lens's centre and eight points of its rim when it has an aperture) sees an emitter
+/// directly. Error metrics leave the others out: a light's edge pixels measure only anti-aliasing noise
+/// and swamp every other error.
 pub fn light_free_pixels(scene: &Scene, tracer: &dyn Tracer, sub: u32) -> Vec<bool> {
     let cam = &scene.camera;
     // The grid spans the filter's reach: 1 pixel for the box, 2 × radius otherwise.
     let span = 2.0 * cam.filter.spec.radius();
+    // Square points the disc map sends to the lens's centre and around its rim.
+    let rim =
+        [[0.5, 0.5], [0.0, 0.5], [1.0, 0.5], [0.5, 0.0], [0.5, 1.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+    let lens: Vec<glam::Vec3> =
+        rim[..if cam.lens_radius > 0.0 { rim.len() } else { 1 }].iter().map(|&u| cam.lens_point(u)).collect();
     let mut keep = Vec::with_capacity((cam.width * cam.height) as usize);
     for y in 0..cam.height {
         for x in 0..cam.width {
             let sees_light = (0..sub * sub).any(|i| {
                 let (fx, fy) = ((i % sub) as f32 + 0.5, (i / sub) as f32 + 0.5);
                 let at = |p: u32, f: f32| p as f32 + 0.5 + (f / sub as f32 - 0.5) * span;
-                let ray = cam.ray(at(x, fx), at(y, fy));
-                tracer.intersect(&ray).is_some_and(|h| scene.shapes[h.shape as usize].emission != glam::Vec3::ZERO)
+                lens.iter().any(|&l| {
+                    let ray = cam.ray_from(l, at(x, fx), at(y, fy));
+                    tracer.intersect(&ray).is_some_and(|h| scene.shapes[h.shape as usize].emission != glam::Vec3::ZERO)
+                })
             });
             keep.push(!sees_light);
         }

@@ -167,7 +167,7 @@ pub fn render_path_share(scene: &Scene, tracer: &dyn Tracer, spp: u32, share: Sh
     let pt = PathTracer { scene, tracer, max_depth: r.max_depth, rr_depth: r.rr_depth };
     let cam = &scene.camera;
     render_share(cam, spp, r.sampler, r.seed, share, "path", quiet, |x, y, rng, c: &mut Counters| {
-        pt.li(cam.ray(x, y), rng, c)
+        pt.li(cam.sample_ray(x, y, rng), rng, c)
     })
 }
 
@@ -252,7 +252,7 @@ pub fn render_photon_map_share(
         share,
         "eye pass",
         quiet,
-        |x, y, rng, c: &mut Counters| pm.li(cam.ray(x, y), rng, c),
+        |x, y, rng, c: &mut Counters| pm.li(cam.sample_ray(x, y, rng), rng, c),
     )
 }
 

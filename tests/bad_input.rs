@@ -202,6 +202,26 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["camera.filter.lobes", "[1, 8]", "got 40"],
         ),
         (
+            "negative_aperture",
+            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\naperture_radius = -0.1"),
+            vec![],
+            vec!["camera.aperture_radius", "≥ 0", "got -0.1"],
+        ),
+        (
+            "focus_at_the_lens",
+            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\naperture_radius = 0.1\nfocus_distance = 0.0"),
+            vec![],
+            vec!["camera.focus_distance", "> 0", "got 0"],
+        ),
+        (
+            // Finite, but its rim is not: rays would leave from infinity.
+            "lens_beyond_f32",
+            GOOD.replace("origin = [0.0, 1.0, 3.0]\ntarget = [0.0, 1.0, 0.0]", "origin = [1e38, 1.0, 3.0]\ntarget = [1e38, 1.0, 0.0]")
+                .replace("resolution = [8, 8]", "resolution = [8, 8]\naperture_radius = 3.3e38"),
+            vec![],
+            vec!["camera.aperture_radius", "3.3e38 puts the lens beyond f32's range"],
+        ),
+        (
             "rough_plastic_roughness",
             with_white("white = { type = \"plastic\", reflectance = [0.5, 0.5, 0.5], roughness = 2.0 }"),
             vec![],

@@ -256,28 +256,29 @@ fn aimed_light_subpaths_keep_the_means() {
     means_match_pt("aimed at gold", &mut s, &a, 256, 1024);
 }
 
-/// Light tracing splats through the pixel filter as camera samples are drawn through it: on a fine
-/// black-and-white checkerboard under a quad light (direct light only), the unweighted light-tracing
-/// strategy (s = 2, t = 1) with a Gaussian and with a tent filter equals the path tracer's image with
-/// the same filter pixel by pixel: their difference holds less than a tenth of the difference between
-/// the box-filtered and the filtered image (projected on it), and its mean square is within 1.5× of
-/// their two noises' variances (each measured from two independent renders), where the box-filtered
-/// image differs from the filtered one by several times that noise.
-#[test]
-fn light_tracing_splats_through_the_pixel_filter() {
-    use caustica::scene::camera::{FilterSpec, PixelFilter};
-    let mut s = common::scene(
-        "[camera]\norigin = [0.0, 1.2, 0.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, -1.0]\nfov = 50\nresolution = [20, 20]\n\
-         [textures]\nchecks = { type = \"checkerboard\", color0 = [0.9, 0.9, 0.9], color1 = [0.02, 0.02, 0.02], scale = [7.0, 7.0] }\n\
-         [materials]\nfloor = { type = \"diffuse\", reflectance = \"checks\" }\n\
+/// A fine black-and-white checkerboard under a quad light, seen from above (direct light only): the
+/// scene in which light tracing must land on the film where camera samples see it.
+fn checkerboard_from_above(camera_extra: &str) -> Scene {
+    let mut s = common::scene(&format!(
+        "[camera]\norigin = [0.0, 1.2, 0.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, -1.0]\nfov = 50\nresolution = [20, 20]\n{camera_extra}\
+         [textures]\nchecks = {{ type = \"checkerboard\", color0 = [0.9, 0.9, 0.9], color1 = [0.02, 0.02, 0.02], scale = [7.0, 7.0] }}\n\
+         [materials]\nfloor = {{ type = \"diffuse\", reflectance = \"checks\" }}\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, 0.0, 1.0]\nedge_u = [2.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -2.0]\nmaterial = \"floor\"\n\
          [[lights]]\ntype = \"quad\"\ncorner = [-0.5, 1.5, -0.5]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, 1.0]\npower = [20.0, 20.0, 20.0]\n\
-         [render]\nmax_depth = 1\n",
-    );
+         [render]\nmax_depth = 1\n"
+    ));
     // Independent samples, so that two halves' difference measures the noise (Sobol's stratify across
     // iterations).
     s.render.sampler = caustica::math::rng::Sampler::Independent;
-    let a = Accel::new(&s).unwrap();
+    s
+}
+
+/// The unweighted light-tracing strategy (s = 2, t = 1) against the path tracer's image of the same
+/// scene, pixel by pixel: their difference must hold less than a tenth of the difference between PT's
+/// image and `wrong` (what a mistake would render; projected on it), and its mean square must be within
+/// 1.5× of their two noises' variances (each measured from two independent renders), where `wrong`
+/// differs from PT's image by several times that noise.
+fn light_tracing_matches_pt(label: &str, s: &mut Scene, a: &Accel, wrong: &Image) {
     let sq = |x: &Image, y: &Image| {
         let sum: f64 = x.pixels.iter().zip(&y.pixels).map(|(p, q)| (*p - *q).length_squared() as f64).sum();
         sum / (x.pixels.len() * 3) as f64
@@ -289,39 +290,89 @@ fn light_tracing_splats_through_the_pixel_filter() {
         }
         out
     };
-    let pt_with = |s: &mut Scene, seed: u64| {
-        s.render.seed = seed;
-        render_path(s, &a, 8192, true).image
+    let (pt1, pt2) = (pt_image(s, a, 1), pt_image(s, a, 2));
+    s.render.seed = 3;
+    let setup = Setup::new(s, a, VcmOptions { strategy: Some((2, 1)), ..VcmOptions::bdpt() }, None);
+    let lt: Vec<Image> = (1..=2400).map(|i| iterate(s, a, &setup, i).image).collect();
+    let (half1, half2) = (average(&lt[..1200]), average(&lt[1200..]));
+    let lt = average(&lt);
+    // Variances of one PT render and of the whole light-tracing average.
+    let (var_pt, var_lt) = (sq(&pt1, &pt2) / 2.0, sq(&half1, &half2) / 4.0);
+    let (got, wrong_off) = (sq(&lt, &pt1), sq(wrong, &pt1));
+    // How much of the mistake's difference the light-traced image has: its difference from PT's image
+    // projected on the mistake's (0: as PT sees it; 1: as the mistake renders it).
+    let dot = |x: &Image, y: &Image, z: &Image| -> f64 {
+        x.pixels.iter().zip(&y.pixels).zip(&z.pixels).map(|((p, q), r)| (*p - *q).dot(*r - *q) as f64).sum()
     };
-    let boxed = pt_with(&mut s, 1);
+    let beta = dot(&lt, &pt1, wrong) / dot(wrong, &pt1, wrong);
+    eprintln!(
+        "{label}: light tracing vs PT MSE {got:.3e}, their noise {:.3e}; the mistake vs PT {wrong_off:.3e}; \
+         share of the mistake's difference {beta:+.3}",
+        var_pt + var_lt
+    );
+    assert!(beta.abs() < 0.1, "{label}: the light-traced image has {beta} of the mistake's difference");
+    assert!(got < 1.5 * (var_pt + var_lt), "{label}: MSE {got} against noise {}", var_pt + var_lt);
+    assert!(wrong_off > 3.0 * (var_pt + var_lt), "{label}: the mistake should show: {wrong_off}");
+}
+
+/// The path tracer's image at 8192 spp with seed `seed`.
+fn pt_image(s: &mut Scene, a: &Accel, seed: u64) -> Image {
+    s.render.seed = seed;
+    render_path(s, a, 8192, true).image
+}
+
+/// BDPT's and VCM's means equal the path tracer's through a thin lens, every strategy weighted: camera
+/// subpaths start at a lens point, light tracing joins a lens point of its own, glass (a caustic) and a
+/// rough gold panel in and out of focus.
+#[test]
+fn bidirectional_means_hold_through_a_thin_lens() {
+    let mut s = common::scene(
+        "[camera]\norigin = [0.0, 0.9, 2.2]\ntarget = [0.0, 0.2, 0.0]\nfov = 40\nresolution = [20, 20]\n\
+         aperture_radius = 0.15\nfocus_distance = 1.6\n\
+         [materials]\nm = { type = \"diffuse\", reflectance = [0.6, 0.6, 0.6] }\n\
+         glass = { type = \"dielectric\", ior = 1.5 }\n\
+         gold = { type = \"conductor\", preset = \"Au\", roughness = 0.15 }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.3, 0.25, 0.6]\nradius = 0.25\nmaterial = \"glass\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.8, 0.05, -0.4]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.5, -0.3]\nmaterial = \"gold\"\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [-0.4, 1.2, -0.4]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.8]\npower = [20.0, 20.0, 20.0]\n\
+         [render]\nmax_depth = 5\n[render.progressive]\nradius = 0.02\n",
+    );
+    assert_eq!(s.camera.lens_radius, 0.15);
+    let a = Accel::new(&s).unwrap();
+    means_match_pt("thin lens", &mut s, &a, 256, 1024);
+}
+
+/// Light tracing splats through the pixel filter as camera samples are drawn through it: with a
+/// Gaussian, a tent and a Mitchell filter (negative lobes) it matches the path tracer's image with the
+/// same filter, where splatting as a box would render the box-filtered image.
+#[test]
+fn light_tracing_splats_through_the_pixel_filter() {
+    use caustica::scene::camera::{FilterSpec, PixelFilter};
+    let mut s = checkerboard_from_above("");
+    let a = Accel::new(&s).unwrap();
+    let boxed = pt_image(&mut s, &a, 1);
     for spec in [
         FilterSpec::Gaussian { stddev: 0.5 },
         FilterSpec::Tent { radius: 1.0 },
         FilterSpec::Mitchell { b: 1.0 / 3.0, c: 1.0 / 3.0 },
     ] {
         s.camera.filter = PixelFilter::new(spec);
-        let (pt1, pt2) = (pt_with(&mut s, 1), pt_with(&mut s, 2));
-        s.render.seed = 3;
-        let setup = Setup::new(&s, &a, VcmOptions { strategy: Some((2, 1)), ..VcmOptions::bdpt() }, None);
-        let lt: Vec<Image> = (1..=2400).map(|i| iterate(&s, &a, &setup, i).image).collect();
-        let (half1, half2) = (average(&lt[..1200]), average(&lt[1200..]));
-        let lt = average(&lt);
-        // Variances of one PT render and of the whole light-tracing average.
-        let (var_pt, var_lt) = (sq(&pt1, &pt2) / 2.0, sq(&half1, &half2) / 4.0);
-        let (got, boxed_off) = (sq(&lt, &pt1), sq(&boxed, &pt1));
-        // How much of the box filter's difference the light-traced image has: its difference from the
-        // filtered PT image projected on the box's (0: filtered as PT is; 1: splatted as a box).
-        let dot = |x: &Image, y: &Image, z: &Image| -> f64 {
-            x.pixels.iter().zip(&y.pixels).zip(&z.pixels).map(|((p, q), r)| (*p - *q).dot(*r - *q) as f64).sum()
-        };
-        let beta = dot(&lt, &pt1, &boxed) / dot(&boxed, &pt1, &boxed);
-        eprintln!(
-            "{spec:?}: light tracing vs PT MSE {got:.3e}, their noise {:.3e}; box vs filtered {boxed_off:.3e}; \
-             share of the box's difference {beta:+.3}",
-            var_pt + var_lt
-        );
-        assert!(beta.abs() < 0.1, "{spec:?}: the light-traced image has {beta} of the box filter's difference");
-        assert!(got < 1.5 * (var_pt + var_lt), "{spec:?}: MSE {got} against noise {}", var_pt + var_lt);
-        assert!(boxed_off > 3.0 * (var_pt + var_lt), "{spec:?}: the filter should show: {boxed_off}");
+        light_tracing_matches_pt(&format!("{spec:?}"), &mut s, &a, &boxed);
     }
+}
+
+/// Light tracing through a thin lens: each light vertex is joined to a point drawn on the aperture and
+/// lands where the line from it through that point crosses the plane of focus. With the floor twice as
+/// far as the plane of focus, the blurred checkerboard light tracing makes must be the path tracer's,
+/// where the pinhole's sharp image (light joined to the lens's centre) differs by many times the noise.
+#[test]
+fn light_tracing_sees_through_a_thin_lens() {
+    let mut s = checkerboard_from_above("aperture_radius = 0.04\nfocus_distance = 0.6\n");
+    let a = Accel::new(&s).unwrap();
+    assert_eq!((s.camera.lens_radius, s.camera.focus_distance), (0.04, 0.6));
+    s.camera.lens_radius = 0.0;
+    let pinhole = pt_image(&mut s, &a, 1);
+    s.camera.lens_radius = 0.04;
+    light_tracing_matches_pt("thin lens", &mut s, &a, &pinhole);
 }

@@ -338,6 +338,7 @@ const XML_TYPES: &[&str] = &[
     "photonmapper",
     "hdrfilm",
     "perspective",
+    "thinlens",
     "box",
     "spot",
     "plastic",

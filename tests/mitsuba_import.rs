@@ -6,7 +6,8 @@
 //! named IORs, a rough gold (GGX, named conductor), a mirror, a thin pane, an area and a point light;
 //! the envmap scene a rotated, scaled lat-long EXR sky over glass, Beckmann-rough copper and a checkerboard;
 //! the mixed scene a sphere emitter, a disk, a smooth PLY ball in glass and in eta/k rough metal, a
-//! GGX silver cube, a point light, a directional sun and a constant sky.
+//! GGX silver cube, a point light, a directional sun and a constant sky. Pixel by pixel: the film's
+//! filters and the thin-lens camera.
 //! Then: `convert` round trip, `<include>` and `$name`, 0.6 names, and refusals that name the line.
 mod common;
 
@@ -14,7 +15,7 @@ use caustica::accel::Accel;
 use caustica::film::Image;
 use caustica::output::read_exr;
 use caustica::pipeline::render_path;
-use caustica::scene::load_scene_with;
+use caustica::scene::{load_scene_with, Scene};
 use std::path::{Path, PathBuf};
 
 fn dir() -> PathBuf {
@@ -155,6 +156,36 @@ fn filters_with_negative_lobes_match_mitsuba_pixel_by_pixel() {
     filter_matches_mitsuba("filter-lanczos", FilterSpec::Lanczos { lobes: 2 }, &wrong);
 }
 
+/// The error metrics leave out the pixels that see an emitter directly (`light_free_pixels`): through a
+/// lens that is every pixel some lens point sees it from. In `thinlens.xml` the emitter far behind the
+/// plane of focus is a blurred patch: every pixel that Mitsuba's image shows brighter than the sky there
+/// must be left out, which the pinhole's mask (a subset) misses.
+#[test]
+fn light_free_pixels_see_through_the_lens() {
+    use caustica::metrics::light_free_pixels;
+    let mut scene = load_scene_with(&dir().join("thinlens.xml"), &[]).unwrap();
+    let accel = Accel::new(&scene).unwrap();
+    let theirs = read_exr(&dir().join("ref/thinlens.exr")).unwrap();
+    let lens = light_free_pixels(&scene, &accel, 4);
+    scene.camera.lens_radius = 0.0;
+    let pinhole = light_free_pixels(&scene, &accel, 4);
+    // The sky reads 0.5–0.65; the emitter 12, blurred.
+    let lit: Vec<bool> = theirs.pixels.iter().map(|p| p.max_element() > 1.0).collect();
+    let count = |m: &[bool]| m.iter().filter(|k| !**k).count();
+    println!(
+        "left out: {} with the lens, {} as a pinhole; {} lit by the emitter",
+        count(&lens),
+        count(&pinhole),
+        lit.iter().filter(|l| **l).count()
+    );
+    assert!(lens.iter().zip(&pinhole).all(|(l, p)| *p || !*l), "the lens's mask must hold the pinhole's");
+    assert!(lens.iter().zip(&lit).all(|(keep, lit)| !(*keep && *lit)), "a pixel lit by the emitter is kept");
+    assert!(pinhole.iter().zip(&lit).any(|(keep, lit)| *keep && *lit), "the pinhole's mask should miss some");
+}
+
+/// A named change to a loaded scene: what a mistake would render.
+type Variant = (String, Box<dyn Fn(&mut Scene)>);
+
 /// Renders `NAME.xml` (which must read as filter `spec`) at 1024 spp and holds it to Mitsuba's image
 /// pixel by pixel: RMSE within 1.15× caustica's own noise; with each filter of `wrong` above 2× it.
 fn filter_matches_mitsuba(
@@ -162,14 +193,25 @@ fn filter_matches_mitsuba(
     spec: caustica::scene::camera::FilterSpec,
     wrong: &[caustica::scene::camera::FilterSpec],
 ) {
-    use caustica::scene::camera::{FilterSpec, PixelFilter};
+    use caustica::scene::camera::PixelFilter;
+    let wrong: Vec<Variant> = wrong
+        .iter()
+        .map(|&w| (format!("{w:?}"), Box::new(move |s: &mut Scene| s.camera.filter = PixelFilter::new(w)) as _))
+        .collect();
+    pixels_match_mitsuba(name, &|s: &Scene| assert_eq!(s.camera.filter.spec, spec), &wrong);
+}
+
+/// Renders `NAME.xml` (after `check` on what it read) at 1024 spp and holds it to Mitsuba's image pixel
+/// by pixel: RMSE within 1.15× caustica's own noise (two renders of different seeds: their RMSE / √2);
+/// each variant of `wrong` (the scene changed by it) must miss by more than 2× that noise.
+fn pixels_match_mitsuba(name: &str, check: &dyn Fn(&Scene), wrong: &[Variant]) {
     let path = dir().join(format!("{name}.xml"));
     let theirs = read_exr(&dir().join(format!("ref/{name}.exr"))).unwrap();
-    let render_with = |seed: u64, filter: Option<FilterSpec>| {
+    let render_with = |seed: u64, change: Option<&dyn Fn(&mut Scene)>| {
         let mut scene = load_scene_with(&path, &[format!("render.seed={seed}")]).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(scene.camera.filter.spec, spec);
-        if let Some(f) = filter {
-            scene.camera.filter = PixelFilter::new(f);
+        check(&scene);
+        if let Some(f) = change {
+            f(&mut scene);
         }
         let accel = Accel::new(&scene).unwrap();
         render_path(&scene, &accel, 1024, true).image
@@ -182,13 +224,29 @@ fn filter_matches_mitsuba(
     let (one, two) = (render_with(1, None), render_with(2, None));
     let noise = rmse(&one, &two) / 2f64.sqrt();
     let got = rmse(&one, &theirs);
-    println!("{name}.xml: RMSE against Mitsuba {got:.5} ({spec:?}); caustica's own noise {noise:.5}");
-    assert!(got < 1.15 * noise, "{name}.xml, {spec:?}: RMSE {got} against Mitsuba, noise {noise}");
-    for &w in wrong {
-        let off = rmse(&render_with(1, Some(w)), &theirs);
-        println!("{name}.xml: with {w:?} instead, RMSE {off:.5}");
-        assert!(off > 2.0 * noise, "{name}.xml: {w:?} should miss Mitsuba's image: RMSE {off}, noise {noise}");
+    println!("{name}.xml: RMSE against Mitsuba {got:.5}; caustica's own noise {noise:.5}");
+    assert!(got < 1.15 * noise, "{name}.xml: RMSE {got} against Mitsuba, noise {noise}");
+    for (label, change) in wrong {
+        let off = rmse(&render_with(1, Some(change.as_ref())), &theirs);
+        println!("{name}.xml: with {label} instead, RMSE {off:.5}");
+        assert!(off > 2.0 * noise, "{name}.xml: {label} should miss Mitsuba's image: RMSE {off}, noise {noise}");
     }
+}
+
+/// Mitsuba's thin-lens camera, held to Mitsuba pixel by pixel: `thinlens.xml` focuses on a gold ball
+/// with an aperture of radius 0.2, so the floor in front and behind, two balls near the lens and an
+/// emitter far behind are blurred by amounts that grow with their distance from the plane of focus.
+/// caustica's image must match Mitsuba's to within 15% of its own noise at 1024 spp; a pinhole, half
+/// the aperture and a plane of focus 10% nearer must each miss by more than twice that noise.
+#[test]
+fn thin_lens_matches_mitsuba_pixel_by_pixel() {
+    let wrong: Vec<Variant> = vec![
+        ("a pinhole".into(), Box::new(|s: &mut Scene| s.camera.lens_radius = 0.0)),
+        ("half the aperture".into(), Box::new(|s: &mut Scene| s.camera.lens_radius *= 0.5)),
+        ("the focus 10% nearer".into(), Box::new(|s: &mut Scene| s.camera.focus_distance *= 0.9)),
+    ];
+    let check = |s: &Scene| assert_eq!((s.camera.lens_radius, s.camera.focus_distance), (0.2, 4.0));
+    pixels_match_mitsuba("thinlens", &check, &wrong);
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
@@ -234,25 +292,31 @@ fn one_sided_bsdfs_are_black_from_behind_unless_twosided() {
 
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
-    let out = tmp("convert").join("elsewhere/showcase.toml");
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let xml = dir().join("showcase.xml");
-    let o = std::process::Command::new(bin).args(["convert"]).arg(&xml).arg("-o").arg(&out).output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let from_xml = load_scene_with(&xml, &[]).unwrap();
-    let from_toml = load_scene_with(&out, &[]).unwrap();
-    assert_eq!(from_xml.content_hash(), from_toml.content_hash());
-    assert_eq!(from_xml.render.spp, from_toml.render.spp);
-    // … and the same image, bit for bit.
-    let (a, b) = (render(&xml, 4), render(&out, 4));
-    assert!(a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits)));
-    let text = std::fs::read_to_string(&out).unwrap();
-    assert!(text.contains("two_sided = false") && text.contains("type = \"thin_dielectric\""), "{text}");
-    let _ = std::fs::remove_dir_all(out.parent().unwrap().parent().unwrap());
+    let cases: [(&str, &[&str]); 2] = [
+        ("showcase", &["two_sided = false", "type = \"thin_dielectric\""]),
+        ("thinlens", &["aperture_radius = 0.2", "focus_distance = 4.0"]),
+    ];
+    for (name, wanted) in cases {
+        let out = tmp("convert").join(format!("elsewhere/{name}.toml"));
+        let xml = dir().join(format!("{name}.xml"));
+        let o = std::process::Command::new(bin).args(["convert"]).arg(&xml).arg("-o").arg(&out).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let from_xml = load_scene_with(&xml, &[]).unwrap();
+        let from_toml = load_scene_with(&out, &[]).unwrap();
+        assert_eq!(from_xml.content_hash(), from_toml.content_hash());
+        assert_eq!(from_xml.render.spp, from_toml.render.spp);
+        // … and the same image, bit for bit.
+        let (a, b) = (render(&xml, 4), render(&out, 4));
+        assert!(a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits)));
+        let text = std::fs::read_to_string(&out).unwrap();
+        assert!(wanted.iter().all(|w| text.contains(w)), "{name}: {text}");
+    }
+    let _ = std::fs::remove_dir_all(tmp("convert"));
 }
 
 #[test]
@@ -402,6 +466,32 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "serialized-name",
             r#"<scene version="3.0.0"><shape type="serialized"><string name="filename" value="m.obj"/></shape></scene>"#,
             "must end in .serialized, got `m.obj`",
+        ),
+        (
+            "sensor-kind",
+            &panel_scene("").replace("type=\"perspective\"", "type=\"orthographic\""),
+            "sensor type not read (read: perspective, thinlens)",
+        ),
+        (
+            "thinlens-radius",
+            &panel_scene("").replace("type=\"perspective\"", "type=\"thinlens\""),
+            "a `thinlens` needs `aperture_radius`",
+        ),
+        (
+            "thinlens-negative",
+            &panel_scene("").replace(
+                "type=\"perspective\">",
+                "type=\"thinlens\"><float name=\"aperture_radius\" value=\"-0.5\"/>",
+            ),
+            "key `camera.aperture_radius`: must be a finite radius ≥ 0 (0: a pinhole), got -0.5",
+        ),
+        (
+            "thinlens-focus",
+            &panel_scene("").replace(
+                "type=\"perspective\">",
+                "type=\"thinlens\"><float name=\"aperture_radius\" value=\"0.1\"/><float name=\"focus_distance\" value=\"-1\"/>",
+            ),
+            "key `camera.focus_distance`: must be a finite distance > 0, got -1",
         ),
         // A width beyond u32 was reported as "must be ≥ 1".
         (

@@ -219,7 +219,7 @@ impl<'a> Sppm<'a> {
         // The filter's weight (±, for a filter with negative lobes) rides in the throughput, so the
         // visible point's photons count with it too.
         let (fx, fy, weight) = scene.camera.film_position(x, y, rng.next_2d());
-        let ray = scene.camera.ray(fx, fy);
+        let ray = scene.camera.sample_ray(fx, fy, rng);
         let beta = Rgb::splat(weight);
         let (mut l, end) = specular_chain(scene, self.tracer, ray, beta, rng, c, ChainLight::CountSplitFirst);
         if let (Some(e), DirectLight::ShadowRays) = (&end, scene.render.direct_light) {

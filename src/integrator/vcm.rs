@@ -740,7 +740,10 @@ impl Vcm<'_> {
                     vm,
                 };
                 if it.opts.connect || it.opts.strategy.is_some() {
-                    self.connect_to_camera(&lv, splats, c);
+                    // A lens point for each connection (drawn only when the camera has an aperture).
+                    let cam = &scene.camera;
+                    let lens = if cam.lens_radius > 0.0 { cam.lens_point(rng.next_2d()) } else { cam.origin };
+                    self.connect_to_camera(&lv, lens, splats, c);
                 }
                 if it.opts.connect || it.opts.merge {
                     verts.push(lv);
@@ -803,18 +806,21 @@ impl Vcm<'_> {
         Some(next)
     }
 
-    /// Light tracing (t = 1): the light vertex seen by the camera, splatted where it lands on the film.
-    fn connect_to_camera(&self, lv: &LightVertex, splats: &mut Vec<(u32, Rgb)>, c: &mut Counters) {
+    /// Light tracing (t = 1): the light vertex seen from lens point `lens` (the pinhole for a pinhole
+    /// camera), splatted where it lands on the film. The lens point's density, 1 / (π r²), is the same
+    /// for every strategy and cancels against the aperture's area in the camera's importance, so neither
+    /// appears.
+    fn connect_to_camera(&self, lv: &LightVertex, lens: Vec3, splats: &mut Vec<(u32, Rgb)>, c: &mut Counters) {
         let it = &self.it;
         let (s, t) = (lv.len + 1, 1);
         if lv.len + 1 > it.max_len {
             return;
         }
         let cam = &self.scene.camera;
-        let Some((px, py)) = cam.project(lv.si.p) else {
+        let Some((px, py)) = cam.film_position_from(lens, lv.si.p) else {
             return;
         };
-        let to_cam = cam.origin - lv.si.p;
+        let to_cam = lens - lv.si.p;
         let dist2 = to_cam.length_squared();
         let dir = to_cam / dist2.sqrt();
         if !lv.si.can_scatter(&lv.mat, lv.wo, dir) {
@@ -837,7 +843,7 @@ impl Vcm<'_> {
         }
         let val = lv.beta * f * (w * pdf_dir / dist2 / it.n_paths);
         c.rays += 1;
-        if self.tracer.occluded(&lv.si.spawn_to(cam.origin)) {
+        if self.tracer.occluded(&lv.si.spawn_to(lens)) {
             return;
         }
         cam.splat(px, py, |pixel, w| splats.push((pixel, if w == 1.0 { val } else { val * w })));
@@ -848,7 +854,7 @@ impl Vcm<'_> {
         let scene = self.scene;
         let it = &self.it;
         let cam = &scene.camera;
-        let mut ray = cam.ray(film.0, film.1);
+        let mut ray = cam.sample_ray(film.0, film.1, rng);
         let pdf_dir = cam.pixel_pdf_dir(ray.d);
         if pdf_dir <= 0.0 {
             return Rgb::ZERO;
@@ -862,7 +868,7 @@ impl Vcm<'_> {
             s_vm: 0.0,
             radiance_scale: 1.0,
         };
-        let mut prev = cam.origin;
+        let mut prev = ray.o;
         let mut l = Rgb::ZERO;
         let lv_range = light.ends[k] as usize..light.ends[k + 1] as usize;
         loop {

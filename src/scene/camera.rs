@@ -254,6 +254,12 @@ pub struct Camera {
     pub width: u32,
     pub height: u32,
     pub filter: PixelFilter,
+    /// Radius of the thin lens's aperture (0: a pinhole). Rays leave from a point of the disc of this
+    /// radius around `origin` (in the film's plane) and pass through the point that the pinhole ray
+    /// of their film position meets on the plane of focus.
+    pub lens_radius: f32,
+    /// Distance from the lens to the plane in focus, along `forward`.
+    pub focus_distance: f32,
 }
 
 impl Camera {
@@ -267,7 +273,65 @@ impl Camera {
             FovAxis::X => [t, t / aspect],
             FovAxis::Y => [t * aspect, t],
         };
-        Camera { origin, right, up, forward, tan_half, width: res[0], height: res[1], filter: PixelFilter::default() }
+        Camera {
+            origin,
+            right,
+            up,
+            forward,
+            tan_half,
+            width: res[0],
+            height: res[1],
+            filter: PixelFilter::default(),
+            lens_radius: 0.0,
+            focus_distance: (target - origin).length(),
+        }
+    }
+
+    /// The point of the aperture that the uniform pair `u` picks (uniform over the disc; `origin` for a
+    /// pinhole). Every lens point has the same density, 1 / (π r²), so it cancels wherever a light
+    /// path is joined to the camera: only the point itself matters.
+    pub fn lens_point(&self, u: [f32; 2]) -> Vec3 {
+        if self.lens_radius <= 0.0 {
+            return self.origin;
+        }
+        let [a, b] = crate::math::sampling::concentric_disk(u);
+        self.origin + self.lens_radius * (a * self.right + b * self.up)
+    }
+
+    /// A camera ray through film position (x, y): the pinhole's `ray`, or, with a lens, from a lens
+    /// point drawn from `rng` (its next two numbers, taken only then) towards where that pinhole ray
+    /// meets the plane of focus.
+    pub fn sample_ray(&self, x: f32, y: f32, rng: &mut crate::math::Rng) -> Ray {
+        if self.lens_radius <= 0.0 {
+            return self.ray(x, y);
+        }
+        self.ray_from(self.lens_point(rng.next_2d()), x, y)
+    }
+
+    /// The ray from lens point `lens` through film position (x, y): towards where the pinhole's ray
+    /// of (x, y) meets the plane of focus (the pinhole's ray itself without an aperture).
+    pub fn ray_from(&self, lens: Vec3, x: f32, y: f32) -> Ray {
+        let d = self.ray(x, y).d;
+        if self.lens_radius <= 0.0 {
+            return Ray::new(self.origin, d);
+        }
+        let focus = self.origin + d * (self.focus_distance / d.dot(self.forward));
+        Ray::new(lens, (focus - lens).normalize())
+    }
+
+    /// Film position at which light leaving world point `p` towards lens point `lens` lands (the
+    /// pinhole projection of where that line crosses the plane of focus), if it is on the film and `p`
+    /// is in front of the lens.
+    pub fn film_position_from(&self, lens: Vec3, p: Vec3) -> Option<(f32, f32)> {
+        if self.lens_radius <= 0.0 {
+            return self.project(p);
+        }
+        let d = p - lens;
+        let z = d.dot(self.forward);
+        if z <= 0.0 {
+            return None;
+        }
+        self.project(lens + d * (self.focus_distance / z))
     }
 
     /// The film position of a sample of pixel (`x`, `y`) from the uniform pair `u`, and the weight its
@@ -315,7 +379,8 @@ impl Camera {
         }
     }
 
-    /// Primary ray through film position (x, y) in pixels, (0,0) = top-left corner.
+    /// The pinhole's ray through film position (x, y) in pixels, (0,0) = top-left corner (from the
+    /// lens's centre when there is a lens: for aiming, not for rendering; see `sample_ray`).
     pub fn ray(&self, x: f32, y: f32) -> Ray {
         let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half[0];
         let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half[1];
@@ -329,7 +394,9 @@ impl Camera {
 
     /// Solid-angle density of a primary ray along unit direction `d` when the film position is uniform
     /// over one pixel (D²/cos³θ with D the unit-pixel plane's distance), 0 behind the camera. It is also
-    /// the pixel's importance times cos θ: light tracing divides by it to land on the film.
+    /// the pixel's importance times cos θ: light tracing divides by it to land on the film. With a lens
+    /// it is the same function of the ray's direction from whichever lens point it leaves (the film
+    /// maps linearly onto the plane of focus, seen from that point).
     pub fn pixel_pdf_dir(&self, d: Vec3) -> f32 {
         let c = d.dot(self.forward);
         if c <= 0.0 {
@@ -554,5 +621,48 @@ mod tests {
             let (px, py) = c.project(r.at(3.0)).unwrap();
             assert!((px - x).abs() < 1e-3 && (py - y).abs() < 1e-3);
         }
+    }
+
+    /// A thin lens: every ray of a film position, whichever lens point it leaves, passes through the
+    /// pinhole ray's point on the plane of focus, and light from any point on it lands back on that film
+    /// position (`film_position_from` inverts `ray_from`); lens points fill the aperture's disc
+    /// uniformly (mean r² = R²/2, none outside, a quarter in each quadrant). A pinhole's `sample_ray`
+    /// is its `ray` and draws no random number.
+    #[test]
+    fn thin_lens_rays_meet_on_the_plane_of_focus() {
+        use crate::math::Rng;
+        let mut c =
+            Camera::new(Vec3::new(0.3, 1.0, 4.0), Vec3::new(0.0, 0.8, 0.0), Vec3::Y, 50.0, FovAxis::X, [320, 200]);
+        let mut rng = Rng::new(5, 6, 7);
+        let before = rng.clone().next_f32();
+        assert_eq!(c.sample_ray(10.5, 20.5, &mut rng).d, c.ray(10.5, 20.5).d);
+        assert_eq!(rng.next_f32(), before, "a pinhole drew random numbers");
+        (c.lens_radius, c.focus_distance) = (0.25, 3.0);
+        for (x, y) in [(10.5, 20.5), (160.0, 100.0), (300.2, 190.9)] {
+            let p = c.ray(x, y);
+            let focus = p.at(3.0 / p.d.dot(c.forward));
+            for _ in 0..50 {
+                let r = c.sample_ray(x, y, &mut rng);
+                assert!((r.o - c.origin).dot(c.forward).abs() < 1e-5, "lens point off the lens's plane");
+                let t = (focus - r.o).dot(r.d);
+                assert!((r.at(t) - focus).length() < 1e-4, "a ray of ({x}, {y}) misses the focus point");
+                for along in [0.5, 2.0, 7.0] {
+                    let (px, py) = c.film_position_from(r.o, r.at(along)).unwrap();
+                    assert!((px - x).abs() < 2e-3 && (py - y).abs() < 2e-3, "({x}, {y}) came back as ({px}, {py})");
+                }
+            }
+        }
+        let n = 100_000;
+        let (mut r2, mut quadrant) = (0.0f64, [0u32; 4]);
+        for _ in 0..n {
+            let l = c.lens_point(rng.next_2d()) - c.origin;
+            let (a, b) = (l.dot(c.right), l.dot(c.up));
+            assert!(a.hypot(b) <= c.lens_radius * 1.0001);
+            r2 += (a * a + b * b) as f64;
+            quadrant[(a > 0.0) as usize + 2 * (b > 0.0) as usize] += 1;
+        }
+        let mean_r2 = r2 / n as f64 / (0.25f64 * 0.25);
+        assert!((mean_r2 - 0.5).abs() < 0.005, "mean r² / R² = {mean_r2}");
+        assert!(quadrant.iter().all(|&q| (q as f64 / n as f64 - 0.25).abs() < 0.006), "{quadrant:?}");
     }
 }

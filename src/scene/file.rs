@@ -71,6 +71,14 @@ pub struct CameraSpec {
     /// `{ type = "gaussian", stddev = 0.5 }` (Mitsuba's film's default).
     #[serde(default, skip_serializing_if = "is_box_filter")]
     pub filter: crate::scene::camera::FilterSpec,
+    /// Thin lens (depth of field): the aperture's radius in scene units; 0 (the default) is a pinhole,
+    /// everything sharp.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub aperture_radius: f32,
+    /// Distance from the lens to the plane in focus, along the view direction (default: the distance
+    /// from `origin` to `target`). Read only with an aperture.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub focus_distance: Option<f32>,
 }
 
 fn is_box_filter(f: &crate::scene::camera::FilterSpec) -> bool {

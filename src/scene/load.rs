@@ -291,6 +291,31 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         return Err(cx.err(key, format!("must be in [{lo}, {hi}]{unit}, got {value}")));
     }
     camera.filter = PixelFilter::new(c.filter);
+    if !(c.aperture_radius.is_finite() && c.aperture_radius >= 0.0) {
+        return Err(cx.err(
+            "camera.aperture_radius",
+            format!("must be a finite radius ≥ 0 (0: a pinhole), got {}", c.aperture_radius),
+        ));
+    }
+    camera.lens_radius = c.aperture_radius;
+    if let Some(f) = c.focus_distance {
+        if !(f.is_finite() && f > 0.0) {
+            return Err(cx.err("camera.focus_distance", format!("must be a finite distance > 0, got {f}")));
+        }
+        camera.focus_distance = f;
+    }
+    // Rays leave the lens's rim and aim at the corners of the plane of focus: both must be f32 points.
+    let rim = camera.origin + camera.lens_radius * (camera.right + camera.up);
+    if !rim.is_finite() {
+        return Err(
+            cx.err("camera.aperture_radius", format!("{:e} puts the lens beyond f32's range", c.aperture_radius))
+        );
+    }
+    let corner = camera.forward + camera.tan_half[0] * camera.right + camera.tan_half[1] * camera.up;
+    if camera.lens_radius > 0.0 && !(camera.origin + corner * camera.focus_distance).is_finite() {
+        let f = camera.focus_distance;
+        return Err(cx.err("camera.focus_distance", format!("{f:e} puts the plane of focus beyond f32's range")));
+    }
     Ok(camera)
 }
 

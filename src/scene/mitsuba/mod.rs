@@ -63,7 +63,7 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
             }
         }
     }
-    let sensor = sensor.ok_or_else(|| root.error("has no <sensor type=\"perspective\">"))?;
+    let sensor = sensor.ok_or_else(|| root.error("has no <sensor> (perspective or thinlens)"))?;
     cx.sensor(sensor)?;
     Ok(Converted { file: cx.file, warnings: cx.warnings })
 }
@@ -78,6 +78,8 @@ fn empty_file() -> SceneFile {
         resolution: [768, 576],
         // Mitsuba's film's default; replaced by what the film says.
         filter: crate::scene::camera::FilterSpec::Gaussian { stddev: crate::scene::camera::GAUSSIAN_STDDEV },
+        aperture_radius: 0.0,
+        focus_distance: None,
     };
     let mut render = RenderSettings { max_depth: UNLIMITED_DEPTH, ..Default::default() };
     render.spp = 4;
@@ -117,10 +119,20 @@ impl<'a> Cx<'a> {
     }
 
     fn sensor(&mut self, s: &Node) -> Result<(), SceneError> {
-        if s.attr("type") != Some("perspective") {
-            return Err(s.error("only the `perspective` sensor is read"));
-        }
+        let thin_lens = match s.attr("type") {
+            Some("perspective") => false,
+            Some("thinlens") => true,
+            _ => return Err(s.error("sensor type not read (read: perspective, thinlens)")),
+        };
         let p = Props::new(s);
+        if thin_lens {
+            // Mitsuba requires the radius (and renders 0 as a pinhole, its epsilon); the plane of focus
+            // defaults to the far clipping plane.
+            let radius = p.float("aperture_radius")?.ok_or_else(|| s.error("a `thinlens` needs `aperture_radius`"))?;
+            let far = p.float("far_clip")?.unwrap_or(1e4);
+            let focus = p.float("focus_distance")?.unwrap_or(far);
+            (self.file.camera.aperture_radius, self.file.camera.focus_distance) = (radius, Some(focus));
+        }
         let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
         if [x, y, z].iter().any(|a| (a.length() - 1.0).abs() > 1e-3) {
@@ -159,7 +171,7 @@ impl<'a> Cx<'a> {
             sp.int("scramble_seed")?;
             sp.finish("sample_count, seed (the sampler type only changes the noise)")?;
         }
-        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, film, sampler")?;
+        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, film, sampler (and for thinlens aperture_radius, focus_distance)")?;
         let [w, h] = self.file.camera.resolution.map(|v| v as f32);
         let (deg, axis) = match (fov, focal) {
             (Some(_), Some(_)) => return Err(s.error("give `fov` or `focal_length`, not both")),
