@@ -120,6 +120,54 @@ fn serialized_meshes_match_mitsuba() {
     matches_mitsuba_within("serialized", 1024, 0.002, 0.015);
 }
 
+/// `hide_emitters`: a sky, a panel light and a sphere light, black where the camera sees them straight
+/// on, lit floor and balls, and the lights' images in a mirror ball and through a glass ball.
+#[test]
+fn hidden_emitters_xml_matches_mitsuba() {
+    matches_mitsuba("hide", 1024, 0.003);
+}
+
+/// Every mode hides what the camera sees directly, and only that: on `hide.xml`, each pixel that
+/// Mitsuba's image leaves black (2,808 of them: the sky and the panel light seen straight on) is exactly
+/// black in every mode, and each mode's mean stays with Mitsuba's (hiding emission further along the
+/// camera's chain would darken the mirror and the glass).
+#[test]
+fn every_mode_hides_only_what_the_camera_sees_directly() {
+    let bin = env!("CARGO_BIN_EXE_caustica");
+    let theirs = read_exr(&dir().join("ref/hide.exr")).unwrap();
+    let black: Vec<bool> = theirs.pixels.iter().map(|p| p.max_element() == 0.0).collect();
+    assert!(black.iter().filter(|b| **b).count() > 2000);
+    let mean = |img: &Image| img.pixels.iter().map(|p| (p.x + p.y + p.z) as f64).sum::<f64>() / img.pixels.len() as f64;
+    let d = tmp("hide");
+    let cases: [(&str, &[&str], f64); 5] = [
+        ("bdpt", &["--passes", "64"], 0.005),
+        ("vcm", &["--passes", "64"], 0.005),
+        ("sppm", &["--passes", "64"], 0.01),
+        ("ppm", &["--passes", "64"], 0.015),
+        ("photon_map", &["--set", "render.pm_spp=16"], 0.01),
+    ];
+    for (mode, args, tol) in cases {
+        let out = d.join(mode);
+        let o = std::process::Command::new(bin)
+            .arg("render")
+            .arg(dir().join("hide.xml"))
+            .args(["--mode", mode])
+            .args(args)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{mode}: {}", String::from_utf8_lossy(&o.stderr));
+        let ours = read_exr(&out.with_extension("exr")).unwrap();
+        let lit = ours.pixels.iter().zip(&black).filter(|(p, b)| **b && p.max_element() != 0.0).count();
+        let ratio = mean(&ours) / mean(&theirs);
+        println!("{mode}: {lit} pixels lit where Mitsuba's are black; mean {ratio:.4} of Mitsuba's");
+        assert_eq!(lit, 0, "{mode}: {lit} pixels show what the camera sees directly");
+        assert!((ratio - 1.0).abs() < tol, "{mode}: mean {ratio} of Mitsuba's");
+    }
+    let _ = std::fs::remove_dir_all(d);
+}
+
 #[test]
 fn plastic_xml_matches_mitsuba() {
     matches_mitsuba("plastic", 1024, 0.003);

@@ -61,7 +61,8 @@ pub enum ChainLight {
     /// A sampled direction never finds a point or distant light, so without the light sample their
     /// glints on rough metal would be missing.
     Count,
-    /// As `Count`, and a first hit on smooth glass or water follows both of its lobes (below).
+    /// As `Count`, and a first hit on smooth glass or water follows both of its lobes (below): a camera
+    /// ray's chain, so with `render.hide_emitters` what its first segment sees is left out.
     CountSplitFirst,
 }
 
@@ -97,7 +98,8 @@ pub fn specular_chain(
     for depth in 0..=scene.render.max_depth {
         c.rays += 1;
         let found = crate::accel::interact(scene, tracer, &ray);
-        if count {
+        let hidden = depth == 0 && light == ChainLight::CountSplitFirst && scene.render.hide_emitters;
+        if count && !hidden {
             let sampled = (!specular).then_some((prev_pdf, prev_p));
             let (le, w) = direct::emission_seen(scene, found.as_ref(), ray.d, sampled);
             if le != Rgb::ZERO {

@@ -31,7 +31,7 @@ impl PathTracer<'_> {
             c.rays += 1;
             let found = interact(scene, self.tracer, &ray);
             let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
-            if le != Rgb::ZERO {
+            if le != Rgb::ZERO && !(depth == 0 && scene.render.hide_emitters) {
                 l += beta * le * w;
             }
             let Some(Interaction { si, wo, .. }) = found else {

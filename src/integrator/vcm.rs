@@ -873,8 +873,12 @@ impl Vcm<'_> {
         let lv_range = light.ends[k] as usize..light.ends[k + 1] as usize;
         loop {
             c.rays += 1;
+            // Only the camera sees light along its first segment (s = 0): hidden, it is hidden for all.
+            let hidden = sp.len == 1 && scene.render.hide_emitters;
             let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
-                l += sp.beta * self.env_hit(&sp, ray.d);
+                if !hidden {
+                    l += sp.beta * self.env_hit(&sp, ray.d);
+                }
                 break;
             };
             let dist2 = (hit.t * ray.d.length()).powi(2);
@@ -885,7 +889,7 @@ impl Vcm<'_> {
             sp.d_vcm *= dist2 / cos_in;
             sp.d_vc /= cos_in;
             sp.s_vm /= cos_in;
-            let le = scene.emitted(&si, wo);
+            let le = if hidden { Rgb::ZERO } else { scene.emitted(&si, wo) };
             if le != Rgb::ZERO {
                 l += sp.beta * le * self.emitter_hit(&sp, &si, wo, prev);
             }

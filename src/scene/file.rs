@@ -555,6 +555,10 @@ pub struct RenderSettings {
     pub final_gather: u32,
     /// Run every pass even where the planner finds it useless (for checking the planner).
     pub force_all_passes: bool,
+    /// Leave out the light the camera sees directly (emitters and the sky behind the scene, black
+    /// there), keeping everything they light and whatever shows them in a mirror or through glass
+    /// (Mitsuba's `hide_emitters`).
+    pub hide_emitters: bool,
     pub photons: PhotonSettings,
     pub gather: GatherSettings,
     pub progressive: ProgressiveSettings,
@@ -650,6 +654,7 @@ impl Default for RenderSettings {
             direct_light: DirectLight::ShadowRays,
             final_gather: 0,
             force_all_passes: false,
+            hide_emitters: false,
             photons: PhotonSettings::default(),
             gather: GatherSettings::default(),
             progressive: ProgressiveSettings::default(),

@@ -277,13 +277,12 @@ impl<'a> Cx<'a> {
                 if let Some(d) = p.int("rr_depth")? {
                     r.rr_depth = (d.max(1) - 1) as u32;
                 }
-                if p.boolean("hide_emitters")? == Some(true) {
-                    return Err(n.error("hide_emitters = true is not supported"));
-                }
+                r.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
             }
             Some("direct") => {
                 r.mode = Mode::Path;
                 r.max_depth = 1;
+                r.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
                 p.int("emitter_samples")?;
                 p.int("bsdf_samples")?;
                 p.int("shading_samples")?;
@@ -311,7 +310,7 @@ impl<'a> Cx<'a> {
             }
             _ => return Err(n.error("not read (read: path, volpath without media, direct; 0.6's photonmapper, sppm)")),
         }
-        p.finish("max_depth, rr_depth, hide_emitters = false (photonmapper/sppm: photon counts, max_passes, alpha)")
+        p.finish("max_depth, rr_depth, hide_emitters (photonmapper/sppm: photon counts, max_passes, alpha)")
     }
 
     fn shape(&mut self, n: &'a Node) -> Result<(), SceneError> {
