@@ -351,6 +351,8 @@ const XML_TYPES: &[&str] = &[
     "roughdielectric",
     "cylinder",
     "serialized",
+    "shapegroup",
+    "instance",
     "",
 ];
 

@@ -168,6 +168,14 @@ fn every_mode_hides_only_what_the_camera_sees_directly() {
     let _ = std::fs::remove_dir_all(d);
 }
 
+/// Instancing: a shapegroup of a gold ball, a red cube and a glass PLY ball, each with its own
+/// `to_world`, placed three times by instances that rotate, scale and move it (caustica copies the
+/// shapes into each place).
+#[test]
+fn instances_xml_match_mitsuba() {
+    matches_mitsuba("instance", 1024, 0.003);
+}
+
 #[test]
 fn plastic_xml_matches_mitsuba() {
     matches_mitsuba("plastic", 1024, 0.003);
@@ -540,6 +548,31 @@ fn what_is_not_read_is_refused_naming_the_line() {
                 "type=\"thinlens\"><float name=\"aperture_radius\" value=\"0.1\"/><float name=\"focus_distance\" value=\"-1\"/>",
             ),
             "key `camera.focus_distance`: must be a finite distance > 0, got -1",
+        ),
+        (
+            "instance-ref",
+            r#"<scene version="3.0.0"><bsdf type="diffuse" id="b"/><shape type="instance"><ref id="b"/></shape></scene>"#,
+            "`b` is not a <shape type=\"shapegroup\">",
+        ),
+        (
+            "instance-none",
+            r#"<scene version="3.0.0"><shape type="instance"/></scene>"#,
+            "an instance needs exactly one <ref id> to a shapegroup",
+        ),
+        (
+            "group-emitter",
+            r#"<scene version="3.0.0"><shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape></scene>"#,
+            "an emitter inside a shapegroup",
+        ),
+        (
+            "group-nested",
+            r#"<scene version="3.0.0"><shape type="shapegroup" id="g"><shape type="shapegroup" id="h"/></shape></scene>"#,
+            "a shapegroup inside a shapegroup",
+        ),
+        (
+            "group-id",
+            r#"<scene version="3.0.0"><shape type="shapegroup"><shape type="sphere"/></shape></scene>"#,
+            "a shapegroup needs an `id`",
         ),
         // A width beyond u32 was reported as "must be ≥ 1".
         (

@@ -23,7 +23,7 @@ pub struct Converted {
     pub warnings: Vec<String>,
 }
 
-const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder";
+const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
                      roughconductor (ggx, beckmann), twosided";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
@@ -314,9 +314,64 @@ impl<'a> Cx<'a> {
     }
 
     fn shape(&mut self, n: &'a Node) -> Result<(), SceneError> {
+        match n.attr("type") {
+            // A group is drawn only where an instance places it.
+            Some("shapegroup") => self.shapegroup(n).map(|_| ()),
+            Some("instance") => self.instance(n),
+            _ => self.placed_shape(n, None),
+        }
+    }
+
+    /// A `shapegroup`'s shapes, checked: an `id`, shapes only, none of them emitting or a group itself
+    /// (Mitsuba instances neither emitters nor groups).
+    fn shapegroup(&self, g: &'a Node) -> Result<Vec<&'a Node>, SceneError> {
+        if g.attr("id").is_none() {
+            return Err(g.error("a shapegroup needs an `id` for instances to refer to"));
+        }
+        let p = Props::new(g);
+        let shapes = p.objects("shape");
+        p.finish("shapes")?;
+        for c in &shapes {
+            if matches!(c.attr("type"), Some("shapegroup" | "instance")) {
+                return Err(c.error("a shapegroup inside a shapegroup (Mitsuba does not nest instancing either)"));
+            }
+            if c.children.iter().any(|e| e.tag == "emitter") {
+                return Err(c.error("an emitter inside a shapegroup (Mitsuba does not instance emitters either)"));
+            }
+        }
+        Ok(shapes)
+    }
+
+    /// An `instance`: its group's shapes, each placed by the instance's `to_world` after its own (as
+    /// copies: caustica flattens instances).
+    fn instance(&mut self, n: &'a Node) -> Result<(), SceneError> {
+        let p = Props::new(n);
+        let outer = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let refs = p.objects("ref");
+        p.finish("to_world, a <ref> to a shapegroup")?;
+        let [r] = refs[..] else {
+            return Err(n.error("an instance needs exactly one <ref id> to a shapegroup"));
+        };
+        let id = r.attr("id").ok_or_else(|| r.error("needs an `id`"))?;
+        let group = self.lookup(r, id)?;
+        if group.tag != "shape" || group.attr("type") != Some("shapegroup") {
+            return Err(r.error(format!("`{id}` is not a <shape type=\"shapegroup\">")));
+        }
+        for c in self.shapegroup(group)? {
+            self.placed_shape(c, Some(outer))?;
+        }
+        Ok(())
+    }
+
+    /// One shape, placed by its `to_world` and then by `outer` (an instance's) when there is one.
+    fn placed_shape(&mut self, n: &'a Node, outer: Option<Mat4>) -> Result<(), SceneError> {
         let index = self.file.shapes.len();
         let p = Props::new(n);
-        let to_world = p.transform("to_world")?;
+        let own = p.transform("to_world")?;
+        let to_world = match outer {
+            None => own,
+            Some(m) => Some(m * own.unwrap_or(Mat4::IDENTITY)),
+        };
         let transform = transform_spec(to_world);
         let flip_normals = p.boolean("flip_normals")?.unwrap_or(false);
         let mut emission = None;
