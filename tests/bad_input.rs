@@ -41,7 +41,12 @@ fn with_shape(shape: &str) -> String {
 
 /// `GOOD` with the camera's pixel filter `filter` (an inline table).
 fn with_filter(filter: &str) -> String {
-    GOOD.replace("resolution = [8, 8]", &format!("resolution = [8, 8]\nfilter = {filter}"))
+    with_camera(&format!("filter = {filter}"))
+}
+
+/// GOOD with `lines` added to its `[camera]`.
+fn with_camera(lines: &str) -> String {
+    GOOD.replace("resolution = [8, 8]", &format!("resolution = [8, 8]\n{lines}"))
 }
 
 fn dir() -> PathBuf {
@@ -203,21 +208,21 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "negative_aperture",
-            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\naperture_radius = -0.1"),
+            with_camera("aperture_radius = -0.1"),
             vec![],
             vec!["camera.aperture_radius", "≥ 0", "got -0.1"],
         ),
         (
             "focus_at_the_lens",
-            GOOD.replace("resolution = [8, 8]", "resolution = [8, 8]\naperture_radius = 0.1\nfocus_distance = 0.0"),
+            with_camera("aperture_radius = 0.1\nfocus_distance = 0.0"),
             vec![],
             vec!["camera.focus_distance", "> 0", "got 0"],
         ),
         (
             // Finite, but its rim is not: rays would leave from infinity.
             "lens_beyond_f32",
-            GOOD.replace("origin = [0.0, 1.0, 3.0]\ntarget = [0.0, 1.0, 0.0]", "origin = [1e38, 1.0, 3.0]\ntarget = [1e38, 1.0, 0.0]")
-                .replace("resolution = [8, 8]", "resolution = [8, 8]\naperture_radius = 3.3e38"),
+            with_camera("aperture_radius = 3.3e38")
+                .replace("origin = [0.0, 1.0, 3.0]\ntarget = [0.0, 1.0, 0.0]", "origin = [1e38, 1.0, 3.0]\ntarget = [1e38, 1.0, 0.0]"),
             vec![],
             vec!["camera.aperture_radius", "3.3e38 puts the lens beyond f32's range"],
         ),

@@ -316,6 +316,11 @@ fn tmp(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("caustica-mitsuba-{name}-{}", std::process::id()))
 }
 
+/// `panel_scene` without a BSDF, with `from` replaced by `to`.
+fn panel_with(from: &str, to: &str) -> String {
+    panel_scene("").replace(from, to)
+}
+
 /// A camera at z = 2 looking at a 1×1 panel at the origin whose front faces away (−z), with a point
 /// light on the camera's side: only a two-sided panel reflects it.
 fn panel_scene(bsdf: &str) -> String {
@@ -386,7 +391,7 @@ fn includes_defaults_and_version_0_6_names_are_read() {
     let main = write(
         &d,
         "main.xml",
-        &panel_scene("").replace(
+        &panel_with(
             "<emitter type=\"point\">",
             "<default name=\"power\" value=\"2\"/><default name=\"spp\" value=\"12\"/><include filename=\"lights.xml\"/><emitter type=\"point\">",
         )
@@ -460,7 +465,7 @@ fn what_is_not_read_is_refused_naming_the_line() {
         }
     }
     let whole: &[(&str, &str, &str)] = &[
-        ("mirror-cam", &panel_scene("").replace("<lookat", "<scale x=\"-1\"/><lookat"), "mirrors"),
+        ("mirror-cam", &panel_with("<lookat", "<scale x=\"-1\"/><lookat"), "mirrors"),
         ("no-sensor", r#"<scene version="3.0.0"><shape type="sphere"/></scene>"#, "no <sensor"),
         ("not-xml", "<scene version=\"3.0.0\"><shape", "XML"),
         ("cycle", r#"<scene version="3.0.0"><include filename="cycle.xml"/></scene>"#, "nested deeper"),
@@ -470,8 +475,8 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &format!("<scene version=\"3.0.0\">{}{}</scene>", "<a>".repeat(100_000), "</a>".repeat(100_000)),
             "nested deeper",
         ),
-        ("projector", &panel_scene("").replace("type=\"point\"", "type=\"projector\""), "emitter type not read"),
-        ("shape", &panel_scene("").replace("type=\"rectangle\"", "type=\"bsplinecurve\""), "shape type not read"),
+        ("projector", &panel_with("type=\"point\"", "type=\"projector\""), "emitter type not read"),
+        ("shape", &panel_with("type=\"rectangle\"", "type=\"bsplinecurve\""), "shape type not read"),
         (
             "cylinder-radius",
             r#"<scene version="3.0.0"><shape type="cylinder"><float name="radius" value="0"/></shape></scene>"#,
@@ -489,12 +494,12 @@ fn what_is_not_read_is_refused_naming_the_line() {
         ),
         (
             "filter-kind",
-            &panel_scene("").replace("<rfilter type=\"box\"/>", "<rfilter type=\"sinc\"/>"),
+            &panel_with("<rfilter type=\"box\"/>", "<rfilter type=\"sinc\"/>"),
             "reconstruction filter `sinc` not read (read: box, tent, gaussian, mitchell, catmullrom, lanczos)",
         ),
         (
             "filter-lobes",
-            &panel_scene("").replace(
+            &panel_with(
                 "<rfilter type=\"box\"/>",
                 "<rfilter type=\"lanczos\"><integer name=\"lobes\" value=\"0\"/></rfilter>",
             ),
@@ -502,7 +507,7 @@ fn what_is_not_read_is_refused_naming_the_line() {
         ),
         (
             "filter-mitchell-b",
-            &panel_scene("").replace(
+            &panel_with(
                 "<rfilter type=\"box\"/>",
                 "<rfilter type=\"mitchell\"><float name=\"B\" value=\"-2\"/></rfilter>",
             ),
@@ -525,17 +530,17 @@ fn what_is_not_read_is_refused_naming_the_line() {
         ),
         (
             "sensor-kind",
-            &panel_scene("").replace("type=\"perspective\"", "type=\"orthographic\""),
+            &panel_with("type=\"perspective\"", "type=\"orthographic\""),
             "sensor type not read (read: perspective, thinlens)",
         ),
         (
             "thinlens-radius",
-            &panel_scene("").replace("type=\"perspective\"", "type=\"thinlens\""),
+            &panel_with("type=\"perspective\"", "type=\"thinlens\""),
             "a `thinlens` needs `aperture_radius`",
         ),
         (
             "thinlens-negative",
-            &panel_scene("").replace(
+            &panel_with(
                 "type=\"perspective\">",
                 "type=\"thinlens\"><float name=\"aperture_radius\" value=\"-0.5\"/>",
             ),
@@ -543,7 +548,7 @@ fn what_is_not_read_is_refused_naming_the_line() {
         ),
         (
             "thinlens-focus",
-            &panel_scene("").replace(
+            &panel_with(
                 "type=\"perspective\">",
                 "type=\"thinlens\"><float name=\"aperture_radius\" value=\"0.1\"/><float name=\"focus_distance\" value=\"-1\"/>",
             ),
@@ -577,7 +582,7 @@ fn what_is_not_read_is_refused_naming_the_line() {
         // A width beyond u32 was reported as "must be ≥ 1".
         (
             "huge-width",
-            &panel_scene("").replace("name=\"width\" value=\"8\"", "name=\"width\" value=\"99999999999\""),
+            &panel_with("name=\"width\" value=\"8\"", "name=\"width\" value=\"99999999999\""),
             "got 99999999999",
         ),
     ];
