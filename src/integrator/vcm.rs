@@ -740,9 +740,8 @@ impl Vcm<'_> {
                     vm,
                 };
                 if it.opts.connect || it.opts.strategy.is_some() {
-                    // A lens point for each connection (drawn only when the camera has an aperture).
-                    let cam = &scene.camera;
-                    let lens = if cam.lens_radius > 0.0 { cam.lens_point(rng.next_2d()) } else { cam.origin };
+                    // A lens point of its own for each connection.
+                    let lens = scene.camera.sample_lens(rng);
                     self.connect_to_camera(&lv, lens, splats, c);
                 }
                 if it.opts.connect || it.opts.merge {

@@ -298,24 +298,29 @@ impl Camera {
         self.origin + self.lens_radius * (a * self.right + b * self.up)
     }
 
-    /// A camera ray through film position (x, y): the pinhole's `ray`, or, with a lens, from a lens
-    /// point drawn from `rng` (its next two numbers, taken only then) towards where that pinhole ray
-    /// meets the plane of focus.
-    pub fn sample_ray(&self, x: f32, y: f32, rng: &mut crate::math::Rng) -> Ray {
+    /// A lens point drawn from `rng` (its next two numbers, taken only when there is an aperture;
+    /// `origin` for a pinhole).
+    pub fn sample_lens(&self, rng: &mut crate::math::Rng) -> Vec3 {
         if self.lens_radius <= 0.0 {
-            return self.ray(x, y);
+            return self.origin;
         }
-        self.ray_from(self.lens_point(rng.next_2d()), x, y)
+        self.lens_point(rng.next_2d())
+    }
+
+    /// A camera ray through film position (x, y): the pinhole's `ray`, or, with a lens, from a lens
+    /// point drawn from `rng` (`sample_lens`) towards where that pinhole ray meets the plane of focus.
+    pub fn sample_ray(&self, x: f32, y: f32, rng: &mut crate::math::Rng) -> Ray {
+        self.ray_from(self.sample_lens(rng), x, y)
     }
 
     /// The ray from lens point `lens` through film position (x, y): towards where the pinhole's ray
     /// of (x, y) meets the plane of focus (the pinhole's ray itself without an aperture).
     pub fn ray_from(&self, lens: Vec3, x: f32, y: f32) -> Ray {
-        let d = self.ray(x, y).d;
+        let pinhole = self.ray(x, y);
         if self.lens_radius <= 0.0 {
-            return Ray::new(self.origin, d);
+            return pinhole;
         }
-        let focus = self.origin + d * (self.focus_distance / d.dot(self.forward));
+        let focus = self.origin + pinhole.d * (self.focus_distance / pinhole.d.dot(self.forward));
         Ray::new(lens, (focus - lens).normalize())
     }
 
