@@ -95,8 +95,8 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     let r = &scene.render;
     let mut reasons = Vec::new();
     // A plastic is both: its base holds photons, its coat is a mirror.
-    let is_diffuse = |s: usize| scene.material_of(s as u32).bsdf.is_diffuse();
-    let holds = |s: usize| scene.material_of(s as u32).bsdf.holds_photons();
+    let is_diffuse = |s: usize| scene.is_diffuse(s as u32);
+    let holds = |s: usize| scene.holds_photons(s as u32);
     let lit_diffuse: Vec<usize> =
         (0..scene.shapes.len()).filter(|&s| holds(s) && scene.max_albedo(s as u32) > 0.0).collect();
     let specular: Vec<usize> = (0..scene.shapes.len()).filter(|&s| !is_diffuse(s)).collect();
@@ -173,8 +173,7 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
 fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &mut Vec<String>) -> Vec<bool> {
     let lights = &scene.lights;
     let eps = 1e-4 * scene.diagonal().max(1e-6);
-    let targets: Vec<Vec3> =
-        seen.iter().filter(|(s, _)| scene.material_of(*s).bsdf.holds_photons()).map(|&(_, p)| p).collect();
+    let targets: Vec<Vec3> = seen.iter().filter(|(s, _)| scene.holds_photons(*s)).map(|&(_, p)| p).collect();
     let mut keep = vec![true; lights.list.len()];
     let mut i = 0;
     while i < lights.list.len() {

@@ -44,6 +44,17 @@ fn with_filter(filter: &str) -> String {
     with_camera(&format!("filter = {filter}"))
 }
 
+/// `white` as the top of a chain of `n` blends, each of a diffuse surface and the next.
+fn deep_blends(n: usize) -> String {
+    let mut lines = vec!["white = { type = \"blend\", first = \"d\", second = \"m1\" }".to_string()];
+    lines.push("d = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }".into());
+    for i in 1..n {
+        lines.push(format!("m{i} = {{ type = \"blend\", first = \"d\", second = \"m{}\" }}", i + 1));
+    }
+    lines.push(format!("m{n} = {{ type = \"null\" }}"));
+    lines.join("\n")
+}
+
 /// GOOD with `lines` added to its `[camera]`.
 fn with_camera(lines: &str) -> String {
     GOOD.replace("resolution = [8, 8]", &format!("resolution = [8, 8]\n{lines}"))
@@ -225,6 +236,43 @@ fn each_malformed_scene_gets_its_own_message() {
                 .replace("origin = [0.0, 1.0, 3.0]\ntarget = [0.0, 1.0, 0.0]", "origin = [1e38, 1.0, 3.0]\ntarget = [1e38, 1.0, 0.0]"),
             vec![],
             vec!["camera.aperture_radius", "3.3e38 puts the lens beyond f32's range"],
+        ),
+        (
+            "blend_of_itself",
+            with_white(
+                "white = { type = \"blend\", first = \"a\", second = \"b\" }\n\
+                 a = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
+                 b = { type = \"blend\", weight = 0.3, first = \"a\", second = \"white\" }",
+            ),
+            vec![],
+            vec!["materials.b", "a blend that contains itself", "b → white → b"],
+        ),
+        (
+            "blend_unknown_material",
+            with_white("white = { type = \"blend\", first = \"white\", second = \"chalk\" }"),
+            vec![],
+            vec!["materials.white.second", "unknown material `chalk`"],
+        ),
+        (
+            "blend_weight_range",
+            with_white(
+                "white = { type = \"blend\", weight = 1.5, first = \"n\", second = \"n\" }\nn = { type = \"null\" }",
+            ),
+            vec![],
+            vec!["materials.white.weight", "[0, 1]", "got 1.5"],
+        ),
+        (
+            "blend_weight_texture",
+            with_white("white = { type = \"blend\", weight = \"mask\", first = \"n\", second = \"n\" }\nn = { type = \"null\" }"),
+            vec![],
+            vec!["materials.white.weight", "unknown texture `mask`"],
+        ),
+        (
+            // A chain of blends beyond any real scene (each would be walked at every hit).
+            "blend_too_deep",
+            with_white(&deep_blends(70)),
+            vec![],
+            vec!["blends nested deeper than 64"],
         ),
         (
             "rough_plastic_roughness",

@@ -353,6 +353,9 @@ const XML_TYPES: &[&str] = &[
     "serialized",
     "shapegroup",
     "instance",
+    "blendbsdf",
+    "mask",
+    "null",
     "",
 ];
 

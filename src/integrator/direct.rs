@@ -47,7 +47,8 @@ pub fn estimate_direct(
     c: &mut Counters,
     strategy: DirectStrategy,
 ) -> Rgb {
-    estimate_direct_with(scene, tracer, si, wo, &scene.bsdf(si, wo), rng, c, strategy)
+    let mat = scene.bsdf(si, wo, || rng.next_f32());
+    estimate_direct_with(scene, tracer, si, wo, &mat, rng, c, strategy)
 }
 
 /// `estimate_direct` with a given BSDF in place of the surface's own (the radiance cache's unit-albedo

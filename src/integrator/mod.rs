@@ -30,6 +30,8 @@ pub struct ChainEnd {
     pub beta: crate::color::Rgb,
     /// Bounces before this hit along the chain (0: the ray's first hit).
     pub depth: u32,
+    /// The BSDF there: on a blend, the material the chain picked (light gathered here uses it).
+    pub mat: crate::scene::Material,
 }
 
 impl ChainEnd {
@@ -48,7 +50,7 @@ pub fn first_hit_specular(
     tracer: &dyn crate::accel::Tracer,
     ray: &crate::math::Ray,
 ) -> bool {
-    tracer.intersect(ray).is_some_and(|h| !scene.material_of(h.shape).bsdf.is_diffuse())
+    tracer.intersect(ray).is_some_and(|h| !scene.is_diffuse(h.shape))
 }
 
 /// What a chain of non-diffuse bounces counts on its way, besides the diffuse hit it ends at.
@@ -109,7 +111,7 @@ pub fn specular_chain(
         let Some(crate::accel::Interaction { si, wo, .. }) = found else {
             break;
         };
-        let mut mat = scene.bsdf(&si, wo);
+        let mut mat = scene.bsdf(&si, wo, || rng.next_f32());
         // Where photons are held the chain ends, except that a plastic's coat lobe, taken by its share
         // of the choice, carries the chain on (the end then weighs 1 / the base's share). A smooth coat's
         // mirror is the lobe `sample` draws for the same choice; a rough coat's glossy lobe is followed
@@ -119,7 +121,7 @@ pub fn specular_chain(
             let share = mat.coat_share(wo, si.ns);
             let uc = if share > 0.0 { rng.next_f32() } else { 1.0 };
             if uc >= share {
-                return (emitted, Some(ChainEnd { si, wo, beta: beta / (1.0 - share), depth }));
+                return (emitted, Some(ChainEnd { si, wo, beta: beta / (1.0 - share), depth, mat }));
             }
             match mat.coat_lobe() {
                 Some(coat) => {

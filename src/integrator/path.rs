@@ -1,7 +1,7 @@
 //! Unidirectional path tracer: next-event estimation with MIS (area and sphere lights), shadow rays for
 //! point lights, delta BSDFs sampled exactly, Russian roulette after `rr_depth` bounces on the
 //! throughput without refraction's 1/η² radiance scale.
-use super::direct::{emission_seen, estimate_direct, DirectStrategy};
+use super::direct::{emission_seen, estimate_direct_with, DirectStrategy};
 use super::Counters;
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
@@ -40,9 +40,9 @@ impl PathTracer<'_> {
             if depth >= self.max_depth {
                 break;
             }
-            let mat = scene.bsdf(&si, wo);
+            let mat = scene.bsdf(&si, wo, || rng.next_f32());
             if !mat.is_delta() {
-                l += beta * estimate_direct(scene, self.tracer, &si, wo, rng, c, DirectStrategy::Mis);
+                l += beta * estimate_direct_with(scene, self.tracer, &si, wo, &mat, rng, c, DirectStrategy::Mis);
             }
             let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Radiance) else {
                 break;

@@ -350,8 +350,7 @@ impl<'a> PhotonMapper<'a> {
     #[allow(clippy::too_many_arguments)]
     fn diffuse_radiance(
         &self,
-        si: &SurfaceHit,
-        wo: glam::Vec3,
+        end: &super::ChainEnd,
         rng: &mut Rng,
         c: &mut Counters,
         fg: u32,
@@ -362,7 +361,7 @@ impl<'a> PhotonMapper<'a> {
             // The path tracer counts only emission here (the chain did).
             return Rgb::ZERO;
         }
-        let mat = self.scene.bsdf(si, wo);
+        let (si, wo, mat) = (&end.si, end.wo, &end.mat);
         let Some(lobe) = mat.diffuse_lobe(wo, si.ns) else {
             return Rgb::ZERO;
         };
@@ -391,7 +390,7 @@ impl<'a> PhotonMapper<'a> {
         };
         let caustic = self.map_radiance(CAUSTIC, si, wo, lobe, budget);
         if fg > 0 {
-            return direct + caustic + self.final_gather(si, wo, rng, c, fg, budget);
+            return direct + caustic + self.final_gather(si, wo, mat, rng, c, fg, budget);
         }
         direct + caustic + self.map_radiance(INDIRECT, si, wo, lobe, budget)
     }
@@ -399,10 +398,12 @@ impl<'a> PhotonMapper<'a> {
     /// Indirect light by `n` rays sampled from the surface's BSDF (cosine about the shading normal, as
     /// direct light and the path tracer use it) that read the maps where they land, `budget` scattering
     /// events left here (this one's included).
+    #[allow(clippy::too_many_arguments)]
     fn final_gather(
         &self,
         si: &SurfaceHit,
         wo: glam::Vec3,
+        mat: &crate::scene::Material,
         rng: &mut Rng,
         c: &mut Counters,
         n: u32,
@@ -412,7 +413,7 @@ impl<'a> PhotonMapper<'a> {
             return Rgb::ZERO;
         }
         // A rough plastic's coat lobe is the chain's to follow: only its base gathers.
-        let mat = self.scene.bsdf(si, wo).base_only();
+        let mat = mat.base_only();
         // The gather rays' first hits are one bounce further into the path than this point.
         let first = self.scene.render.max_depth - budget + 1;
         let mut sum = Rgb::ZERO;
@@ -440,7 +441,7 @@ impl<'a> PhotonMapper<'a> {
         let (mut l, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, light);
         if let Some(e) = end {
             // Final-gather rays are the ones that do not count emission.
-            l += e.beta * self.diffuse_radiance(&e.si, e.wo, rng, c, fg, !emission, e.budget(self.scene, first));
+            l += e.beta * self.diffuse_radiance(&e, rng, c, fg, !emission, e.budget(self.scene, first));
         }
         l
     }

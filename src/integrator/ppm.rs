@@ -57,12 +57,8 @@ pub fn initial_radius(scene: &Scene) -> f32 {
 /// The radius of a disc holding about `k` of `points` points spread evenly over the surfaces that hold
 /// photons, capped at `render.gather.max_radius` of the scene diagonal.
 pub fn radius_for_density(scene: &Scene, k: f64, points: f64) -> f32 {
-    let area: f64 = scene
-        .shapes
-        .iter()
-        .filter(|s| scene.materials[s.material as usize].bsdf.holds_photons())
-        .map(|s| s.area() as f64)
-        .sum();
+    let area: f64 =
+        scene.shapes.iter().filter(|s| scene.material_holds_photons(s.material)).map(|s| s.area() as f64).sum();
     let r = (k * area / (std::f64::consts::PI * points)).sqrt() as f32;
     let cap = scene.render.gather.max_radius * scene.diagonal();
     if r.is_finite() && r > 0.0 {

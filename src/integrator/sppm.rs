@@ -168,8 +168,7 @@ impl<'a> Sppm<'a> {
                 }
                 let (mut flux, mut m) = (Rgb::ZERO, 0u32);
                 let budget = vp.budget(scene, 0);
-                let lobe =
-                    scene.bsdf(&vp.si, vp.wo).diffuse_lobe(vp.wo, vp.si.ns).unwrap_or(DiffuseLobe::lambert(Rgb::ZERO));
+                let lobe = vp.mat.diffuse_lobe(vp.wo, vp.si.ns).unwrap_or(DiffuseLobe::lambert(Rgb::ZERO));
                 SCRATCH.with(|s| {
                     for map in maps.maps.iter().flatten() {
                         let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, budget, lobe.coat, &mut s.borrow_mut());
@@ -228,7 +227,7 @@ impl<'a> Sppm<'a> {
                 return (l, end);
             }
             let strategy = DirectStrategy::eye_pass(scene);
-            let base = scene.bsdf(&e.si, e.wo).base_only();
+            let base = e.mat.base_only();
             l += e.beta * estimate_direct_with(scene, self.tracer, &e.si, e.wo, &base, rng, c, strategy);
         }
         (l, end)
@@ -282,7 +281,7 @@ pub fn disc_coverage(
                 break;
             };
             let s = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-            if s.ng.dot(n).abs() >= 0.6 && scene.bsdf(&s, n).holds_photons() {
+            if s.ng.dot(n).abs() >= 0.6 && scene.any_bsdf_at(&s, n, |m| m.holds_photons()) {
                 covered += 1;
                 break;
             }

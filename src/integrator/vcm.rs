@@ -241,7 +241,7 @@ impl Aim {
         let targets: Vec<&crate::scene::Shape> = (scene.shapes.iter().enumerate())
             .filter(|&(i, sh)| {
                 only.is_none_or(|o| o.contains(&(i as u32)))
-                    && !scene.materials[sh.material as usize].bsdf.is_diffuse()
+                    && !scene.material_is_diffuse(sh.material)
                     && sh.area() > 0.0
             })
             .map(|(_, sh)| sh)
@@ -725,20 +725,27 @@ impl Vcm<'_> {
             sp.d_vcm /= cos_in;
             sp.d_vc /= cos_in;
             sp.s_vm /= cos_in;
-            let mat = scene.bsdf(&si, wo);
+            let mat = scene.bsdf(&si, wo, || rng.next_f32());
             let vm = if mat.is_delta() { 0.0 } else { it.vm_at(si.p) };
-            if !mat.is_delta() {
-                let lv = LightVertex {
-                    si,
-                    wo,
-                    mat,
-                    beta: sp.beta,
-                    len: sp.len,
-                    d_vcm: sp.d_vcm,
-                    d_vc: sp.d_vc,
-                    s_vm: sp.s_vm,
-                    vm,
-                };
+            let lv = LightVertex {
+                si,
+                wo,
+                mat,
+                beta: sp.beta,
+                len: sp.len,
+                d_vcm: sp.d_vcm,
+                d_vc: sp.d_vc,
+                s_vm: sp.s_vm,
+                vm,
+            };
+            if mat.is_delta() {
+                // A blend that picked a mirror or glass here for the light's next bounce: the light that
+                // arrived is still there for a camera subpath whose own pick can merge with it (this
+                // vertex connects to nothing: its BSDF is a delta).
+                if it.opts.merge && scene.any_bsdf_at(&si, wo, |m| !m.is_delta()) {
+                    verts.push(lv);
+                }
+            } else {
                 if it.opts.connect || it.opts.strategy.is_some() {
                     // A lens point of its own for each connection.
                     let lens = scene.camera.sample_lens(rng);
@@ -895,7 +902,7 @@ impl Vcm<'_> {
             if sp.len >= it.max_len {
                 break;
             }
-            let mat = scene.bsdf(&si, wo);
+            let mat = scene.bsdf(&si, wo, || rng.next_f32());
             // η here (merging's radius), and the merge strategy's share of MIS sums here.
             let (eta, vm) = if mat.is_delta() {
                 (0.0, 0.0)

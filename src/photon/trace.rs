@@ -112,7 +112,7 @@ impl Targets {
         let mut shapes = Vec::new();
         for (i, s) in scene.shapes.iter().enumerate() {
             let excluded = only.is_some_and(|o| !o.contains(&(i as u32)));
-            if scene.materials[s.material as usize].bsdf.is_diffuse() || excluded || s.area() <= 0.0 {
+            if scene.material_is_diffuse(s.material) || excluded || s.area() <= 0.0 {
                 continue;
             }
             shapes.push(i as u32);
@@ -276,9 +276,11 @@ fn trace_one(
         }
         let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
         let wo = -ray.d.normalize();
-        let mat = scene.bsdf(&si, wo);
+        let mat = scene.bsdf(&si, wo, || rng.next_f32());
         let last = depth + 1 >= s.max_depth;
-        if mat.holds_photons() {
+        // Stored where the surface can hold photons, also where a blend picked a mirror or glass for
+        // this photon's next bounce.
+        if mat.holds_photons() || scene.any_bsdf_at(&si, wo, |m| m.holds_photons()) {
             let map = if diffuse_bounces > 0 {
                 INDIRECT
             } else if specular_bounces > 0 {
@@ -292,28 +294,26 @@ fn trace_one(
                 let p = with_events(si.p.to_array(), depth + 1);
                 out[map].push((p, Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
             }
-            if last {
+        }
+        if last {
+            return;
+        }
+        if mat.is_diffuse() {
+            // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
+            if s.want[INDIRECT] == 0 {
                 return;
             }
-            if mat.is_diffuse() {
-                // Nothing this pass wants can follow (a caustic-only pass stops at the first diffuse hit).
-                if s.want[INDIRECT] == 0 {
-                    return;
-                }
-                let p = max_component(mat.albedo());
-                if p <= 0.0 || rng.next_f32() >= p {
-                    return;
-                }
-                let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
-                    return;
-                };
-                phi *= bs.weight / p;
-                diffuse_bounces += 1;
-                ray = next;
-                continue;
+            let p = max_component(mat.albedo());
+            if p <= 0.0 || rng.next_f32() >= p {
+                return;
             }
-        } else if last {
-            return;
+            let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Importance) else {
+                return;
+            };
+            phi *= bs.weight / p;
+            diffuse_bounces += 1;
+            ray = next;
+            continue;
         }
         // A rough plastic: its glossy coat (a specular bounce) or its base (a diffuse one), each chosen
         // by its share and weighed by 1 / that share.

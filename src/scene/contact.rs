@@ -26,10 +26,17 @@ pub fn coplanar_contacts(scene: &Scene) -> Vec<String> {
     // Far below any gap a scene means (0.5 mm on a 6 m table is 8e-5 of it), far above rounding.
     let eps = extent * 1e-5;
     // What a shape is checked as: glass (dielectric or thin dielectric), an area light, or neither.
-    let kind = |s: &crate::scene::Shape| match scene.materials[s.material as usize].bsdf {
-        Material::Dielectric { .. } | Material::ThinDielectric { .. } => Some("glass"),
-        _ if s.emission.max_element() > 0.0 => Some("light"),
-        _ => None,
+    let glass = |m: &crate::scene::SurfaceMaterial| {
+        matches!(m.bsdf, Material::Dielectric { .. } | Material::ThinDielectric { .. })
+    };
+    let kind = |s: &crate::scene::Shape| {
+        if scene.any_leaf(s.material, &mut |m| glass(m)) {
+            Some("glass")
+        } else if s.emission.max_element() > 0.0 {
+            Some("light")
+        } else {
+            None
+        }
     };
     let boxes: Vec<(Vec3, Vec3)> = scene.shapes.iter().map(|s| s.geometry.bounds()).collect();
     let mut out = Vec::new();

@@ -190,6 +190,30 @@ pub enum MaterialSpec {
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
     },
+    /// Two of the other `[materials]`, by name, mixed (Mitsuba's `blendbsdf`): at each hit the surface is
+    /// `second` with probability `weight` (a number in [0, 1], or the name of a `[textures]` entry,
+    /// read as its luminance; default ½) and `first` otherwise. Blends may nest, not contain themselves.
+    Blend {
+        #[serde(default = "half_weight")]
+        weight: Weight,
+        first: String,
+        second: String,
+    },
+    /// No surface: light passes straight through, unbent and undimmed (Mitsuba's `null`). A blend of it
+    /// with another material is a cut-out (Mitsuba's `mask`: `weight` is the opacity).
+    Null,
+}
+
+/// A blend's weight: a number in [0, 1] or the name of an entry in `[textures]`.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(untagged, expecting = "a number in [0, 1] or the name of a [textures] entry")]
+pub enum Weight {
+    Value(f32),
+    Texture(String),
+}
+
+fn half_weight() -> Weight {
+    Weight::Value(0.5)
 }
 
 fn one() -> f32 {

@@ -5,7 +5,7 @@ use crate::scene::camera::{FilterSpec, PixelFilter, LANCZOS_LOBES_RANGE};
 use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
 use crate::scene::light::{Lights, PointLight, Spot};
-use crate::scene::material::{conductor_preset, Fresnel, Material, RoughCoat, SurfaceMaterial};
+use crate::scene::material::{conductor_preset, BlendWeight, Fresnel, Material, RoughCoat, SurfaceMaterial};
 use crate::scene::mesh::{self, TriMesh};
 use crate::scene::texture::{load_image, Texture, UvMap};
 use crate::scene::{Camera, Geometry, Scene, SceneError, Shape};
@@ -181,12 +181,13 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     }
     let mut materials = Vec::new();
     let mut names = Vec::new();
-    let mut index = HashMap::new();
+    // Numbered first: a blend names the materials it mixes.
+    let index: HashMap<String, u32> = file.materials.keys().enumerate().map(|(i, n)| (n.clone(), i as u32)).collect();
     for (name, spec) in &file.materials {
-        index.insert(name.clone(), materials.len() as u32);
-        materials.push(build_material(&cx, &format!("materials.{name}"), spec, &textures)?);
+        materials.push(build_material(&cx, &format!("materials.{name}"), spec, &textures, &index)?);
         names.push(name.clone());
     }
+    refuse_blend_cycles(&cx, &materials, &names)?;
     let mut shapes = Vec::new();
     let mut out = Built { materials: &mut materials, names: &mut names, shapes: &mut shapes, textures: &mut textures };
     for (i, spec) in file.shapes.iter().enumerate() {
@@ -451,11 +452,57 @@ fn build_texture(cx: &Ctx, key: &str, spec: &TextureSpec, dir: &Path) -> Result<
     })
 }
 
+/// Deepest nesting of blends accepted (real scenes nest one or two; this bounds every walk down them).
+pub const MAX_BLEND_DEPTH: usize = 64;
+
+/// A blend that contains itself (directly or through other blends) would pick forever, and one nested
+/// deeper than `MAX_BLEND_DEPTH` is no real scene: both refused, naming the chain.
+fn refuse_blend_cycles(cx: &Ctx, materials: &[SurfaceMaterial], names: &[String]) -> Result<(), SceneError> {
+    // 0: not seen, 1: on the current chain, 2: done. Returns the offending chain.
+    fn visit(m: usize, materials: &[SurfaceMaterial], state: &mut [u8], chain: &mut Vec<usize>) -> Option<Vec<usize>> {
+        if state[m] == 2 {
+            return None;
+        }
+        if state[m] == 1 || chain.len() >= MAX_BLEND_DEPTH {
+            let from = chain.iter().position(|&c| c == m).unwrap_or(0);
+            let mut bad = chain[from..].to_vec();
+            bad.push(m);
+            return Some(bad);
+        }
+        state[m] = 1;
+        chain.push(m);
+        if let Some(b) = materials[m].blend {
+            for next in [b.first, b.second] {
+                if let Some(bad) = visit(next as usize, materials, state, chain) {
+                    return Some(bad);
+                }
+            }
+        }
+        chain.pop();
+        state[m] = 2;
+        None
+    }
+    let mut state = vec![0u8; materials.len()];
+    for m in 0..materials.len() {
+        if let Some(bad) = visit(m, materials, &mut state, &mut Vec::new()) {
+            let path: Vec<&str> = bad.iter().map(|&i| names[i].as_str()).collect();
+            let msg = if bad.first() == bad.last() && bad.len() > 1 {
+                format!("a blend that contains itself ({})", path.join(" → "))
+            } else {
+                format!("blends nested deeper than {MAX_BLEND_DEPTH} ({} → …)", path[..3.min(path.len())].join(" → "))
+            };
+            return Err(cx.err(&format!("materials.{}", names[bad[0]]), msg));
+        }
+    }
+    Ok(())
+}
+
 fn build_material(
     cx: &Ctx,
     key: &str,
     spec: &MaterialSpec,
     textures: &Textures,
+    index: &HashMap<String, u32>,
 ) -> Result<SurfaceMaterial, SceneError> {
     let rough = |r: f32| -> Result<f32, SceneError> {
         if (0.0..=1.0).contains(&r) {
@@ -464,16 +511,16 @@ fn build_material(
             Err(cx.err(&format!("{key}.roughness"), format!("must be in [0, 1], got {r}")))
         }
     };
-    let sided = |bsdf: Material, two_sided: bool| SurfaceMaterial { bsdf, two_sided, texture: None };
+    let sided = |bsdf: Material, two_sided: bool| SurfaceMaterial { two_sided, ..SurfaceMaterial::new(bsdf) };
     Ok(match spec {
         MaterialSpec::Diffuse { reflectance: Reflectance::Colour(c), two_sided } => {
             let reflectance = cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?;
             sided(Material::Diffuse { reflectance }, *two_sided)
         }
         MaterialSpec::Diffuse { reflectance: Reflectance::Texture(name), two_sided } => SurfaceMaterial {
-            bsdf: Material::Diffuse { reflectance: Rgb::ZERO },
             two_sided: *two_sided,
-            texture: Some(texture_index(cx, key, name, textures)?),
+            texture: Some(texture_index(cx, &format!("{key}.reflectance"), name, textures, "a reflectance")?),
+            ..SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO })
         },
         MaterialSpec::Plastic {
             reflectance,
@@ -488,13 +535,16 @@ fn build_material(
             let ior = relative_ior(cx, key, *ior, *outside_ior)?;
             let (diffuse, texture) = match reflectance {
                 Reflectance::Colour(c) => (cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?, None),
-                Reflectance::Texture(name) => (Rgb::ZERO, Some(texture_index(cx, key, name, textures)?)),
+                Reflectance::Texture(name) => (
+                    Rgb::ZERO,
+                    Some(texture_index(cx, &format!("{key}.reflectance"), name, textures, "a reflectance")?),
+                ),
             };
             let specular = cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?;
             let alpha = rough(*roughness)?;
             let rough = (alpha > 0.0).then(|| RoughCoat::get(alpha, *distribution, ior));
             let bsdf = Material::Plastic { diffuse, specular, ior, nonlinear: *nonlinear, rough };
-            SurfaceMaterial { bsdf, two_sided: *two_sided, texture }
+            SurfaceMaterial { two_sided: *two_sided, texture, ..SurfaceMaterial::new(bsdf) }
         }
         MaterialSpec::Mirror { specular, roughness, distribution, two_sided } => {
             let fresnel = Fresnel::Constant(cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?);
@@ -536,6 +586,23 @@ fn build_material(
                 SurfaceMaterial::new(Material::ThinDielectric { ior, tint })
             }
         }
+        MaterialSpec::Null => SurfaceMaterial::null(),
+        MaterialSpec::Blend { weight, first, second } => {
+            let weight = match weight {
+                Weight::Value(w) if (0.0..=1.0).contains(w) => BlendWeight::Value(*w),
+                Weight::Value(w) => return Err(cx.err(&format!("{key}.weight"), format!("must be in [0, 1], got {w}"))),
+                Weight::Texture(name) => {
+                    BlendWeight::Texture(texture_index(cx, &format!("{key}.weight"), name, textures, "a weight")?)
+                }
+            };
+            let named = |field: &str, name: &str| {
+                index.get(name).copied().ok_or_else(|| {
+                    let known: Vec<&String> = index.keys().collect();
+                    cx.err(&format!("{key}.{field}"), format!("unknown material `{name}` (defined: {known:?})"))
+                })
+            };
+            SurfaceMaterial::blend(weight, named("first", first)?, named("second", second)?)
+        }
     })
 }
 
@@ -551,15 +618,16 @@ fn relative_ior(cx: &Ctx, key: &str, ior: f32, outside_ior: f32) -> Result<f32, 
 }
 
 /// The `[textures]` entry a material's `reflectance` names; refused if unknown or above 1 anywhere.
-fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures) -> Result<u32, SceneError> {
+/// The texture `name` at `key`, which must stay in [0, 1] as `what` must.
+fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures, what: &str) -> Result<u32, SceneError> {
     let t = *textures.index.get(name).ok_or_else(|| {
         let known: Vec<&String> = textures.index.keys().collect();
-        cx.err(&format!("{key}.reflectance"), format!("unknown texture `{name}` (defined: {known:?})"))
+        cx.err(key, format!("unknown texture `{name}` (defined: {known:?})"))
     })?;
     let max = textures.list[t as usize].max_value();
     if max > 1.0 {
-        let msg = format!("texture `{name}` reaches {max}; a reflectance must be in [0, 1]");
-        return Err(cx.err(&format!("{key}.reflectance"), msg));
+        let msg = format!("texture `{name}` reaches {max}; {what} must be in [0, 1]");
+        return Err(cx.err(key, msg));
     }
     Ok(t)
 }
@@ -705,9 +773,8 @@ fn mtl_texture_material(
         }
     };
     out.materials.push(SurfaceMaterial {
-        bsdf: Material::Diffuse { reflectance: Rgb::ZERO },
-        two_sided: true,
         texture: Some(t),
+        ..SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO })
     });
     out.names.push(format!("{file} (MTL {tex})"));
     Ok(out.materials.len() as u32 - 1)

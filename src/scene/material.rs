@@ -55,7 +55,10 @@ pub enum Material {
 }
 
 /// A scene's material: its BSDF, whether its back is black (Mitsuba's one-sided BSDFs), and the texture
-/// that replaces a diffuse reflectance per hit.
+/// that replaces a diffuse reflectance per hit; or a blend of two other materials (`blend`), whose own
+/// `bsdf`, `two_sided` and `texture` are then never read (`Scene::pick_material` resolves a hit on it
+/// to one of the two, and the scene's questions about a shape's material ask every material it can
+/// be).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceMaterial {
     pub bsdf: Material,
@@ -64,12 +67,50 @@ pub struct SurfaceMaterial {
     pub two_sided: bool,
     /// Index into `Scene::textures`: the diffuse reflectance at each hit.
     pub texture: Option<u32>,
+    pub blend: Option<Blend>,
 }
 
 impl SurfaceMaterial {
     pub fn new(bsdf: Material) -> Self {
-        SurfaceMaterial { bsdf, two_sided: true, texture: None }
+        SurfaceMaterial { bsdf, two_sided: true, texture: None, blend: None }
     }
+
+    /// The blend of `first` and `second` (indices into `Scene::materials`) by `weight`.
+    pub fn blend(weight: BlendWeight, first: u32, second: u32) -> Self {
+        let blend = Some(Blend { weight, first, second });
+        SurfaceMaterial { bsdf: Material::Diffuse { reflectance: Rgb::ZERO }, two_sided: true, texture: None, blend }
+    }
+
+    /// A surface that is not there (Mitsuba's `null`, a mask's holes): light passes straight through,
+    /// as through a pane of index 1, which reflects nothing.
+    pub fn null() -> Self {
+        SurfaceMaterial::new(Material::ThinDielectric { ior: 1.0, tint: Rgb::ONE })
+    }
+}
+
+/// Mitsuba's `blendbsdf` (and its `mask`, a blend of a `null` surface and a BSDF by the opacity): at a
+/// hit the surface is `second` with probability w (the weight there, clamped to [0, 1]) and `first`
+/// otherwise. Each path picks one at each hit and carries on with it alone, so the surface's BSDF is
+/// (1 − w)·f₁ + w·f₂ in expectation, in every mode: the pick is part of the sampled path, made with the
+/// same probability by every strategy that could make the path, so MIS weights computed with the
+/// picked BSDF still add up to one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Blend {
+    pub weight: BlendWeight,
+    pub first: u32,
+    pub second: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BlendWeight {
+    Value(f32),
+    /// Index into `Scene::textures`, read as Mitsuba's `eval_1` reads a colour texture: its luminance.
+    Texture(u32),
+}
+
+/// Luminance with Mitsuba's coefficients (its `eval_1` of a colour texture: a blend weight, an opacity).
+pub fn mitsuba_luminance(c: Rgb) -> f32 {
+    0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z
 }
 
 /// How much a conductor reflects at a given angle.

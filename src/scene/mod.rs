@@ -18,7 +18,7 @@ pub use camera::Camera;
 pub use file::{RenderSettings, SceneFile};
 pub use light::Lights;
 pub use load::{load_scene, load_scene_str, load_scene_with};
-pub use material::{Material, SurfaceMaterial, TransportMode};
+pub use material::{Blend, BlendWeight, Material, SurfaceMaterial, TransportMode};
 pub use mesh::TriMesh;
 pub use texture::Texture;
 
@@ -289,19 +289,104 @@ impl Scene {
         &self.materials[self.shapes[shape as usize].material as usize]
     }
 
-    /// The largest reflectance component a shape's material reaches anywhere (its texture's largest value).
-    pub fn max_albedo(&self, shape: u32) -> f32 {
-        let m = self.material_of(shape);
-        match m.texture {
-            Some(t) => self.textures[t as usize].max_value(),
-            None => m.bsdf.albedo().max_element(),
+    /// Whether `f` holds for any material a hit on `material` can be: itself, or either side of a
+    /// blend, down nested blends (the loader refuses cycles).
+    pub fn any_leaf<F: FnMut(&SurfaceMaterial) -> bool>(&self, material: u32, f: &mut F) -> bool {
+        let m = &self.materials[material as usize];
+        match m.blend {
+            Some(b) => self.any_leaf(b.first, f) || self.any_leaf(b.second, f),
+            None => f(m),
         }
     }
 
-    /// The BSDF at a hit seen along `wo` (pointing away): the material's, with a texture read at the hit's
-    /// uv, and black behind a one-sided surface.
-    pub fn bsdf(&self, si: &SurfaceHit, wo: Vec3) -> Material {
-        let m = self.material_of(si.shape);
+    /// Whether every material a hit on `shape` can be is Lambertian (no mirror, glass, coat or hole).
+    pub fn is_diffuse(&self, shape: u32) -> bool {
+        self.material_is_diffuse(self.shapes[shape as usize].material)
+    }
+
+    /// `is_diffuse` of a material (an index into `materials`).
+    pub fn material_is_diffuse(&self, material: u32) -> bool {
+        !self.any_leaf(material, &mut |m| !m.bsdf.is_diffuse())
+    }
+
+    /// Whether photons can be held on `shape`: some material a hit on it can be holds them.
+    pub fn holds_photons(&self, shape: u32) -> bool {
+        self.material_holds_photons(self.shapes[shape as usize].material)
+    }
+
+    /// `holds_photons` of a material (an index into `materials`).
+    pub fn material_holds_photons(&self, material: u32) -> bool {
+        self.any_leaf(material, &mut |m| m.bsdf.holds_photons())
+    }
+
+    /// Whether `f` holds for the BSDF at `si` seen from `wo` of any material the surface can be there.
+    /// Photons are stored (and light vertices kept for merging) by what the surface can be, whatever a
+    /// blend picks for the photon's own next bounce: a path gathering there makes its own pick.
+    pub fn any_bsdf_at(&self, si: &SurfaceHit, wo: Vec3, mut f: impl FnMut(&Material) -> bool) -> bool {
+        self.any_leaf(self.shapes[si.shape as usize].material, &mut |m| f(&self.leaf_bsdf(m, si, wo)))
+    }
+
+    /// The largest reflectance component a shape's material reaches anywhere (its texture's largest
+    /// value; a blend's, the larger of its two).
+    pub fn max_albedo(&self, shape: u32) -> f32 {
+        let mut best = 0.0f32;
+        self.any_leaf(self.shapes[shape as usize].material, &mut |m| {
+            best = best.max(match m.texture {
+                Some(t) => self.textures[t as usize].max_value(),
+                None => m.bsdf.albedo().max_element(),
+            });
+            false
+        });
+        best
+    }
+
+    /// Whether a hit on `material` reads texture coordinates (a texture, or a blend's weight).
+    fn reads_uv(&self, material: u32) -> bool {
+        let m = &self.materials[material as usize];
+        match m.blend {
+            Some(b) => {
+                matches!(b.weight, material::BlendWeight::Texture(_))
+                    || self.reads_uv(b.first)
+                    || self.reads_uv(b.second)
+            }
+            None => m.texture.is_some(),
+        }
+    }
+
+    /// The material a hit at `uv` on `shape` is. A blend is resolved to one of its two by its weight
+    /// there: the number `u` draws (only when the shape's material is a blend, so other scenes' random
+    /// sequences are unchanged) picks the second below the weight, and is rescaled to pick again in
+    /// a nested blend.
+    pub fn pick_material(&self, shape: u32, uv: glam::Vec2, u: impl FnOnce() -> f32) -> &SurfaceMaterial {
+        let mut m = self.material_of(shape);
+        let Some(mut b) = m.blend else {
+            return m;
+        };
+        let mut x = u();
+        loop {
+            let w = match b.weight {
+                material::BlendWeight::Value(w) => w,
+                material::BlendWeight::Texture(t) => material::mitsuba_luminance(self.textures[t as usize].eval(uv)),
+            };
+            let w = if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) };
+            let (next, rescaled) = if x < w { (b.second, x / w) } else { (b.first, (x - w) / (1.0 - w)) };
+            x = rescaled.min(f32::from_bits(0x3f7f_ffff)); // below 1, as a drawn number is
+            m = &self.materials[next as usize];
+            match m.blend {
+                Some(n) => b = n,
+                None => return m,
+            }
+        }
+    }
+
+    /// The BSDF at `si` seen from `wo` (the back of a one-sided material is black; a texture gives the
+    /// diffuse reflectance there). On a blend, `u` draws the number that picks one of its materials
+    /// (`pick_material`).
+    pub fn bsdf(&self, si: &SurfaceHit, wo: Vec3, u: impl FnOnce() -> f32) -> Material {
+        self.leaf_bsdf(self.pick_material(si.shape, si.uv, u), si, wo)
+    }
+
+    fn leaf_bsdf(&self, m: &SurfaceMaterial, si: &SurfaceHit, wo: Vec3) -> Material {
         if !m.two_sided && wo.dot(si.ng) <= 0.0 {
             return Material::Diffuse { reflectance: Rgb::ZERO };
         }
@@ -345,7 +430,7 @@ impl Scene {
     pub fn surface(&self, ray: &crate::math::Ray, shape: u32, prim: u32, u: f32, v: f32, t: f32) -> SurfaceHit {
         // Texture coordinates cost trigonometry on a sphere and three more vertex reads on a mesh: only
         // a textured material reads them.
-        let textured = self.material_of(shape).texture.is_some();
+        let textured = self.reads_uv(self.shapes[shape as usize].material);
         match &self.shapes[shape as usize].geometry {
             Geometry::Mesh(m) => {
                 let [i0, i1, i2] = m.indices[prim as usize];

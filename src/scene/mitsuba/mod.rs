@@ -25,7 +25,7 @@ pub struct Converted {
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
-                     roughconductor (ggx, beckmann), twosided";
+                     roughconductor (ggx, beckmann), twosided, blendbsdf, mask, null";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
@@ -35,7 +35,14 @@ const UNLIMITED_DEPTH: u32 = 1000;
 pub fn convert(path: &Path) -> Result<Converted, SceneError> {
     let root = xml::read_scene(path)?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut cx = Cx { base, warnings: Vec::new(), ids: HashMap::new(), file: empty_file(), done: HashMap::new() };
+    let mut cx = Cx {
+        base,
+        warnings: Vec::new(),
+        ids: HashMap::new(),
+        file: empty_file(),
+        done: HashMap::new(),
+        blends: Vec::new(),
+    };
     for c in &root.children {
         if let Some(id) = c.attr("id") {
             cx.ids.insert(id.to_string(), c);
@@ -101,6 +108,8 @@ struct Cx<'a> {
     file: SceneFile,
     /// Materials and textures already converted, by the address of their element.
     done: HashMap<*const Node, String>,
+    /// The blends being converted, outermost first (a blend that refers to itself is refused).
+    blends: Vec<*const Node>,
 }
 
 impl<'a> Cx<'a> {
@@ -548,13 +557,113 @@ impl<'a> Cx<'a> {
                 }
             }
             "conductor" | "roughconductor" => self.conductor(b, &p, two_sided)?,
+            "blendbsdf" | "mask" => self.blend(b, &p, two_sided, name)?,
+            "null" => MaterialSpec::Null,
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
         };
         p.finish(
             "the parameters of diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
-             roughconductor and twosided",
+             roughconductor, twosided, blendbsdf (weight) and mask (opacity)",
         )?;
         Ok(spec)
+    }
+
+    /// `blendbsdf` (its `weight`, default ½, and two nested BSDFs in the order written) or `mask` (its
+    /// `opacity`, default ½, over one nested BSDF, the rest a `null` surface), as a blend of materials
+    /// converted for it; inside `twosided` both are two-sided.
+    fn blend(&mut self, b: &'a Node, p: &Props<'a>, two_sided: bool, name: &str) -> Result<MaterialSpec, SceneError> {
+        let mask = b.attr("type") == Some("mask");
+        let key = if mask { "opacity" } else { "weight" };
+        let weight = match p.colour(key)? {
+            None => Weight::Value(0.5),
+            // A colour counts by its luminance, as Mitsuba's `eval_1` reads it (a grey, exactly).
+            Some(ColourProp::Rgb([r, g, bb])) if r == g && g == bb => Weight::Value(r),
+            Some(ColourProp::Rgb(c)) => {
+                Weight::Value(crate::scene::material::mitsuba_luminance(Vec3::from_array(c)).clamp(0.0, 1.0))
+            }
+            Some(ColourProp::Texture(t)) => Weight::Texture(self.scalar_texture(t, &format!("{name}-{key}"))?),
+            Some(ColourProp::Ref(r, id)) => {
+                let t = self.lookup(r, &id)?;
+                Weight::Texture(self.scalar_texture(t, &id)?)
+            }
+        };
+        let nested = self.nested_bsdfs(p)?;
+        if self.blends.contains(&(b as *const Node)) {
+            return Err(b.error("contains itself (through <ref>s)"));
+        }
+        if self.blends.len() >= crate::scene::load::MAX_BLEND_DEPTH {
+            return Err(b.error(format!("blends nested deeper than {}", crate::scene::load::MAX_BLEND_DEPTH)));
+        }
+        self.blends.push(b as *const Node);
+        let sides = self.blend_sides(b, mask, &nested, two_sided, name);
+        self.blends.pop();
+        let (first, second) = sides?;
+        Ok(MaterialSpec::Blend { weight, first, second })
+    }
+
+    /// The two materials a blend mixes (a mask's first is a `null` surface).
+    fn blend_sides(
+        &mut self,
+        b: &'a Node,
+        mask: bool,
+        nested: &[&'a Node],
+        two_sided: bool,
+        name: &str,
+    ) -> Result<(String, String), SceneError> {
+        Ok(match (mask, nested) {
+            (true, [one]) => {
+                let null = self.fresh_material_name("null");
+                self.file.materials.insert(null.clone(), MaterialSpec::Null);
+                (null, self.nested_material(one, two_sided, &format!("{name}-masked"))?)
+            }
+            (false, [one, two]) => (
+                self.nested_material(one, two_sided, &format!("{name}-first"))?,
+                self.nested_material(two, two_sided, &format!("{name}-second"))?,
+            ),
+            (true, _) => return Err(b.error(format!("needs exactly one nested BSDF (found {})", nested.len()))),
+            (false, _) => return Err(b.error(format!("needs exactly two nested BSDFs (found {})", nested.len()))),
+        })
+    }
+
+    /// The `<bsdf>` children of a node and the BSDFs its `<ref>`s name, in the order written.
+    fn nested_bsdfs(&mut self, p: &Props<'a>) -> Result<Vec<&'a Node>, SceneError> {
+        let mut out = Vec::new();
+        for c in p.objects_of(&["bsdf", "ref"]) {
+            if c.tag == "bsdf" {
+                out.push(c);
+                continue;
+            }
+            let id = c.attr("id").ok_or_else(|| c.error("needs an `id`"))?;
+            let target = self.lookup(c, id)?;
+            if target.tag != "bsdf" {
+                return Err(c.error(format!("`{id}` is a <{}>, not a <bsdf>", target.tag)));
+            }
+            out.push(target);
+        }
+        Ok(out)
+    }
+
+    /// A BSDF nested in a blend as a material of its own: converted once by id where it is one-sided
+    /// (shared with its other uses), afresh under `fallback` inside `twosided`.
+    fn nested_material(&mut self, b: &'a Node, two_sided: bool, fallback: &str) -> Result<String, SceneError> {
+        if !two_sided {
+            return self.material(b, fallback);
+        }
+        let name = self.fresh_material_name(fallback);
+        let spec = self.bsdf(b, true, &name)?;
+        self.file.materials.insert(name.clone(), spec);
+        Ok(name)
+    }
+
+    /// `base`, or `base-2`, `base-3`, … whichever no material has yet.
+    fn fresh_material_name(&self, base: &str) -> String {
+        let mut name = base.to_string();
+        let mut i = 2;
+        while self.file.materials.contains_key(&name) {
+            name = format!("{base}-{i}");
+            i += 1;
+        }
+        name
     }
 
     /// A reflectance property (Mitsuba's default 0.5): a colour, or a texture nested or referenced.
@@ -604,6 +713,28 @@ impl<'a> Cx<'a> {
     }
 
     /// Converts a `<texture>` once and returns its name in `[textures]`.
+    /// A texture read as one number (a blend's weight, a mask's opacity) as Mitsuba 3.9 reads it (its
+    /// `eval_1`): a colour by its luminance, which caustica's blend weight takes, and a checkerboard with
+    /// its two colours the other way round (Mitsuba's `eval_1` puts `color1` where its `eval` puts
+    /// `color0`), so a second checkerboard with them swapped.
+    fn scalar_texture(&mut self, t: &'a Node, fallback: &str) -> Result<String, SceneError> {
+        let name = self.texture(t, fallback)?;
+        if let Some(TextureSpec::Checkerboard { color0, color1, scale, offset, matrix }) = self.file.textures.get(&name)
+        {
+            let swapped = TextureSpec::Checkerboard {
+                color0: *color1,
+                color1: *color0,
+                scale: *scale,
+                offset: *offset,
+                matrix: *matrix,
+            };
+            let scalar = format!("{name}-as-weight");
+            self.file.textures.entry(scalar.clone()).or_insert(swapped);
+            return Ok(scalar);
+        }
+        Ok(name)
+    }
+
     fn texture(&mut self, t: &'a Node, fallback: &str) -> Result<String, SceneError> {
         if let Some(name) = self.done.get(&(t as *const Node)) {
             return Ok(name.clone());
@@ -766,11 +897,7 @@ fn cylinder(
     if !fine {
         return Err(n.error(format!("needs a radius > 0 and p0 ≠ p1 (got radius {radius}, p0 {p0}, p1 {p1})")));
     }
-    if let Some(
-        MaterialSpec::Diffuse { reflectance: Reflectance::Texture(_), .. }
-        | MaterialSpec::Plastic { reflectance: Reflectance::Texture(_), .. },
-    ) = materials.get(&material)
-    {
+    if reads_texture(materials, &material, 0) {
         return Err(
             n.error("a textured BSDF on a cylinder is not supported (caustica's cylinder has no texture coordinates)")
         );
@@ -794,6 +921,22 @@ fn cylinder(
         transform: transform_spec(Some(to_world)),
         emission,
     })
+}
+
+/// Whether material `name` reads a texture: its reflectance, or a blend's weight or either side's.
+fn reads_texture(materials: &BTreeMap<String, MaterialSpec>, name: &str, depth: u32) -> bool {
+    match materials.get(name) {
+        Some(
+            MaterialSpec::Diffuse { reflectance: Reflectance::Texture(_), .. }
+            | MaterialSpec::Plastic { reflectance: Reflectance::Texture(_), .. }
+            | MaterialSpec::Blend { weight: Weight::Texture(_), .. },
+        ) => true,
+        // The converter writes no cycle; the depth bound only keeps this safe on any input.
+        Some(MaterialSpec::Blend { first, second, .. }) if depth < 64 => {
+            reads_texture(materials, first, depth + 1) || reads_texture(materials, second, depth + 1)
+        }
+        _ => false,
+    }
 }
 
 /// A rough BSDF's isotropic roughness α (Mitsuba's default 0.1) and microfacet distribution (Mitsuba's

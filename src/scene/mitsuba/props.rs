@@ -30,11 +30,16 @@ impl<'a> Props<'a> {
 
     /// Nested objects of a kind (`bsdf`, `emitter`, `film`, `ref` …) that are not named properties.
     pub fn objects(&self, tag: &str) -> Vec<&'a Node> {
+        self.objects_of(&[tag])
+    }
+
+    /// The unnamed children with any of `tags`, in the order written (a `<ref>` may be named `bsdf`).
+    pub fn objects_of(&self, tags: &[&str]) -> Vec<&'a Node> {
         let mut used = self.used.borrow_mut();
         let mut out = Vec::new();
         for (i, c) in self.node.children.iter().enumerate() {
-            let unnamed = c.attr("name").is_none() || (tag == "ref" && c.attr("name") == Some("bsdf"));
-            if c.tag == tag && !used[i] && unnamed {
+            let unnamed = c.attr("name").is_none() || (c.tag == "ref" && c.attr("name") == Some("bsdf"));
+            if tags.contains(&c.tag.as_str()) && !used[i] && unnamed {
                 used[i] = true;
                 out.push(c);
             }
