@@ -617,8 +617,8 @@ fn relative_ior(cx: &Ctx, key: &str, ior: f32, outside_ior: f32) -> Result<f32, 
     Ok(ior / outside_ior)
 }
 
-/// The `[textures]` entry a material's `reflectance` names; refused if unknown or above 1 anywhere.
-/// The texture `name` at `key`, which must stay in [0, 1] as `what` must.
+/// The `[textures]` entry `name` that the material field `key` names (a reflectance, a blend's weight);
+/// refused if unknown or above 1 anywhere, as `what` must stay in [0, 1].
 fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures, what: &str) -> Result<u32, SceneError> {
     let t = *textures.index.get(name).ok_or_else(|| {
         let known: Vec<&String> = textures.index.keys().collect();

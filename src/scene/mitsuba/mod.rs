@@ -712,7 +712,6 @@ impl<'a> Cx<'a> {
         })
     }
 
-    /// Converts a `<texture>` once and returns its name in `[textures]`.
     /// A texture read as one number (a blend's weight, a mask's opacity) as Mitsuba 3.9 reads it (its
     /// `eval_1`): a colour by its luminance, which caustica's blend weight takes, and a checkerboard with
     /// its two colours the other way round (Mitsuba's `eval_1` puts `color1` where its `eval` puts
@@ -735,6 +734,7 @@ impl<'a> Cx<'a> {
         Ok(name)
     }
 
+    /// Converts a `<texture>` once and returns its name in `[textures]`.
     fn texture(&mut self, t: &'a Node, fallback: &str) -> Result<String, SceneError> {
         if let Some(name) = self.done.get(&(t as *const Node)) {
             return Ok(name.clone());
