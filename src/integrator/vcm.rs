@@ -742,7 +742,7 @@ impl Vcm<'_> {
                 // A blend that picked a mirror or glass here for the light's next bounce: the light that
                 // arrived is still there for a camera subpath whose own pick can merge with it (this
                 // vertex connects to nothing: its BSDF is a delta).
-                if it.opts.merge && scene.any_bsdf_at(&si, wo, |m| !m.is_delta()) {
+                if it.opts.merge && scene.blend_offers(&si, wo, |m| !m.is_delta()) {
                     verts.push(lv);
                 }
             } else {

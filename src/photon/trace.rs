@@ -280,7 +280,7 @@ fn trace_one(
         let last = depth + 1 >= s.max_depth;
         // Stored where the surface can hold photons, also where a blend picked a mirror or glass for
         // this photon's next bounce.
-        if mat.holds_photons() || scene.any_bsdf_at(&si, wo, |m| m.holds_photons()) {
+        if mat.holds_photons() || scene.blend_offers(&si, wo, |m| m.holds_photons()) {
             let map = if diffuse_bounces > 0 {
                 INDIRECT
             } else if specular_bounces > 0 {

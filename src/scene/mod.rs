@@ -326,6 +326,14 @@ impl Scene {
         self.any_leaf(self.shapes[si.shape as usize].material, &mut |m| f(&self.leaf_bsdf(m, si, wo)))
     }
 
+    /// On a blend, whether `f` holds for the BSDF at `si` of any material it can be there (the one picked
+    /// or another); false off blends, where the BSDF a caller picked, and has already asked, is the
+    /// surface's only one. Keeps photon and light-vertex storing from building that BSDF again at every
+    /// mirror and glass hit.
+    pub fn blend_offers(&self, si: &SurfaceHit, wo: Vec3, f: impl FnMut(&Material) -> bool) -> bool {
+        self.material_of(si.shape).blend.is_some() && self.any_bsdf_at(si, wo, f)
+    }
+
     /// The largest reflectance component a shape's material reaches anywhere (its texture's largest
     /// value; a blend's, the larger of its two).
     pub fn max_albedo(&self, shape: u32) -> f32 {
