@@ -262,6 +262,26 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["materials.white.weight", "[0, 1]", "got 1.5"],
         ),
         (
+            "roughness_unknown_texture",
+            with_white("white = { type = \"conductor\", eta = [0.2, 0.9, 1.1], k = [3.9, 2.4, 2.2], roughness = \"bumps\" }"),
+            vec![],
+            vec!["materials.white.roughness", "unknown texture `bumps`"],
+        ),
+        (
+            "tint_unknown_texture",
+            with_white("white = { type = \"dielectric\", ior = 1.5, tint = \"stain\" }"),
+            vec![],
+            vec!["materials.white.tint", "unknown texture `stain`"],
+        ),
+        (
+            "specular_texture_above_one",
+            with_white(
+                "white = { type = \"mirror\", specular = \"hot\" }\n\n[textures]\nhot = { type = \"checkerboard\", color0 = [2.0, 2.0, 2.0] }",
+            ),
+            vec![],
+            vec!["materials.white.specular", "texture `hot` reaches 2", "a specular must be in [0, 1]"],
+        ),
+        (
             "blend_weight_texture",
             with_white("white = { type = \"blend\", weight = \"mask\", first = \"n\", second = \"n\" }\nn = { type = \"null\" }"),
             vec![],

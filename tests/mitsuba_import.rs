@@ -225,6 +225,35 @@ fn every_mode_renders_blends_as_mitsuba() {
     }
 }
 
+/// Textures on parameters other than a diffuse reflectance (`textured.xml`): a plastic coat's
+/// `specular_reflectance`, a rough copper wall's `alpha` from an image (read as its luminance), a rough
+/// glass ball's `alpha` and `specular_transmittance`, rough gold's `specular_reflectance`, a mirror's
+/// colour from an image, a thin pane's transmittance, a GGX `alpha` through a `<ref>`.
+#[test]
+fn textured_parameters_xml_match_mitsuba() {
+    matches_mitsuba("textured", 1024, 0.003);
+}
+
+/// Every mode on `textured.xml`: the per-hit parameters reach the photon tracer, the light subpaths
+/// and the eye passes as they reach the path tracer; each mode's mean stays with Mitsuba's.
+#[test]
+fn every_mode_reads_textured_parameters_as_mitsuba() {
+    let theirs = read_exr(&dir().join("ref/textured.exr")).unwrap();
+    let cases: [(&str, &[&str], f64); 5] = [
+        ("bdpt", &["--passes", "64"], 0.006),
+        ("vcm", &["--passes", "64"], 0.01),
+        ("sppm", &["--passes", "64"], 0.01),
+        ("ppm", &["--passes", "64"], 0.015),
+        ("photon_map", &["--set", "render.pm_spp=16"], 0.01),
+    ];
+    for (mode, args, tol) in cases {
+        let ours = render_mode("textured", mode, args);
+        let ratio = mean(&ours) / mean(&theirs);
+        println!("{mode}: mean {ratio:.4} of Mitsuba's");
+        assert!((ratio - 1.0).abs() < tol, "{mode}: mean {ratio} of Mitsuba's");
+    }
+}
+
 #[test]
 fn plastic_xml_matches_mitsuba() {
     matches_mitsuba("plastic", 1024, 0.003);
@@ -403,10 +432,11 @@ fn one_sided_bsdfs_are_black_from_behind_unless_twosided() {
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let cases: [(&str, &[&str]); 3] = [
+    let cases: [(&str, &[&str]); 4] = [
         ("showcase", &["two_sided = false", "type = \"thin_dielectric\""]),
         ("thinlens", &["aperture_radius = 0.2", "focus_distance = 4.0"]),
         ("blend", &["type = \"blend\"", "type = \"null\"", "weight = \"label\""]),
+        ("textured", &["roughness = \"label\"", "specular = \"label\"", "roughness = \"rough-squares-as-weight\""]),
     ];
     for (name, wanted) in cases {
         let out = tmp("convert").join(format!("elsewhere/{name}.toml"));
@@ -485,6 +515,23 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "aniso",
             r#"<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#,
             &["anisotropic"],
+        ),
+        // roughplastic's α is one number (Mitsuba precomputes its coat for it), a colour's α is refused,
+        // and a dielectric reflects what its Fresnel says.
+        (
+            "roughplastic-alpha-texture",
+            r#"<bsdf type="roughplastic"><texture type="checkerboard" name="alpha"/></bsdf>"#,
+            &["line 8", "`alpha` must be a <float>"],
+        ),
+        (
+            "alpha-colour",
+            r#"<bsdf type="roughconductor"><rgb name="alpha" value="0.1, 0.2, 0.3"/></bsdf>"#,
+            &["line 8", "`alpha` must be one number or a texture"],
+        ),
+        (
+            "dielectric-specular-texture",
+            r#"<bsdf type="dielectric"><texture type="checkerboard" name="specular_reflectance"/></bsdf>"#,
+            &["textured `specular_reflectance` is not supported", "specular_transmittance"],
         ),
         (
             "metal",

@@ -115,12 +115,14 @@ pub enum MaterialSpec {
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         two_sided: bool,
     },
-    /// Perfect (or rough) mirror with a constant specular colour.
+    /// Perfect (or rough) mirror of a `specular` colour. Here and on the other conductors, the plastic
+    /// and the dielectrics, `specular`, `tint` and `roughness` may name a `[textures]` entry instead
+    /// (a roughness by the texture's luminance), read at each hit.
     Mirror {
-        #[serde(default = "one3")]
-        specular: V3,
-        #[serde(default)]
-        roughness: f32,
+        #[serde(default = "white")]
+        specular: Reflectance,
+        #[serde(default = "smooth", skip_serializing_if = "is_smooth")]
+        roughness: Weight,
         /// Microfacet distribution of a rough mirror: "ggx" (default) or "beckmann".
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
@@ -134,13 +136,13 @@ pub enum MaterialSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         preset: Option<String>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        specular: Option<V3>,
+        specular: Option<Reflectance>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         eta: Option<V3>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         k: Option<V3>,
-        #[serde(default)]
-        roughness: f32,
+        #[serde(default = "smooth", skip_serializing_if = "is_smooth")]
+        roughness: Weight,
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
         #[serde(default = "yes", skip_serializing_if = "is_true")]
@@ -152,8 +154,8 @@ pub enum MaterialSpec {
     /// its reflection glossy, with the GGX (default) or Beckmann `distribution` (Mitsuba's `roughplastic`).
     Plastic {
         reflectance: Reflectance,
-        #[serde(default = "one3")]
-        specular: V3,
+        #[serde(default = "white")]
+        specular: Reflectance,
         #[serde(default = "polypropylene")]
         ior: f32,
         #[serde(default = "one")]
@@ -173,8 +175,8 @@ pub enum MaterialSpec {
         ior: f32,
         #[serde(default = "one")]
         outside_ior: f32,
-        #[serde(default = "one3")]
-        tint: V3,
+        #[serde(default = "white")]
+        tint: Reflectance,
     },
     /// Glass or water: exact Fresnel, refraction and total internal reflection; smooth, or frosted with
     /// a microfacet `roughness` (α, as a rough conductor's).
@@ -183,10 +185,10 @@ pub enum MaterialSpec {
         /// Index of the medium around the object (1 = air; 1.33 for glass under water).
         #[serde(default = "one")]
         outside_ior: f32,
-        #[serde(default = "one3")]
-        tint: V3,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        roughness: f32,
+        #[serde(default = "white")]
+        tint: Reflectance,
+        #[serde(default = "smooth", skip_serializing_if = "is_smooth")]
+        roughness: Weight,
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
     },
@@ -204,7 +206,26 @@ pub enum MaterialSpec {
     Null,
 }
 
-/// A blend's weight: a number in [0, 1] or the name of an entry in `[textures]`.
+impl MaterialSpec {
+    /// Whether the material itself (not a blend's sides) names a `[textures]` entry.
+    pub fn names_texture(&self) -> bool {
+        let t = |r: &Reflectance| matches!(r, Reflectance::Texture(_));
+        let w = |r: &Weight| matches!(r, Weight::Texture(_));
+        match self {
+            MaterialSpec::Diffuse { reflectance, .. } => t(reflectance),
+            MaterialSpec::Plastic { reflectance, specular, .. } => t(reflectance) || t(specular),
+            MaterialSpec::Mirror { specular, roughness, .. } => t(specular) || w(roughness),
+            MaterialSpec::Conductor { specular, roughness, .. } => specular.as_ref().is_some_and(t) || w(roughness),
+            MaterialSpec::Dielectric { tint, roughness, .. } => t(tint) || w(roughness),
+            MaterialSpec::ThinDielectric { tint, .. } => t(tint),
+            MaterialSpec::Blend { weight, .. } => w(weight),
+            MaterialSpec::Null => false,
+        }
+    }
+}
+
+/// A number in [0, 1] (a blend's weight, a roughness) or the name of an entry in `[textures]` (read
+/// as its luminance).
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(untagged, expecting = "a number in [0, 1] or the name of a [textures] entry")]
 pub enum Weight {
@@ -214,6 +235,18 @@ pub enum Weight {
 
 fn half_weight() -> Weight {
     Weight::Value(0.5)
+}
+
+fn smooth() -> Weight {
+    Weight::Value(0.0)
+}
+
+fn is_smooth(w: &Weight) -> bool {
+    *w == Weight::Value(0.0)
+}
+
+fn white() -> Reflectance {
+    Reflectance::Colour([1.0; 3])
 }
 
 fn one() -> f32 {
@@ -283,10 +316,6 @@ fn checker1() -> V3 {
 }
 fn one2() -> [f32; 2] {
     [1.0, 1.0]
-}
-
-fn one3() -> V3 {
-    [1.0, 1.0, 1.0]
 }
 
 /// Translate / rotate (degrees, applied x then y then z) / scale, or a full 4×4 row-major matrix.

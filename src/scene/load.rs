@@ -5,7 +5,9 @@ use crate::scene::camera::{FilterSpec, PixelFilter, LANCZOS_LOBES_RANGE};
 use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
 use crate::scene::light::{Lights, PointLight, Spot};
-use crate::scene::material::{conductor_preset, BlendWeight, Fresnel, Material, RoughCoat, SurfaceMaterial};
+use crate::scene::material::{
+    conductor_preset, BlendWeight, Fresnel, Material, ParamMaps, RoughCoat, SurfaceMaterial, MIN_ALPHA,
+};
 use crate::scene::mesh::{self, TriMesh};
 use crate::scene::texture::{load_image, Texture, UvMap};
 use crate::scene::{Camera, Geometry, Scene, SceneError, Shape};
@@ -511,11 +513,37 @@ fn build_material(
             Err(cx.err(&format!("{key}.roughness"), format!("must be in [0, 1], got {r}")))
         }
     };
-    let sided = |bsdf: Material, two_sided: bool| SurfaceMaterial { two_sided, ..SurfaceMaterial::new(bsdf) };
+    // A colour field as its colour, or as its texture (the material's own colour then the texture's
+    // largest value, which bounds what the surface reflects).
+    let colour = |field: &str, r: &Reflectance| -> Result<(Rgb, Option<u32>), SceneError> {
+        let key = format!("{key}.{field}");
+        match r {
+            Reflectance::Colour(c) => Ok((cx.colour(&key, *c, Some(1.0))?, None)),
+            Reflectance::Texture(name) => {
+                let t = texture_index(cx, &key, name, textures, &format!("a {field}"))?;
+                Ok((Rgb::splat(textures.list[t as usize].max_value()), Some(t)))
+            }
+        }
+    };
+    // A roughness, or its texture (then rough everywhere: at least MIN_ALPHA, as Mitsuba keeps α).
+    let roughness = |w: &Weight| -> Result<(f32, Option<u32>), SceneError> {
+        match w {
+            Weight::Value(r) => Ok((rough(*r)?, None)),
+            Weight::Texture(name) => {
+                let t = texture_index(cx, &format!("{key}.roughness"), name, textures, "a roughness")?;
+                Ok((textures.list[t as usize].max_value().max(MIN_ALPHA), Some(t)))
+            }
+        }
+    };
+    let sided = |bsdf: Material, two_sided: bool, maps: ParamMaps| SurfaceMaterial {
+        two_sided,
+        maps,
+        ..SurfaceMaterial::new(bsdf)
+    };
     Ok(match spec {
         MaterialSpec::Diffuse { reflectance: Reflectance::Colour(c), two_sided } => {
             let reflectance = cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?;
-            sided(Material::Diffuse { reflectance }, *two_sided)
+            sided(Material::Diffuse { reflectance }, *two_sided, ParamMaps::default())
         }
         MaterialSpec::Diffuse { reflectance: Reflectance::Texture(name), two_sided } => SurfaceMaterial {
             two_sided: *two_sided,
@@ -540,50 +568,56 @@ fn build_material(
                     Some(texture_index(cx, &format!("{key}.reflectance"), name, textures, "a reflectance")?),
                 ),
             };
-            let specular = cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?;
+            let (specular, specular_map) = colour("specular", specular)?;
             let alpha = rough(*roughness)?;
             let rough = (alpha > 0.0).then(|| RoughCoat::get(alpha, *distribution, ior));
             let bsdf = Material::Plastic { diffuse, specular, ior, nonlinear: *nonlinear, rough };
-            SurfaceMaterial { two_sided: *two_sided, texture, ..SurfaceMaterial::new(bsdf) }
+            let maps = ParamMaps { specular: specular_map, ..Default::default() };
+            SurfaceMaterial { two_sided: *two_sided, texture, maps, ..SurfaceMaterial::new(bsdf) }
         }
-        MaterialSpec::Mirror { specular, roughness, distribution, two_sided } => {
-            let fresnel = Fresnel::Constant(cx.colour(&format!("{key}.specular"), *specular, Some(1.0))?);
-            sided(Material::Conductor { fresnel, alpha: rough(*roughness)?, distribution: *distribution }, *two_sided)
+        MaterialSpec::Mirror { specular, roughness: r, distribution, two_sided } => {
+            let (c, specular) = colour("specular", specular)?;
+            let (alpha, alpha_map) = roughness(r)?;
+            let bsdf = Material::Conductor { fresnel: Fresnel::Constant(c), alpha, distribution: *distribution };
+            sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, tint: None })
         }
-        MaterialSpec::Conductor { preset, specular, eta, k, roughness, distribution, two_sided } => {
-            let fresnel = match (preset, specular, eta, k) {
-                (Some(p), None, None, None) => Fresnel::Schlick(conductor_preset(p).ok_or_else(|| {
-                    cx.err(&format!("{key}.preset"), format!("unknown metal `{p}` (accepted: Au, Ag, Cu, Al, Cr)"))
-                })?),
+        MaterialSpec::Conductor { preset, specular, eta, k, roughness: r, distribution, two_sided } => {
+            let (fresnel, specular) = match (preset, specular, eta, k) {
+                (Some(p), None, None, None) => (
+                    Fresnel::Schlick(conductor_preset(p).ok_or_else(|| {
+                        cx.err(&format!("{key}.preset"), format!("unknown metal `{p}` (accepted: Au, Ag, Cu, Al, Cr)"))
+                    })?),
+                    None,
+                ),
                 (None, Some(s), None, None) => {
-                    Fresnel::Schlick(cx.colour(&format!("{key}.specular"), *s, Some(1.0))?)
+                    let (f0, map) = colour("specular", s)?;
+                    (Fresnel::Schlick(f0), map)
                 }
-                (None, s, Some(e), Some(kk)) => Fresnel::Complex {
-                    eta: cx.colour(&format!("{key}.eta"), *e, None)?,
-                    k: cx.colour(&format!("{key}.k"), *kk, None)?,
-                    scale: cx.colour(&format!("{key}.specular"), s.unwrap_or([1.0; 3]), Some(1.0))?,
-                },
+                (None, s, Some(e), Some(kk)) => {
+                    let (scale, map) = colour("specular", s.as_ref().unwrap_or(&Reflectance::Colour([1.0; 3])))?;
+                    let eta = cx.colour(&format!("{key}.eta"), *e, None)?;
+                    (Fresnel::Complex { eta, k: cx.colour(&format!("{key}.k"), *kk, None)?, scale }, map)
+                }
                 _ => {
                     let msg =
                         "a conductor needs `preset`, or `specular`, or `eta` and `k` (with an optional `specular`)";
                     return Err(cx.err(key, msg));
                 }
             };
-            sided(Material::Conductor { fresnel, alpha: rough(*roughness)?, distribution: *distribution }, *two_sided)
+            let (alpha, alpha_map) = roughness(r)?;
+            let bsdf = Material::Conductor { fresnel, alpha, distribution: *distribution };
+            sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, tint: None })
         }
         MaterialSpec::Dielectric { ior, outside_ior, tint, .. }
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
-            let (ior, tint) =
-                (relative_ior(cx, key, *ior, *outside_ior)?, cx.colour(&format!("{key}.tint"), *tint, Some(1.0))?);
-            if let MaterialSpec::Dielectric { roughness, distribution, .. } = spec {
-                SurfaceMaterial::new(Material::Dielectric {
-                    ior,
-                    tint,
-                    alpha: rough(*roughness)?,
-                    distribution: *distribution,
-                })
+            let ior = relative_ior(cx, key, *ior, *outside_ior)?;
+            let (tint, tint_map) = colour("tint", tint)?;
+            if let MaterialSpec::Dielectric { roughness: r, distribution, .. } = spec {
+                let (alpha, alpha_map) = roughness(r)?;
+                let bsdf = Material::Dielectric { ior, tint, alpha, distribution: *distribution };
+                sided(bsdf, true, ParamMaps { tint: tint_map, alpha: alpha_map, specular: None })
             } else {
-                SurfaceMaterial::new(Material::ThinDielectric { ior, tint })
+                sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })
             }
         }
         MaterialSpec::Null => SurfaceMaterial::null(),

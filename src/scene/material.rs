@@ -54,11 +54,11 @@ pub enum Material {
     },
 }
 
-/// A scene's material: its BSDF, whether its back is black (Mitsuba's one-sided BSDFs), and the texture
-/// that replaces a diffuse reflectance per hit; or a blend of two other materials (`blend`), whose own
-/// `bsdf`, `two_sided` and `texture` are then never read (`Scene::pick_material` resolves a hit on it
-/// to one of the two, and the scene's questions about a shape's material ask every material it can
-/// be).
+/// A scene's material: its BSDF, whether its back is black (Mitsuba's one-sided BSDFs), and the textures
+/// that replace its diffuse reflectance (`texture`) and its other parameters (`maps`) per hit; or a
+/// blend of two other materials (`blend`), whose own `bsdf`, `two_sided`, `texture` and `maps` are then
+/// never read (`Scene::pick_material` resolves a hit on it to one of the two, and the scene's
+/// questions about a shape's material ask every material it can be).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceMaterial {
     pub bsdf: Material,
@@ -67,18 +67,40 @@ pub struct SurfaceMaterial {
     pub two_sided: bool,
     /// Index into `Scene::textures`: the diffuse reflectance at each hit.
     pub texture: Option<u32>,
+    /// Textures for the BSDF's other parameters.
+    pub maps: ParamMaps,
     pub blend: Option<Blend>,
+}
+
+/// Textures that replace a BSDF's parameters at each hit (indices into `Scene::textures`), as Mitsuba's
+/// BSDFs read a texture wherever they take a colour or a roughness.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ParamMaps {
+    /// A mirror's or metal's colour (its constant reflectance, Schlick F0 or the scale of its exact
+    /// Fresnel), or a plastic coat's specular factor.
+    pub specular: Option<u32>,
+    /// A dielectric's transmittance tint.
+    pub tint: Option<u32>,
+    /// A rough conductor's or dielectric's α, read as one number (Mitsuba's `eval_1`: a colour by its
+    /// luminance) and kept at least `MIN_ALPHA`, as Mitsuba keeps it, so the surface stays rough.
+    pub alpha: Option<u32>,
+}
+
+impl ParamMaps {
+    pub fn any(&self) -> bool {
+        self.specular.is_some() || self.tint.is_some() || self.alpha.is_some()
+    }
 }
 
 impl SurfaceMaterial {
     pub fn new(bsdf: Material) -> Self {
-        SurfaceMaterial { bsdf, two_sided: true, texture: None, blend: None }
+        SurfaceMaterial { bsdf, two_sided: true, texture: None, maps: ParamMaps::default(), blend: None }
     }
 
     /// The blend of `first` and `second` (indices into `Scene::materials`) by `weight`.
     pub fn blend(weight: BlendWeight, first: u32, second: u32) -> Self {
         let blend = Some(Blend { weight, first, second });
-        SurfaceMaterial { bsdf: Material::Diffuse { reflectance: Rgb::ZERO }, two_sided: true, texture: None, blend }
+        SurfaceMaterial { blend, ..SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO }) }
     }
 
     /// A surface that is not there (Mitsuba's `null`, a mask's holes): light passes straight through,
@@ -266,7 +288,7 @@ pub enum Microfacet {
 
 /// The least roughness a microfacet BSDF is evaluated with: below it D overflows f32 near the normal
 /// (a nonzero roughness under it still renders, as this nearly smooth surface).
-const MIN_ALPHA: f32 = 1e-4;
+pub const MIN_ALPHA: f32 = 1e-4;
 
 impl Microfacet {
     /// D(h) in the local frame (z = macro normal).
@@ -610,6 +632,46 @@ impl RoughInterface {
 }
 
 impl Material {
+    /// This BSDF with a texel's values in place of its own colour (`specular`: a conductor's or a plastic
+    /// coat's), transmittance (`tint`: a dielectric's) and roughness (`alpha`: a rough conductor's or
+    /// dielectric's, kept at least `MIN_ALPHA`), where given; parameters it does not have are ignored.
+    pub fn with_params(mut self, specular: Option<Rgb>, tint: Option<Rgb>, alpha: Option<f32>) -> Material {
+        let rough = |a: &mut f32| {
+            if let Some(x) = alpha {
+                *a = x.max(MIN_ALPHA);
+            }
+        };
+        match &mut self {
+            Material::Conductor { fresnel, alpha: a, .. } => {
+                if let Some(s) = specular {
+                    match fresnel {
+                        Fresnel::Constant(c) | Fresnel::Schlick(c) => *c = s,
+                        Fresnel::Complex { scale, .. } | Fresnel::Dielectric { scale, .. } => *scale = s,
+                    }
+                }
+                rough(a);
+            }
+            Material::Dielectric { tint: t, alpha: a, .. } => {
+                if let Some(x) = tint {
+                    *t = x;
+                }
+                rough(a);
+            }
+            Material::ThinDielectric { tint: t, .. } => {
+                if let Some(x) = tint {
+                    *t = x;
+                }
+            }
+            Material::Plastic { specular: sp, .. } => {
+                if let Some(x) = specular {
+                    *sp = x;
+                }
+            }
+            Material::Diffuse { .. } => {}
+        }
+        self
+    }
+
     /// Delta BSDFs (smooth mirror, conductor, dielectric) are sampled, never evaluated.
     pub fn is_delta(&self) -> bool {
         match self {

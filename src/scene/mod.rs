@@ -339,9 +339,11 @@ impl Scene {
     pub fn max_albedo(&self, shape: u32) -> f32 {
         let mut best = 0.0f32;
         self.any_leaf(self.shapes[shape as usize].material, &mut |m| {
+            let most = |t: Option<u32>| t.map(|t| Rgb::splat(self.textures[t as usize].max_value()));
             best = best.max(match m.texture {
                 Some(t) => self.textures[t as usize].max_value(),
-                None => m.bsdf.albedo().max_element(),
+                // Each colour at its texture's largest value bounds what the surface reflects.
+                None => m.bsdf.with_params(most(m.maps.specular), most(m.maps.tint), None).albedo().max_element(),
             });
             false
         });
@@ -357,7 +359,7 @@ impl Scene {
                     || self.reads_uv(b.first)
                     || self.reads_uv(b.second)
             }
-            None => m.texture.is_some(),
+            None => m.texture.is_some() || m.maps.any(),
         }
     }
 
@@ -398,7 +400,7 @@ impl Scene {
         if !m.two_sided && wo.dot(si.ng) <= 0.0 {
             return Material::Diffuse { reflectance: Rgb::ZERO };
         }
-        match (m.texture, m.bsdf) {
+        let bsdf = match (m.texture, m.bsdf) {
             (Some(t), Material::Diffuse { .. }) => {
                 Material::Diffuse { reflectance: self.textures[t as usize].eval(si.uv) }
             }
@@ -407,7 +409,13 @@ impl Scene {
                 Material::Plastic { diffuse, specular, ior, nonlinear, rough }
             }
             (_, bsdf) => bsdf,
+        };
+        if !m.maps.any() {
+            return bsdf;
         }
+        let colour = |t: Option<u32>| t.map(|t| self.textures[t as usize].eval(si.uv));
+        let alpha = m.maps.alpha.map(|t| material::mitsuba_luminance(self.textures[t as usize].eval(si.uv)));
+        bsdf.with_params(colour(m.maps.specular), colour(m.maps.tint), alpha)
     }
 
     /// Radiance the surface at `si` emits towards `wo` (front side of triangles, outside of spheres).

@@ -517,6 +517,7 @@ impl<'a> Cx<'a> {
                 let ior = p.float_or_name("int_ior", named_ior)?.unwrap_or(1.49);
                 let outside_ior = p.float_or_name("ext_ior", named_ior)?.unwrap_or(1.000277);
                 // Mitsuba's roughplastic reads one isotropic `alpha` (default 0.1), Beckmann by default.
+                // (Its α is one number, not a texture: Mitsuba precomputes the coat's tables for it.)
                 let (roughness, distribution) = if kind == "roughplastic" {
                     let distribution = microfacet_distribution(b, &p)?;
                     (p.float("alpha")?.unwrap_or(0.1), distribution)
@@ -527,7 +528,7 @@ impl<'a> Cx<'a> {
                     roughness,
                     distribution,
                     reflectance: self.reflectance(&p, "diffuse_reflectance", name)?,
-                    specular: p.rgb("specular_reflectance")?.unwrap_or([1.0; 3]),
+                    specular: self.colour_or_texture(&p, "specular_reflectance", name, 1.0)?,
                     ior,
                     outside_ior,
                     nonlinear: p.boolean("nonlinear")?.unwrap_or(false),
@@ -540,23 +541,23 @@ impl<'a> Cx<'a> {
                 if p.rgb("specular_reflectance")?.is_some_and(|c| c != [1.0; 3]) {
                     return Err(b.error("specular_reflectance other than 1 is not supported"));
                 }
-                let tint = p.rgb("specular_transmittance")?.unwrap_or([1.0; 3]);
+                let tint = self.colour_or_texture(&p, "specular_transmittance", name, 1.0)?;
                 match kind {
                     "thindielectric" => MaterialSpec::ThinDielectric { ior: int, outside_ior: ext, tint },
                     "dielectric" => MaterialSpec::Dielectric {
                         ior: int,
                         outside_ior: ext,
                         tint,
-                        roughness: 0.0,
+                        roughness: Weight::Value(0.0),
                         distribution: Default::default(),
                     },
                     _ => {
-                        let (roughness, distribution) = microfacet(b, &p)?;
+                        let (roughness, distribution) = self.microfacet(b, &p, name)?;
                         MaterialSpec::Dielectric { ior: int, outside_ior: ext, tint, roughness, distribution }
                     }
                 }
             }
-            "conductor" | "roughconductor" => self.conductor(b, &p, two_sided)?,
+            "conductor" | "roughconductor" => self.conductor(b, &p, two_sided, name)?,
             "blendbsdf" | "mask" => self.blend(b, &p, two_sided, name)?,
             "null" => MaterialSpec::Null,
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
@@ -668,27 +669,52 @@ impl<'a> Cx<'a> {
 
     /// A reflectance property (Mitsuba's default 0.5): a colour, or a texture nested or referenced.
     fn reflectance(&mut self, p: &Props<'a>, key: &str, name: &str) -> Result<Reflectance, SceneError> {
-        Ok(match p.colour(key)? {
-            None => Reflectance::Colour([0.5; 3]),
+        self.colour_or_texture(p, key, name, 0.5)
+    }
+
+    /// A colour property (`default` grey when absent): a colour, or a texture nested or referenced.
+    fn colour_or_texture(
+        &mut self,
+        p: &Props<'a>,
+        key: &str,
+        name: &str,
+        default: f32,
+    ) -> Result<Reflectance, SceneError> {
+        Ok(self.colour_prop(p, key, name)?.unwrap_or(Reflectance::Colour([default; 3])))
+    }
+
+    /// A colour property if given: a colour, or a texture nested or referenced (converted once).
+    fn colour_prop(&mut self, p: &Props<'a>, key: &str, name: &str) -> Result<Option<Reflectance>, SceneError> {
+        Ok(Some(match p.colour(key)? {
+            None => return Ok(None),
             Some(ColourProp::Rgb(c)) => Reflectance::Colour(c),
             Some(ColourProp::Texture(t)) => Reflectance::Texture(self.texture(t, &format!("{name}-{key}"))?),
             Some(ColourProp::Ref(r, id)) => {
                 let t = self.lookup(r, &id)?;
                 Reflectance::Texture(self.texture(t, &id)?)
             }
-        })
+        }))
     }
 
-    fn conductor(&mut self, b: &Node, p: &Props, two_sided: bool) -> Result<MaterialSpec, SceneError> {
+    fn conductor(
+        &mut self,
+        b: &'a Node,
+        p: &Props<'a>,
+        two_sided: bool,
+        name: &str,
+    ) -> Result<MaterialSpec, SceneError> {
         use crate::scene::material::Microfacet;
-        let (roughness, distribution) =
-            if b.attr("type") == Some("roughconductor") { microfacet(b, p)? } else { (0.0, Microfacet::Ggx) };
-        let specular = p.rgb("specular_reflectance")?;
+        let (roughness, distribution) = if b.attr("type") == Some("roughconductor") {
+            self.microfacet(b, p, name)?
+        } else {
+            (Weight::Value(0.0), Microfacet::Ggx)
+        };
+        let specular = self.colour_prop(p, "specular_reflectance", name)?;
         let (eta, k) = (p.rgb("eta")?, p.rgb("k")?);
         let material = p.string("material")?;
         let (eta, k) = match (material.as_deref(), eta, k) {
             (None | Some("none"), None, None) => {
-                let specular = specular.unwrap_or([1.0; 3]);
+                let specular = specular.unwrap_or(Reflectance::Colour([1.0; 3]));
                 return Ok(MaterialSpec::Mirror { specular, roughness, distribution, two_sided });
             }
             (Some(m), None, None) => {
@@ -710,6 +736,32 @@ impl<'a> Cx<'a> {
             distribution,
             two_sided,
         })
+    }
+
+    /// A rough conductor's or dielectric's isotropic roughness α (Mitsuba's default 0.1; a number or a
+    /// texture read as one number) and microfacet distribution (Mitsuba's default Beckmann).
+    fn microfacet(
+        &mut self,
+        b: &'a Node,
+        p: &Props<'a>,
+        name: &str,
+    ) -> Result<(Weight, crate::scene::material::Microfacet), SceneError> {
+        let distribution = microfacet_distribution(b, p)?;
+        let alpha = match p.colour("alpha")? {
+            Some(ColourProp::Rgb([a, g, bb])) if a == g && g == bb => Weight::Value(a),
+            Some(ColourProp::Rgb(_)) => return Err(b.error("`alpha` must be one number or a texture")),
+            Some(ColourProp::Texture(t)) => Weight::Texture(self.scalar_texture(t, &format!("{name}-alpha"))?),
+            Some(ColourProp::Ref(r, id)) => {
+                let t = self.lookup(r, &id)?;
+                Weight::Texture(self.scalar_texture(t, &id)?)
+            }
+            None => match (p.float("alpha_u")?, p.float("alpha_v")?) {
+                (Some(u), Some(v)) if u == v => Weight::Value(u),
+                (None, None) => Weight::Value(0.1),
+                _ => return Err(b.error("anisotropic roughness (alpha_u ≠ alpha_v) is not supported")),
+            },
+        };
+        Ok((alpha, distribution))
     }
 
     /// A texture read as one number (a blend's weight, a mask's opacity) as Mitsuba 3.9 reads it (its
@@ -926,30 +978,14 @@ fn cylinder(
 /// Whether material `name` reads a texture: its reflectance, or a blend's weight or either side's.
 fn reads_texture(materials: &BTreeMap<String, MaterialSpec>, name: &str, depth: u32) -> bool {
     match materials.get(name) {
-        Some(
-            MaterialSpec::Diffuse { reflectance: Reflectance::Texture(_), .. }
-            | MaterialSpec::Plastic { reflectance: Reflectance::Texture(_), .. }
-            | MaterialSpec::Blend { weight: Weight::Texture(_), .. },
-        ) => true,
+        Some(MaterialSpec::Blend { weight: Weight::Texture(_), .. }) => true,
+        Some(m) if m.names_texture() => true,
         // The converter writes no cycle; the depth bound only keeps this safe on any input.
         Some(MaterialSpec::Blend { first, second, .. }) if depth < 64 => {
             reads_texture(materials, first, depth + 1) || reads_texture(materials, second, depth + 1)
         }
         _ => false,
     }
-}
-
-/// A rough BSDF's isotropic roughness α (Mitsuba's default 0.1) and microfacet distribution (Mitsuba's
-/// default Beckmann); `sample_visible` only changes how Mitsuba samples, so it is read and ignored.
-fn microfacet(b: &Node, p: &Props) -> Result<(f32, crate::scene::material::Microfacet), SceneError> {
-    let distribution = microfacet_distribution(b, p)?;
-    let alpha = match (p.float("alpha")?, p.float("alpha_u")?, p.float("alpha_v")?) {
-        (Some(a), None, None) => a,
-        (None, Some(u), Some(v)) if u == v => u,
-        (None, None, None) => 0.1,
-        _ => return Err(b.error("anisotropic roughness (alpha_u ≠ alpha_v) is not supported")),
-    };
-    Ok((alpha, distribution))
 }
 
 /// A microfacet BSDF's `distribution` (Mitsuba's default Beckmann) and `sample_visible` (read and

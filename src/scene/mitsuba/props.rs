@@ -140,14 +140,16 @@ impl<'a> Props<'a> {
         }))
     }
 
-    /// A constant colour: as `colour`, but a texture here is refused (only a diffuse reflectance takes one).
+    /// A constant colour: as `colour`, but a texture here is refused (parameters that take one use `colour`).
     pub fn rgb(&self, name: &str) -> Result<Option<[f32; 3]>, SceneError> {
         match self.colour(name)? {
             None => Ok(None),
             Some(ColourProp::Rgb(c)) => Ok(Some(c)),
-            Some(ColourProp::Texture(n) | ColourProp::Ref(n, _)) => Err(
-                n.error(format!("a textured `{name}` is not supported (only a diffuse reflectance takes a texture)"))
-            ),
+            Some(ColourProp::Texture(n) | ColourProp::Ref(n, _)) => Err(n.error(format!(
+                "a textured `{name}` is not supported (textures are read on a reflectance, a conductor's \
+                     specular_reflectance, a dielectric's specular_transmittance, a rough conductor's or \
+                     dielectric's alpha, a blend's weight and a mask's opacity)"
+            ))),
         }
     }
 
