@@ -525,6 +525,13 @@ fn build_material(
             }
         }
     };
+    // A diffuse reflectance, or its texture (which replaces it at every hit: the material's own is 0).
+    let reflectance = |r: &Reflectance| -> Result<(Rgb, Option<u32>), SceneError> {
+        Ok(match colour("reflectance", r)? {
+            (_, Some(t)) => (Rgb::ZERO, Some(t)),
+            plain => plain,
+        })
+    };
     // A roughness, or its texture (then rough everywhere: at least MIN_ALPHA, as Mitsuba keeps α).
     let roughness = |w: &Weight| -> Result<(f32, Option<u32>), SceneError> {
         match w {
@@ -541,17 +548,16 @@ fn build_material(
         ..SurfaceMaterial::new(bsdf)
     };
     Ok(match spec {
-        MaterialSpec::Diffuse { reflectance: Reflectance::Colour(c), two_sided } => {
-            let reflectance = cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?;
-            sided(Material::Diffuse { reflectance }, *two_sided, ParamMaps::default())
+        MaterialSpec::Diffuse { reflectance: r, two_sided } => {
+            let (reflectance, texture) = reflectance(r)?;
+            SurfaceMaterial {
+                two_sided: *two_sided,
+                texture,
+                ..SurfaceMaterial::new(Material::Diffuse { reflectance })
+            }
         }
-        MaterialSpec::Diffuse { reflectance: Reflectance::Texture(name), two_sided } => SurfaceMaterial {
-            two_sided: *two_sided,
-            texture: Some(texture_index(cx, &format!("{key}.reflectance"), name, textures, "a reflectance")?),
-            ..SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO })
-        },
         MaterialSpec::Plastic {
-            reflectance,
+            reflectance: r,
             specular,
             ior,
             outside_ior,
@@ -561,13 +567,7 @@ fn build_material(
             two_sided,
         } => {
             let ior = relative_ior(cx, key, *ior, *outside_ior)?;
-            let (diffuse, texture) = match reflectance {
-                Reflectance::Colour(c) => (cx.colour(&format!("{key}.reflectance"), *c, Some(1.0))?, None),
-                Reflectance::Texture(name) => (
-                    Rgb::ZERO,
-                    Some(texture_index(cx, &format!("{key}.reflectance"), name, textures, "a reflectance")?),
-                ),
-            };
+            let (diffuse, texture) = reflectance(r)?;
             let (specular, specular_map) = colour("specular", specular)?;
             let alpha = rough(*roughness)?;
             let rough = (alpha > 0.0).then(|| RoughCoat::get(alpha, *distribution, ior));
