@@ -975,10 +975,10 @@ fn cylinder(
     })
 }
 
-/// Whether material `name` reads a texture: its reflectance, or a blend's weight or either side's.
+/// Whether material `name` reads a texture: for any of its parameters, or a blend's weight or either
+/// side's.
 fn reads_texture(materials: &BTreeMap<String, MaterialSpec>, name: &str, depth: u32) -> bool {
     match materials.get(name) {
-        Some(MaterialSpec::Blend { weight: Weight::Texture(_), .. }) => true,
         Some(m) if m.names_texture() => true,
         // The converter writes no cycle; the depth bound only keeps this safe on any input.
         Some(MaterialSpec::Blend { first, second, .. }) if depth < 64 => {
