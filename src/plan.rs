@@ -112,9 +112,19 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
             ));
         }
     }
-    let caustic = if r.force_all_passes || !targets.is_empty() {
+    // Caustic photons are stored only where a surface holds photons (diffuse, a plastic's base). The
+    // targets stay: VCM's light subpaths aim at them too.
+    let any_holder = (0..scene.shapes.len()).any(holds);
+    let caustic = if r.force_all_passes || (!targets.is_empty() && any_holder) {
         reasons.push(format!("caustic map: {} specular shape(s) lit by a light", targets.len()));
         r.photons.caustic
+    } else if !targets.is_empty() {
+        reasons.push(
+            "no caustic map: no surface holds photons (every one is specular or glossy: the eye pass's own paths \
+             find the light)"
+                .into(),
+        );
+        0
     } else {
         reasons.push("no caustic map: no specular surface that a light can reach".into());
         0

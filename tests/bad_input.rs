@@ -268,6 +268,36 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["materials.white.roughness", "unknown texture `bumps`"],
         ),
         (
+            "principled_weight_above_one",
+            with_white("white = { type = \"principled\", metallic = 1.5 }"),
+            vec![],
+            vec!["materials.white.metallic", "[0, 1]", "got 1.5"],
+        ),
+        (
+            "principled_eta_and_specular",
+            with_white("white = { type = \"principled\", eta = 1.5, specular = 0.5 }"),
+            vec![],
+            vec!["materials.white", "`eta` or `specular`, not both"],
+        ),
+        (
+            "principled_eta_zero",
+            with_white("white = { type = \"principled\", eta = 0.0, spec_trans = 1.0 }"),
+            vec![],
+            vec!["materials.white.eta", "[0.25, 4]", "got 0"],
+        ),
+        (
+            "principled_two_sided_transmitter",
+            with_white("white = { type = \"principled\", spec_trans = 0.5, two_sided = true }"),
+            vec![],
+            vec!["materials.white.two_sided", "transmitting", "cannot be two-sided"],
+        ),
+        (
+            "principled_unknown_roughness_texture",
+            with_white("white = { type = \"principled\", roughness = \"bumps\" }"),
+            vec![],
+            vec!["materials.white.roughness", "unknown texture `bumps`"],
+        ),
+        (
             "tint_unknown_texture",
             with_white("white = { type = \"dielectric\", ior = 1.5, tint = \"stain\" }"),
             vec![],

@@ -356,6 +356,7 @@ const XML_TYPES: &[&str] = &[
     "blendbsdf",
     "mask",
     "null",
+    "principled",
     "",
 ];
 
@@ -378,6 +379,9 @@ const XML_EXTRAS: &[&str] = &[
     r#"<bsdf type="plastic" id="p8"><rgb name="diffuse_reflectance" value="7"/><boolean name="nonlinear" value="true"/></bsdf><shape type="sphere"><ref id="p8"/></shape>"#,
     r#"<bsdf type="roughplastic" id="rp9"><float name="alpha" value="1e-38"/><string name="int_ior" value="water"/></bsdf><shape type="sphere"><ref id="rp9"/></shape>"#,
     r#"<bsdf type="roughplastic" id="rp8"><float name="alpha" value="7"/><string name="distribution" value="ggx"/></bsdf><shape type="sphere"><ref id="rp8"/></shape>"#,
+    r#"<bsdf type="principled" id="pr9"><float name="eta" value="1e-30"/><float name="spec_trans" value="1"/></bsdf><shape type="sphere"><ref id="pr9"/></shape>"#,
+    r#"<bsdf type="principled" id="pr8"><float name="roughness" value="0"/><float name="clearcoat" value="1"/><float name="clearcoat_gloss" value="1"/><float name="sheen" value="1"/><rgb name="base_color" value="0"/></bsdf><shape type="sphere"><ref id="pr8"/></shape>"#,
+    r#"<bsdf type="twosided" id="pr7"><bsdf type="principled"><float name="specular" value="0"/><float name="metallic" value="1"/><float name="flatness" value="1"/></bsdf></bsdf><shape type="rectangle"><ref id="pr7"/></shape>"#,
     r#"<shape type="sphere"><ref id="nowhere"/></shape>"#,
     r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="ball.ply"/></texture></bsdf></shape>"#,
 ];

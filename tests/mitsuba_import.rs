@@ -247,6 +247,22 @@ fn every_mode_reads_textured_parameters_as_mitsuba() {
     every_mode_means_match_mitsuba("textured");
 }
 
+/// Mitsuba's `principled` BSDF (`principled.xml`): every reflecting lobe, full metal, transmission
+/// (inside and back of a glassy ball), `twosided`, a one-sided panel, `specular` for the index,
+/// textured base colour and roughness (an image's luminance; a checkerboard through a `<ref>`).
+#[test]
+fn principled_xml_matches_mitsuba() {
+    matches_mitsuba("principled", 1024, 0.003);
+}
+
+/// Every mode on `principled.xml`: light subpaths and photons cross principled surfaces with the
+/// importance form of the BSDF (its transmission's adjoint), and the photon mappers' eye passes follow
+/// camera paths through them; each mode's mean stays with Mitsuba's.
+#[test]
+fn every_mode_renders_principled_as_mitsuba() {
+    every_mode_means_match_mitsuba("principled");
+}
+
 #[test]
 fn plastic_xml_matches_mitsuba() {
     matches_mitsuba("plastic", 1024, 0.003);
@@ -425,11 +441,20 @@ fn one_sided_bsdfs_are_black_from_behind_unless_twosided() {
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let cases: [(&str, &[&str]); 4] = [
+    let cases: [(&str, &[&str]); 5] = [
         ("showcase", &["two_sided = false", "type = \"thin_dielectric\""]),
         ("thinlens", &["aperture_radius = 0.2", "focus_distance = 4.0"]),
         ("blend", &["type = \"blend\"", "type = \"null\"", "weight = \"label\""]),
         ("textured", &["roughness = \"label\"", "specular = \"label\"", "roughness = \"rough-squares-as-weight\""]),
+        (
+            "principled",
+            &[
+                "type = \"principled\"",
+                "two_sided = true",
+                "spec_trans = 0.9",
+                "roughness = \"rough-squares-as-weight\"",
+            ],
+        ),
     ];
     for (name, wanted) in cases {
         let out = tmp("convert").join(format!("elsewhere/{name}.toml"));
@@ -493,7 +518,26 @@ fn includes_defaults_and_version_0_6_names_are_read() {
 fn what_is_not_read_is_refused_naming_the_line() {
     let d = tmp("refuse");
     let cases: &[(&str, &str, &[&str])] = &[
-        ("principled", r#"<bsdf type="principled"/>"#, &["line 8", "principled", "diffuse, plastic, roughplastic"]),
+        (
+            "measured",
+            r#"<bsdf type="measured"/>"#,
+            &["line 8", "measured", "diffuse, plastic, roughplastic", "principled"],
+        ),
+        (
+            "principled-aniso",
+            r#"<bsdf type="principled"><float name="anisotropic" value="0.5"/></bsdf>"#,
+            &["line 8", "anisotropic principled"],
+        ),
+        (
+            "principled-metallic-texture",
+            r#"<bsdf type="principled"><texture type="checkerboard" name="metallic"/></bsdf>"#,
+            &["line 8", "`metallic` of a principled BSDF must be a number", "base_color and roughness"],
+        ),
+        (
+            "principled-twosided-transmitter",
+            r#"<bsdf type="twosided"><bsdf type="principled"><float name="spec_trans" value="0.5"/></bsdf></bsdf>"#,
+            &["line 8", "spec_trans cannot be wrapped in twosided"],
+        ),
         (
             "unknown-prop",
             r#"<bsdf type="diffuse"><float name="roughness" value="0.2"/></bsdf>"#,

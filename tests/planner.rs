@@ -42,6 +42,37 @@ fn diffuse_only_scene_skips_the_caustic_pass_and_the_image_is_unchanged() {
     assert_eq!(images[0], images[1]);
 }
 
+/// Where no surface can hold a photon (every one principled, glossy, a mirror or glass), caustic photons
+/// would be traced and never stored: the planner shoots none, and forcing every pass changes no pixel.
+#[test]
+fn without_a_surface_that_holds_photons_no_caustic_photons_are_shot() {
+    let text = |forced: bool| {
+        format!(
+            "[camera]\norigin = [0.0, 1.0, 3.0]\ntarget = [0.0, 0.3, 0.0]\nresolution = [24, 16]\n\
+             [materials]\nsatin = {{ type = \"principled\", base_color = [0.7, 0.3, 0.2], sheen = 0.5 }}\n\
+             gold = {{ type = \"principled\", base_color = [0.9, 0.6, 0.3], metallic = 1.0, roughness = 0.3 }}\n\
+             [[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 0.0, 2.0]\nedge_u = [4.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -4.0]\nmaterial = \"satin\"\n\
+             [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.4, 0.0]\nradius = 0.4\nmaterial = \"gold\"\n\
+             [[lights]]\ntype = \"point\"\nposition = [1.0, 2.0, 1.0]\npower = [30.0, 30.0, 30.0]\n\
+             [render]\npm_spp = 2\nforce_all_passes = {forced}\n\
+             [render.photons]\ndirect = 5000\nindirect = 5000\ncaustic = 5000\n"
+        )
+    };
+    let mut images = Vec::new();
+    for forced in [false, true] {
+        let s = common::scene(&text(forced));
+        let a = Accel::new(&s).unwrap();
+        let plan = plan_for(&s, &a);
+        if !forced {
+            assert_eq!(plan.photons, [0, 0, 0], "{:?}", plan.reasons);
+            assert!(plan.reasons.iter().any(|r| r.contains("no surface holds photons")), "{:?}", plan.reasons);
+        }
+        images.push(render_pm_default(&s, &a, true).unwrap().image);
+    }
+    assert_eq!(images[0], images[1]);
+    assert!(images[0].pixels.iter().any(|p| p.x > 0.0), "the eye pass finds the light");
+}
+
 #[test]
 fn glass_box_targets_both_balls_and_samples_them_more() {
     let s = load_scene_with(&scene_path("cornell-glass.toml"), &SMALL.map(String::from)).unwrap();

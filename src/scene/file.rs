@@ -201,6 +201,43 @@ pub enum MaterialSpec {
         first: String,
         second: String,
     },
+    /// Mitsuba's `principled` BSDF (Burley's "Disney" model as Mitsuba 3 writes it): `base_color` (a
+    /// colour or a texture, default ½) and `roughness` (a number or a texture read by luminance,
+    /// default ½) and, each a number in [0, 1] defaulting to 0: `metallic`, `spec_trans`
+    /// (transmission), `spec_tint`, `sheen`, `sheen_tint`, `flatness`, `clearcoat`, `clearcoat_gloss`;
+    /// the dielectric index as `eta` (inside over outside) or `specular` (in [0, 1], default ½: η 1.5),
+    /// not both. `two_sided` (default: true unless it transmits; a transmitting one cannot be) mirrors
+    /// the front onto the back (Mitsuba's `twosided`); one-sided, the back reflects only what its
+    /// transmission lobe does. Photons are not stored on it: the photon mappers follow camera paths
+    /// through it, as through rough metal.
+    Principled {
+        #[serde(default = "grey")]
+        base_color: Reflectance,
+        #[serde(default = "half_weight")]
+        roughness: Weight,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        metallic: f32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        spec_trans: f32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        spec_tint: f32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        sheen: f32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        sheen_tint: f32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        flatness: f32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        clearcoat: f32,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        clearcoat_gloss: f32,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        specular: Option<f32>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        eta: Option<f32>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        two_sided: Option<bool>,
+    },
     /// No surface: light passes straight through, unbent and undimmed (Mitsuba's `null`). A blend of it
     /// with another material is a cut-out (Mitsuba's `mask`: `weight` is the opacity).
     Null,
@@ -218,6 +255,7 @@ impl MaterialSpec {
             MaterialSpec::Conductor { specular, roughness, .. } => specular.as_ref().is_some_and(t) || w(roughness),
             MaterialSpec::Dielectric { tint, roughness, .. } => t(tint) || w(roughness),
             MaterialSpec::ThinDielectric { tint, .. } => t(tint),
+            MaterialSpec::Principled { base_color, roughness, .. } => t(base_color) || w(roughness),
             MaterialSpec::Blend { weight, .. } => w(weight),
             MaterialSpec::Null => false,
         }
@@ -243,6 +281,10 @@ fn smooth() -> Weight {
 
 fn is_smooth(w: &Weight) -> bool {
     *w == Weight::Value(0.0)
+}
+
+fn grey() -> Reflectance {
+    Reflectance::Colour([0.5; 3])
 }
 
 fn white() -> Reflectance {

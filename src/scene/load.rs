@@ -6,7 +6,7 @@ use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
 use crate::scene::light::{Lights, PointLight, Spot};
 use crate::scene::material::{
-    conductor_preset, BlendWeight, Fresnel, Material, ParamMaps, RoughCoat, SurfaceMaterial, MIN_ALPHA,
+    conductor_preset, BlendWeight, Fresnel, Material, ParamMaps, Principled, RoughCoat, SurfaceMaterial, MIN_ALPHA,
 };
 use crate::scene::mesh::{self, TriMesh};
 use crate::scene::texture::{load_image, Texture, UvMap};
@@ -619,6 +619,82 @@ fn build_material(
             } else {
                 sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })
             }
+        }
+        MaterialSpec::Principled {
+            base_color,
+            roughness: r,
+            metallic,
+            spec_trans,
+            spec_tint,
+            sheen,
+            sheen_tint,
+            flatness,
+            clearcoat,
+            clearcoat_gloss,
+            specular,
+            eta,
+            two_sided,
+        } => {
+            let weight = |field: &str, x: f32| {
+                if (0.0..=1.0).contains(&x) {
+                    Ok(x)
+                } else {
+                    Err(cx.err(&format!("{key}.{field}"), format!("must be in [0, 1], got {x}")))
+                }
+            };
+            let mut p = Principled::new(Rgb::ZERO);
+            p.metallic = weight("metallic", *metallic)?;
+            p.spec_trans = weight("spec_trans", *spec_trans)?;
+            p.spec_tint = weight("spec_tint", *spec_tint)?;
+            p.sheen = weight("sheen", *sheen)?;
+            p.sheen_tint = weight("sheen_tint", *sheen_tint)?;
+            p.flatness = weight("flatness", *flatness)?;
+            p.clearcoat = weight("clearcoat", *clearcoat)?;
+            p.clearcoat_gloss = weight("clearcoat_gloss", *clearcoat_gloss)?;
+            // Mitsuba's own guards: a transmitting surface of index 1 (or specular 0) is made 1.001 (1e-3).
+            let transmits = p.spec_trans > 0.0;
+            p.eta = match (eta, specular) {
+                (Some(_), Some(_)) => return Err(cx.err(key, "give `eta` or `specular`, not both")),
+                (Some(e), None) if (0.25..=4.0).contains(e) => {
+                    if transmits && *e == 1.0 {
+                        1.001
+                    } else {
+                        *e
+                    }
+                }
+                (Some(e), None) => return Err(cx.err(&format!("{key}.eta"), format!("must be in [0.25, 4], got {e}"))),
+                (None, s) => {
+                    let s = weight("specular", s.unwrap_or(0.5))?;
+                    Principled::eta_from_specular(if transmits && s == 0.0 { 1e-3 } else { s })
+                }
+            };
+            p.two_sided = match two_sided {
+                Some(true) if transmits => {
+                    let msg = "a transmitting principled (spec_trans > 0) cannot be two-sided (Mitsuba's twosided refuses it too)";
+                    return Err(cx.err(&format!("{key}.two_sided"), msg));
+                }
+                Some(t) => *t,
+                None => !transmits,
+            };
+            let (base, texture) = match colour("base_color", base_color)? {
+                (_, Some(t)) => (Rgb::ZERO, Some(t)),
+                plain => plain,
+            };
+            p.base = base;
+            let alpha = match r {
+                Weight::Value(x) => {
+                    p.roughness = weight("roughness", *x)?;
+                    None
+                }
+                Weight::Texture(name) => {
+                    let t = texture_index(cx, &format!("{key}.roughness"), name, textures, "a roughness")?;
+                    p.roughness = textures.list[t as usize].max_value();
+                    Some(t)
+                }
+            };
+            // The BSDF minds its own sides (`Principled::two_sided`).
+            let maps = ParamMaps { alpha, ..Default::default() };
+            SurfaceMaterial { texture, maps, ..SurfaceMaterial::new(Material::Principled(p)) }
         }
         MaterialSpec::Null => SurfaceMaterial::null(),
         MaterialSpec::Blend { weight, first, second } => {

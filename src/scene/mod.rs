@@ -408,6 +408,10 @@ impl Scene {
                 let diffuse = self.textures[t as usize].eval(si.uv);
                 Material::Plastic { diffuse, specular, ior, nonlinear, rough }
             }
+            (Some(t), Material::Principled(mut p)) => {
+                p.base = self.textures[t as usize].eval(si.uv);
+                Material::Principled(p)
+            }
             (_, bsdf) => bsdf,
         };
         if !m.maps.any() {

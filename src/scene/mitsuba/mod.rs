@@ -25,7 +25,7 @@ pub struct Converted {
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
-                     roughconductor (ggx, beckmann), twosided, blendbsdf, mask, null";
+                     roughconductor (ggx, beckmann), principled (isotropic), twosided, blendbsdf, mask, null";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
@@ -558,13 +558,14 @@ impl<'a> Cx<'a> {
                 }
             }
             "conductor" | "roughconductor" => self.conductor(b, &p, two_sided, name)?,
+            "principled" => self.principled(b, &p, two_sided, name)?,
             "blendbsdf" | "mask" => self.blend(b, &p, two_sided, name)?,
             "null" => MaterialSpec::Null,
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
         };
         p.finish(
             "the parameters of diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
-             roughconductor, twosided, blendbsdf (weight) and mask (opacity)",
+             roughconductor, principled, twosided, blendbsdf (weight) and mask (opacity)",
         )?;
         Ok(spec)
     }
@@ -747,14 +748,8 @@ impl<'a> Cx<'a> {
         name: &str,
     ) -> Result<(Weight, crate::scene::material::Microfacet), SceneError> {
         let distribution = microfacet_distribution(b, p)?;
-        let alpha = match p.colour("alpha")? {
-            Some(ColourProp::Rgb([a, g, bb])) if a == g && g == bb => Weight::Value(a),
-            Some(ColourProp::Rgb(_)) => return Err(b.error("`alpha` must be one number or a texture")),
-            Some(ColourProp::Texture(t)) => Weight::Texture(self.scalar_texture(t, &format!("{name}-alpha"))?),
-            Some(ColourProp::Ref(r, id)) => {
-                let t = self.lookup(r, &id)?;
-                Weight::Texture(self.scalar_texture(t, &id)?)
-            }
+        let alpha = match self.scalar_prop(b, p, "alpha", name)? {
+            Some(a) => a,
             None => match (p.float("alpha_u")?, p.float("alpha_v")?) {
                 (Some(u), Some(v)) if u == v => Weight::Value(u),
                 (None, None) => Weight::Value(0.1),
@@ -762,6 +757,68 @@ impl<'a> Cx<'a> {
             },
         };
         Ok((alpha, distribution))
+    }
+
+    /// A property Mitsuba reads as one number (its `eval_1`), if given: a number, a grey colour, or a
+    /// texture nested or referenced (`scalar_texture`).
+    fn scalar_prop(&mut self, b: &Node, p: &Props<'a>, key: &str, name: &str) -> Result<Option<Weight>, SceneError> {
+        Ok(Some(match p.colour(key)? {
+            None => return Ok(None),
+            Some(ColourProp::Rgb([a, g, bb])) if a == g && g == bb => Weight::Value(a),
+            Some(ColourProp::Rgb(_)) => return Err(b.error(format!("`{key}` must be one number or a texture"))),
+            Some(ColourProp::Texture(t)) => Weight::Texture(self.scalar_texture(t, &format!("{name}-{key}"))?),
+            Some(ColourProp::Ref(r, id)) => {
+                let t = self.lookup(r, &id)?;
+                Weight::Texture(self.scalar_texture(t, &id)?)
+            }
+        }))
+    }
+
+    /// Mitsuba's `principled`: `base_color` and `roughness` may be textures, every other weight is a
+    /// number; anisotropy is refused; the sampling rates change only the noise and are read and left.
+    fn principled(
+        &mut self,
+        b: &'a Node,
+        p: &Props<'a>,
+        two_sided: bool,
+        name: &str,
+    ) -> Result<MaterialSpec, SceneError> {
+        let number = |key: &str| -> Result<f32, SceneError> {
+            match p.colour(key)? {
+                None => Ok(0.0),
+                Some(ColourProp::Rgb([a, g, bb])) if a == g && g == bb => Ok(a),
+                Some(_) => Err(b.error(format!(
+                    "`{key}` of a principled BSDF must be a number here (only base_color and roughness take a texture)"
+                ))),
+            }
+        };
+        if number("anisotropic")? != 0.0 {
+            return Err(b.error("anisotropic principled BSDFs are not supported (anisotropic must be 0)"));
+        }
+        for rate in ["main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"] {
+            p.float(rate)?;
+        }
+        let spec_trans = number("spec_trans")?;
+        if two_sided && spec_trans > 0.0 {
+            return Err(
+                b.error("a principled BSDF with spec_trans cannot be wrapped in twosided (Mitsuba refuses it too)")
+            );
+        }
+        Ok(MaterialSpec::Principled {
+            base_color: self.colour_or_texture(p, "base_color", name, 0.5)?,
+            roughness: self.scalar_prop(b, p, "roughness", name)?.unwrap_or(Weight::Value(0.5)),
+            metallic: number("metallic")?,
+            spec_trans,
+            spec_tint: number("spec_tint")?,
+            sheen: number("sheen")?,
+            sheen_tint: number("sheen_tint")?,
+            flatness: number("flatness")?,
+            clearcoat: number("clearcoat")?,
+            clearcoat_gloss: number("clearcoat_gloss")?,
+            specular: p.float("specular")?,
+            eta: p.float("eta")?,
+            two_sided: Some(two_sided),
+        })
     }
 
     /// A texture read as one number (a blend's weight, a mask's opacity) as Mitsuba 3.9 reads it (its
