@@ -1579,6 +1579,51 @@ mod tests {
         }
     }
 
+    /// The reflected and transmitted albedos (per channel) of `count` samples of `m` for a path arriving
+    /// along `wo` in `mode`, after checking what every sampler must satisfy: each sample's weight is
+    /// f·|cos|/pdf with the f and pdf `eval` and `pdf` report; the albedo by sampling equals `eval`
+    /// integrated against a half-and-half mixture of uniform directions and the sampler's own, weighted
+    /// by the mixture's density as the pdf reports it (unbiased only if the reported pdf is the
+    /// sampler's density); and `pdf` integrates to the share of draws that succeed.
+    fn checked_albedos(
+        m: &Material,
+        wo: Vec3,
+        mode: TransportMode,
+        count: u32,
+        r: &mut Rng,
+        case: &str,
+    ) -> [[f64; 3]; 2] {
+        let n = Vec3::Z;
+        let (mut rt, mut integrated, mut hits, mut pdf_sum) = ([[0.0f64; 3]; 2], 0.0f64, 0u32, 0.0f64);
+        for _ in 0..count {
+            if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), mode) {
+                let pdf = m.pdf(wo, s.wi, n);
+                let w = m.eval(wo, s.wi, n, mode) * s.wi.dot(n).abs() / pdf;
+                assert!((pdf / s.pdf - 1.0).abs() < 1e-3, "{case}: pdf {pdf} vs sampled {}", s.pdf);
+                assert!((w - s.weight).length() < 2e-3 * w.length().max(1.0), "{case}: {w:?} vs {:?}", s.weight);
+                assert_eq!(s.transmitted, s.wi.dot(n) * wo.dot(n) < 0.0);
+                for (sum, w) in rt[s.transmitted as usize].iter_mut().zip(s.weight.to_array()) {
+                    *sum += w as f64 / count as f64;
+                }
+                hits += 1;
+            }
+            let drawn = if r.next_f32() < 0.5 {
+                Some(sampling::uniform_sphere(r.next_2d()))
+            } else {
+                m.sample(wo, n, r.next_2d(), r.next_f32(), mode).map(|s| s.wi)
+            };
+            if let Some(wi) = drawn {
+                let mix = 0.5 / (4.0 * PI) + 0.5 * m.pdf(wo, wi, n);
+                integrated += (m.eval(wo, wi, n, mode).x * wi.z.abs() / mix) as f64 / count as f64;
+                pdf_sum += (m.pdf(wo, wi, n) / mix) as f64 / count as f64;
+            }
+        }
+        let (sampled, hit_rate) = (rt[0][0] + rt[1][0], hits as f64 / count as f64);
+        assert!((sampled / integrated - 1.0).abs() < 0.02, "{case}: sampled {sampled} vs integrated {integrated}");
+        assert!((pdf_sum / hit_rate - 1.0).abs() < 0.02, "{case}: ∫pdf {pdf_sum} vs success {hit_rate}");
+        rt
+    }
+
     fn principled(f: impl FnOnce(&mut Principled)) -> Material {
         let mut p = Principled::new(Rgb::new(0.8, 0.3, 0.2));
         f(&mut p);
@@ -1592,7 +1637,6 @@ mod tests {
     /// mixture density; `pdf` integrates to the sampler's success rate.
     #[test]
     fn principled_sampling_matches_eval_and_mitsuba() {
-        let n = Vec3::Z;
         let mut r = Rng::new(77, 0, 0);
         let count = 400_000;
         let everything = |p: &mut Principled| {
@@ -1632,41 +1676,13 @@ mod tests {
         for (i, (m, wo, mitsuba)) in cases.iter().enumerate() {
             let wo = Vec3::from_array(*wo).normalize();
             for (k, mode) in [TransportMode::Radiance, TransportMode::Importance].into_iter().enumerate() {
-                let (mut rt, mut integrated, mut hits, mut pdf_sum) = ([Rgb::ZERO; 2], 0.0f64, 0u32, 0.0f64);
-                for _ in 0..count {
-                    if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), mode) {
-                        let pdf = m.pdf(wo, s.wi, n);
-                        let w = m.eval(wo, s.wi, n, mode) * s.wi.dot(n).abs() / pdf;
-                        assert!((pdf / s.pdf - 1.0).abs() < 1e-3, "pdf {pdf} vs sampled {}", s.pdf);
-                        assert!((w - s.weight).length() < 2e-3 * w.length().max(1.0), "{w:?} vs {:?}", s.weight);
-                        assert_eq!(s.transmitted, s.wi.dot(n) * wo.dot(n) < 0.0);
-                        rt[s.transmitted as usize] += s.weight / count as f32;
-                        hits += 1;
-                    }
-                    let drawn = if r.next_f32() < 0.5 {
-                        Some(sampling::uniform_sphere(r.next_2d()))
-                    } else {
-                        m.sample(wo, n, r.next_2d(), r.next_f32(), mode).map(|s| s.wi)
-                    };
-                    if let Some(wi) = drawn {
-                        let mix = 0.5 / (4.0 * PI) + 0.5 * m.pdf(wo, wi, n);
-                        integrated += (m.eval(wo, wi, n, mode).x * wi.z.abs() / mix) as f64 / count as f64;
-                        pdf_sum += (m.pdf(wo, wi, n) / mix) as f64 / count as f64;
-                    }
-                }
-                let (sampled, hit_rate) = ((rt[0].x + rt[1].x) as f64, hits as f64 / count as f64);
                 let case = format!("case {i} wo {wo:?} {mode:?}");
-                assert!(
-                    (sampled / integrated - 1.0).abs() < 0.02,
-                    "{case}: sampled {sampled} vs integrated {integrated}"
-                );
-                assert!((pdf_sum / hit_rate - 1.0).abs() < 0.02, "{case}: ∫pdf {pdf_sum} vs success {hit_rate}");
+                let rt = checked_albedos(m, wo, mode, count, &mut r, &case);
                 for (lobe, j) in [("R", 0), ("T", 1)] {
-                    let theirs = Rgb::from_array(mitsuba[2 * k + j]);
-                    let ours = rt[j];
+                    let (ours, theirs) = (rt[j], mitsuba[2 * k + j]);
                     for c in 0..3 {
                         assert!(
-                            (ours[c] - theirs[c]).abs() < 0.01 * theirs[c] + 0.002,
+                            (ours[c] - theirs[c] as f64).abs() < 0.01 * theirs[c] as f64 + 0.002,
                             "{case}: {lobe} {ours:?} against Mitsuba's {theirs:?}"
                         );
                     }
@@ -1748,7 +1764,6 @@ mod tests {
     /// (int_ior 1.5, ext_ior 1; 200,000 samples of its `sample` per case in `llvm_ad_rgb`).
     #[test]
     fn rough_dielectric_sampling_matches_eval_and_mitsuba() {
-        let n = Vec3::Z;
         let mut r = Rng::new(21, 0, 0);
         let count = 400_000;
         // (distribution, α, wo, Mitsuba's [R, T] in importance mode, [R, T] in radiance mode)
@@ -1767,38 +1782,8 @@ mod tests {
             let wo = Vec3::from_array(wo).normalize();
             let m = rough_glass(alpha, distribution);
             for (mode, mitsuba) in [(TransportMode::Importance, imp), (TransportMode::Radiance, rad)] {
-                let (mut rt, mut integrated, mut hits, mut pdf_sum) = ([0.0f64; 2], 0.0f64, 0u32, 0.0f64);
-                for _ in 0..count {
-                    if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), mode) {
-                        let pdf = m.pdf(wo, s.wi, n);
-                        let w = m.eval(wo, s.wi, n, mode) * s.wi.dot(n).abs() / pdf;
-                        assert!((pdf / s.pdf - 1.0).abs() < 1e-3, "pdf {pdf} vs sampled {}", s.pdf);
-                        assert!((w - s.weight).length() < 2e-3 * w.length().max(1.0), "{w:?} vs {:?}", s.weight);
-                        assert_eq!(s.transmitted, s.wi.dot(n) * wo.dot(n) < 0.0);
-                        rt[s.transmitted as usize] += s.weight.x as f64 / count as f64;
-                        hits += 1;
-                    }
-                    // A half-and-half mixture of uniform directions and the sampler's own, weighted by the
-                    // mixture's density as the pdf reports it: unbiased only if the reported pdf is the
-                    // sampler's density.
-                    let drawn = if r.next_f32() < 0.5 {
-                        Some(sampling::uniform_sphere(r.next_2d()))
-                    } else {
-                        m.sample(wo, n, r.next_2d(), r.next_f32(), mode).map(|s| s.wi)
-                    };
-                    if let Some(wi) = drawn {
-                        let mix = 0.5 / (4.0 * PI) + 0.5 * m.pdf(wo, wi, n);
-                        integrated += (m.eval(wo, wi, n, mode).x * wi.z.abs() / mix) as f64 / count as f64;
-                        pdf_sum += (m.pdf(wo, wi, n) / mix) as f64 / count as f64;
-                    }
-                }
-                let (sampled, hit_rate) = (rt[0] + rt[1], hits as f64 / count as f64);
                 let case = format!("{distribution:?} α {alpha} wo {wo:?} {mode:?}");
-                assert!(
-                    (sampled / integrated - 1.0).abs() < 0.02,
-                    "{case}: sampled {sampled} vs integrated {integrated}"
-                );
-                assert!((pdf_sum / hit_rate - 1.0).abs() < 0.02, "{case}: ∫pdf {pdf_sum} vs success {hit_rate}");
+                let rt = checked_albedos(&m, wo, mode, count, &mut r, &case).map(|lobe| lobe[0]);
                 for (lobe, (ours, theirs)) in ["R", "T"].iter().zip(rt.iter().zip(mitsuba)) {
                     assert!(
                         (ours - theirs).abs() < 0.01 * theirs + 0.001,
