@@ -23,6 +23,13 @@ pub struct Converted {
     pub warnings: Vec<String>,
 }
 
+/// A colour property's value, or the texture it names (with the name it gets in `[textures]` unless
+/// the texture has an id).
+enum Valued<'a> {
+    Rgb([f32; 3]),
+    Texture(&'a Node, String),
+}
+
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
                      roughconductor (ggx, beckmann), principled (isotropic), twosided, blendbsdf, mask, null";
@@ -576,18 +583,14 @@ impl<'a> Cx<'a> {
     fn blend(&mut self, b: &'a Node, p: &Props<'a>, two_sided: bool, name: &str) -> Result<MaterialSpec, SceneError> {
         let mask = b.attr("type") == Some("mask");
         let key = if mask { "opacity" } else { "weight" };
-        let weight = match p.colour(key)? {
+        let weight = match self.colour_or_node(p, key, name)? {
             None => Weight::Value(0.5),
             // A colour counts by its luminance, as Mitsuba's `eval_1` reads it (a grey, exactly).
-            Some(ColourProp::Rgb([r, g, bb])) if r == g && g == bb => Weight::Value(r),
-            Some(ColourProp::Rgb(c)) => {
+            Some(Valued::Rgb([r, g, bb])) if r == g && g == bb => Weight::Value(r),
+            Some(Valued::Rgb(c)) => {
                 Weight::Value(crate::scene::material::mitsuba_luminance(Vec3::from_array(c)).clamp(0.0, 1.0))
             }
-            Some(ColourProp::Texture(t)) => Weight::Texture(self.scalar_texture(t, &format!("{name}-{key}"))?),
-            Some(ColourProp::Ref(r, id)) => {
-                let t = self.lookup(r, &id)?;
-                Weight::Texture(self.scalar_texture(t, &id)?)
-            }
+            Some(Valued::Texture(t, fallback)) => Weight::Texture(self.scalar_texture(t, &fallback)?),
         };
         let nested = self.nested_bsdfs(p)?;
         if self.blends.contains(&(b as *const Node)) {
@@ -686,14 +689,21 @@ impl<'a> Cx<'a> {
 
     /// A colour property if given: a colour, or a texture nested or referenced (converted once).
     fn colour_prop(&mut self, p: &Props<'a>, key: &str, name: &str) -> Result<Option<Reflectance>, SceneError> {
+        Ok(Some(match self.colour_or_node(p, key, name)? {
+            None => return Ok(None),
+            Some(Valued::Rgb(c)) => Reflectance::Colour(c),
+            Some(Valued::Texture(t, fallback)) => Reflectance::Texture(self.texture(t, &fallback)?),
+        }))
+    }
+
+    /// A property that is a colour or a texture, if given: the colour, or the `<texture>` (nested, or
+    /// the one a `<ref>` names) with the name it gets in `[textures]` unless it has an id of its own.
+    fn colour_or_node(&self, p: &Props<'a>, key: &str, name: &str) -> Result<Option<Valued<'a>>, SceneError> {
         Ok(Some(match p.colour(key)? {
             None => return Ok(None),
-            Some(ColourProp::Rgb(c)) => Reflectance::Colour(c),
-            Some(ColourProp::Texture(t)) => Reflectance::Texture(self.texture(t, &format!("{name}-{key}"))?),
-            Some(ColourProp::Ref(r, id)) => {
-                let t = self.lookup(r, &id)?;
-                Reflectance::Texture(self.texture(t, &id)?)
-            }
+            Some(ColourProp::Rgb(c)) => Valued::Rgb(c),
+            Some(ColourProp::Texture(t)) => Valued::Texture(t, format!("{name}-{key}")),
+            Some(ColourProp::Ref(r, id)) => Valued::Texture(self.lookup(r, &id)?, id),
         }))
     }
 
@@ -762,15 +772,11 @@ impl<'a> Cx<'a> {
     /// A property Mitsuba reads as one number (its `eval_1`), if given: a number, a grey colour, or a
     /// texture nested or referenced (`scalar_texture`).
     fn scalar_prop(&mut self, b: &Node, p: &Props<'a>, key: &str, name: &str) -> Result<Option<Weight>, SceneError> {
-        Ok(Some(match p.colour(key)? {
+        Ok(Some(match self.colour_or_node(p, key, name)? {
             None => return Ok(None),
-            Some(ColourProp::Rgb([a, g, bb])) if a == g && g == bb => Weight::Value(a),
-            Some(ColourProp::Rgb(_)) => return Err(b.error(format!("`{key}` must be one number or a texture"))),
-            Some(ColourProp::Texture(t)) => Weight::Texture(self.scalar_texture(t, &format!("{name}-{key}"))?),
-            Some(ColourProp::Ref(r, id)) => {
-                let t = self.lookup(r, &id)?;
-                Weight::Texture(self.scalar_texture(t, &id)?)
-            }
+            Some(Valued::Rgb([a, g, bb])) if a == g && g == bb => Weight::Value(a),
+            Some(Valued::Rgb(_)) => return Err(b.error(format!("`{key}` must be one number or a texture"))),
+            Some(Valued::Texture(t, fallback)) => Weight::Texture(self.scalar_texture(t, &fallback)?),
         }))
     }
 
