@@ -185,6 +185,10 @@ enum Ball {
     /// Rough plastic (a GGX coat, α 0.25, over a nonlinear base) under every light: its glossy lobe is
     /// connected and merged like the base, so even the delta lights' highlights are PT's.
     RoughPlastic,
+    /// Mitsuba's principled BSDF, partly transmitting (GGX, roughness 0.4: α 0.16) with a clear coat,
+    /// sheen and some metal, under every light and with the point light inside: its transmission's
+    /// adjoint is crossed once, and every lobe is connected and merged.
+    Principled,
 }
 
 /// An open scene with every kind of light (quad, sphere, point, spot, distant, constant sky) over
@@ -205,6 +209,7 @@ fn every_light(ball: Ball) -> Scene {
         Ball::RoughGlass => (sphere("frosted"), format!("{delta}{inside}")),
         Ball::Plastic => (sphere("plastic"), String::new()),
         Ball::RoughPlastic => (sphere("rough_plastic"), delta.to_string()),
+        Ball::Principled => (sphere("principled"), format!("{delta}{inside}")),
     };
     common::scene(&format!(
         "[camera]\norigin = [0.0, 1.6, 2.6]\ntarget = [0.0, 0.3, 0.0]\nfov = 45\nresolution = [24, 24]\n\
@@ -214,6 +219,8 @@ fn every_light(ball: Ball) -> Scene {
          frosted = {{ type = \"dielectric\", ior = 1.5, roughness = 0.3 }}\n\
          plastic = {{ type = \"plastic\", reflectance = [0.1, 0.3, 0.5], ior = 3.0, nonlinear = true }}\n\
          rough_plastic = {{ type = \"plastic\", reflectance = [0.1, 0.3, 0.5], ior = 2.0, nonlinear = true, roughness = 0.25 }}\n\
+         principled = {{ type = \"principled\", base_color = [0.8, 0.6, 0.4], roughness = 0.4, spec_trans = 0.6, eta = 1.4, \
+         metallic = 0.2, sheen = 0.5, clearcoat = 0.5 }}\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, -1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 1.5, 0.0]\nmaterial = \"m\"\n\
          {ball}[[shapes]]\ntype = \"box\"\nmin = [-0.9, 0.0, -0.6]\nmax = [-0.3, 0.5, 0.0]\nmaterial = \"gold\"\n\
@@ -226,7 +233,7 @@ fn every_light(ball: Ball) -> Scene {
 
 #[test]
 fn mis_weights_sum_to_one_for_every_kind_of_light() {
-    for ball in [Ball::None, Ball::Glass, Ball::RoughGlass, Ball::Plastic, Ball::RoughPlastic] {
+    for ball in [Ball::None, Ball::Glass, Ball::RoughGlass, Ball::Plastic, Ball::RoughPlastic, Ball::Principled] {
         let mut s = every_light(ball);
         s.render.max_depth = 6;
         let a = Accel::new(&s).unwrap();
