@@ -272,9 +272,7 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32) {
 }
 
 fn schlick(f0: Rgb, cos: f32) -> Rgb {
-    let m = (1.0 - cos).clamp(0.0, 1.0);
-    let m5 = m * m * m * m * m;
-    f0 + (Rgb::ONE - f0) * m5
+    f0 + (Rgb::ONE - f0) * schlick_weight(cos)
 }
 
 /// Microfacet normal distribution of a rough conductor (isotropic; `alpha` is the roughness).
@@ -929,7 +927,7 @@ impl Material {
                 }
                 let weight = p.eval_cos(lo, li, mode) / pdf;
                 let transmitted = lo.z * li.z < 0.0;
-                let eta = if lo.z > 0.0 { p.eta } else { 1.0 / p.eta };
+                let eta = eta_seen(lo.z, p.eta);
                 let scale = if transmitted && mode == TransportMode::Radiance { 1.0 / (eta * eta) } else { 1.0 };
                 Some(sample(f.to_world(li), weight, pdf, false, transmitted, scale))
             }
@@ -1067,27 +1065,28 @@ fn schlick_weight(cos: f32) -> f32 {
     m * m * m * m * m
 }
 
+/// The relative index a direction at the signed cosine `cos` meets: `eta` (inside over outside) from
+/// outside (cos ≥ 0), 1/`eta` from inside (Mitsuba's `eta_it`).
+fn eta_seen(cos: f32, eta: f32) -> f32 {
+    if cos >= 0.0 {
+        eta
+    } else {
+        1.0 / eta
+    }
+}
+
 /// Dielectric Fresnel for a signed cosine (negative: arriving from inside, index 1/`eta`), as Mitsuba's
 /// `fresnel` takes it.
 fn fresnel_signed(cos: f32, eta: f32) -> f32 {
-    if cos >= 0.0 {
-        fresnel_dielectric(cos, eta).0
-    } else {
-        fresnel_dielectric(-cos, 1.0 / eta).0
-    }
+    fresnel_dielectric(cos.abs(), eta_seen(cos, eta)).0
 }
 
 /// Mitsuba's `calc_schlick`: Schlick's Fresnel from `r0`, taken at the transmitted angle where the
 /// light goes into the less dense side.
 fn calc_schlick(r0: Rgb, cos: f32, eta: f32) -> Rgb {
-    let eta_it = if cos >= 0.0 { eta } else { 1.0 / eta };
-    let w = if eta_it > 1.0 {
-        schlick_weight(cos.abs())
-    } else {
-        let cos_t2 = 1.0 - (1.0 - cos * cos) / (eta_it * eta_it);
-        schlick_weight(cos_t2.max(0.0).sqrt())
-    };
-    r0 + (Rgb::ONE - r0) * w
+    let eta_it = eta_seen(cos, eta);
+    let c = if eta_it > 1.0 { cos.abs() } else { (1.0 - (1.0 - cos * cos) / (eta_it * eta_it)).max(0.0).sqrt() };
+    schlick(r0, c)
 }
 
 /// Smith's GGX masking of `v` about the microfacet `m` (0 where `v` sees the facet's back).
@@ -1170,7 +1169,7 @@ impl Principled {
         }
         let (brdf, bsdf) = self.weights();
         let (reflect, refract, front) = (ci * co > 0.0, ci * co < 0.0, ci > 0.0);
-        let eta_path = if front { self.eta } else { 1.0 / self.eta };
+        let eta_path = eta_seen(ci, self.eta);
         let alpha = self.alpha();
         let wh = (a + b * if reflect { 1.0 } else { eta_path }).normalize_or_zero();
         if wh == Vec3::ZERO {
@@ -1248,7 +1247,7 @@ impl Principled {
         if !front {
             return Rgb::splat(bsdf * f_d);
         }
-        let eta_it = if cos >= 0.0 { self.eta } else { 1.0 / self.eta };
+        let eta_it = eta_seen(cos, self.eta);
         let mut schlick = Rgb::ZERO;
         if self.metallic > 0.0 {
             schlick += calc_schlick(self.base, cos, self.eta) * self.metallic;
@@ -1306,7 +1305,7 @@ impl Principled {
                 pdf += ps * Microfacet::Ggx.pdf_h(a_s, h, self.alpha()) / (4.0 * ah);
             }
         } else if pt > 0.0 {
-            let eta = if a.z > 0.0 { self.eta } else { 1.0 / self.eta };
+            let eta = eta_seen(a.z, self.eta);
             let h = (a_s + b_s * eta).normalize_or_zero();
             let h = if h.z < 0.0 { -h } else { h };
             let (ah, bh) = (a_s.dot(h), b_s.dot(h));
@@ -1334,7 +1333,7 @@ impl Principled {
         } else {
             let h = Microfacet::Ggx.sample_h(a_s, u, self.alpha());
             if uc < pd + pc + pt {
-                let eta = if a.z > 0.0 { self.eta } else { 1.0 / self.eta };
+                let eta = eta_seen(a.z, self.eta);
                 let (f, cos_t) = fresnel_dielectric(a_s.dot(h), eta);
                 if f >= 1.0 {
                     return None;
