@@ -506,13 +506,15 @@ fn build_material(
     textures: &Textures,
     index: &HashMap<String, u32>,
 ) -> Result<SurfaceMaterial, SceneError> {
-    let rough = |r: f32| -> Result<f32, SceneError> {
-        if (0.0..=1.0).contains(&r) {
-            Ok(r)
+    // A number field that must lie in [0, 1] (a roughness, a weight).
+    let unit = |field: &str, x: f32| -> Result<f32, SceneError> {
+        if (0.0..=1.0).contains(&x) {
+            Ok(x)
         } else {
-            Err(cx.err(&format!("{key}.roughness"), format!("must be in [0, 1], got {r}")))
+            Err(cx.err(&format!("{key}.{field}"), format!("must be in [0, 1], got {x}")))
         }
     };
+    let rough = |r: f32| unit("roughness", r);
     // A colour field as its colour, or as its texture (the material's own colour then the texture's
     // largest value, which bounds what the surface reflects).
     let colour = |field: &str, r: &Reflectance| -> Result<(Rgb, Option<u32>), SceneError> {
@@ -525,9 +527,10 @@ fn build_material(
             }
         }
     };
-    // A diffuse reflectance, or its texture (which replaces it at every hit: the material's own is 0).
-    let reflectance = |r: &Reflectance| -> Result<(Rgb, Option<u32>), SceneError> {
-        Ok(match colour("reflectance", r)? {
+    // A diffuse reflectance or a base colour, or its texture (which replaces it at every hit: the
+    // material's own is 0).
+    let reflectance = |field: &str, r: &Reflectance| -> Result<(Rgb, Option<u32>), SceneError> {
+        Ok(match colour(field, r)? {
             (_, Some(t)) => (Rgb::ZERO, Some(t)),
             plain => plain,
         })
@@ -549,7 +552,7 @@ fn build_material(
     };
     Ok(match spec {
         MaterialSpec::Diffuse { reflectance: r, two_sided } => {
-            let (reflectance, texture) = reflectance(r)?;
+            let (reflectance, texture) = reflectance("reflectance", r)?;
             SurfaceMaterial {
                 two_sided: *two_sided,
                 texture,
@@ -567,7 +570,7 @@ fn build_material(
             two_sided,
         } => {
             let ior = relative_ior(cx, key, *ior, *outside_ior)?;
-            let (diffuse, texture) = reflectance(r)?;
+            let (diffuse, texture) = reflectance("reflectance", r)?;
             let (specular, specular_map) = colour("specular", specular)?;
             let alpha = rough(*roughness)?;
             let rough = (alpha > 0.0).then(|| RoughCoat::get(alpha, *distribution, ior));
@@ -635,22 +638,15 @@ fn build_material(
             eta,
             two_sided,
         } => {
-            let weight = |field: &str, x: f32| {
-                if (0.0..=1.0).contains(&x) {
-                    Ok(x)
-                } else {
-                    Err(cx.err(&format!("{key}.{field}"), format!("must be in [0, 1], got {x}")))
-                }
-            };
             let mut p = Principled::new(Rgb::ZERO);
-            p.metallic = weight("metallic", *metallic)?;
-            p.spec_trans = weight("spec_trans", *spec_trans)?;
-            p.spec_tint = weight("spec_tint", *spec_tint)?;
-            p.sheen = weight("sheen", *sheen)?;
-            p.sheen_tint = weight("sheen_tint", *sheen_tint)?;
-            p.flatness = weight("flatness", *flatness)?;
-            p.clearcoat = weight("clearcoat", *clearcoat)?;
-            p.clearcoat_gloss = weight("clearcoat_gloss", *clearcoat_gloss)?;
+            p.metallic = unit("metallic", *metallic)?;
+            p.spec_trans = unit("spec_trans", *spec_trans)?;
+            p.spec_tint = unit("spec_tint", *spec_tint)?;
+            p.sheen = unit("sheen", *sheen)?;
+            p.sheen_tint = unit("sheen_tint", *sheen_tint)?;
+            p.flatness = unit("flatness", *flatness)?;
+            p.clearcoat = unit("clearcoat", *clearcoat)?;
+            p.clearcoat_gloss = unit("clearcoat_gloss", *clearcoat_gloss)?;
             // Mitsuba's own guards: a transmitting surface of index 1 (or specular 0) is made 1.001 (1e-3).
             let transmits = p.spec_trans > 0.0;
             p.eta = match (eta, specular) {
@@ -664,7 +660,7 @@ fn build_material(
                 }
                 (Some(e), None) => return Err(cx.err(&format!("{key}.eta"), format!("must be in [0.25, 4], got {e}"))),
                 (None, s) => {
-                    let s = weight("specular", s.unwrap_or(0.5))?;
+                    let s = unit("specular", s.unwrap_or(0.5))?;
                     Principled::eta_from_specular(if transmits && s == 0.0 { 1e-3 } else { s })
                 }
             };
@@ -676,14 +672,11 @@ fn build_material(
                 Some(t) => *t,
                 None => !transmits,
             };
-            let (base, texture) = match colour("base_color", base_color)? {
-                (_, Some(t)) => (Rgb::ZERO, Some(t)),
-                plain => plain,
-            };
+            let (base, texture) = reflectance("base_color", base_color)?;
             p.base = base;
             let alpha = match r {
                 Weight::Value(x) => {
-                    p.roughness = weight("roughness", *x)?;
+                    p.roughness = rough(*x)?;
                     None
                 }
                 Weight::Texture(name) => {
@@ -699,8 +692,7 @@ fn build_material(
         MaterialSpec::Null => SurfaceMaterial::null(),
         MaterialSpec::Blend { weight, first, second } => {
             let weight = match weight {
-                Weight::Value(w) if (0.0..=1.0).contains(w) => BlendWeight::Value(*w),
-                Weight::Value(w) => return Err(cx.err(&format!("{key}.weight"), format!("must be in [0, 1], got {w}"))),
+                Weight::Value(w) => BlendWeight::Value(unit("weight", *w)?),
                 Weight::Texture(name) => {
                     BlendWeight::Texture(texture_index(cx, &format!("{key}.weight"), name, textures, "a weight")?)
                 }
