@@ -920,8 +920,7 @@ impl Material {
             Material::Principled(p) => {
                 let f = p.frame(wo, n);
                 let lo = f.to_local(wo);
-                let li = p.sample_local(lo, u, uc)?;
-                let pdf = p.pdf_local(lo, li);
+                let (li, pdf) = p.sample_local(lo, u, uc)?;
                 if pdf <= 0.0 {
                     return None;
                 }
@@ -1284,10 +1283,14 @@ impl Principled {
 
     /// Density of `sample_local` choosing `b` for a path arriving along `a`.
     fn pdf_local(&self, a: Vec3, b: Vec3) -> f32 {
+        self.pdf_given(self.lobe_probabilities(a), a, b)
+    }
+
+    /// `pdf_local` with the lobe probabilities at `a` already at hand.
+    fn pdf_given(&self, [pd, pc, pt, ps]: [f32; 4], a: Vec3, b: Vec3) -> f32 {
         if a.z == 0.0 || b.z == 0.0 {
             return 0.0;
         }
-        let [pd, pc, pt, ps] = self.lobe_probabilities(a);
         let s = a.z.signum();
         let (a_s, b_s) = (a * s, b * s);
         let mut pdf = 0.0;
@@ -1317,10 +1320,12 @@ impl Principled {
         pdf
     }
 
-    /// A direction `b` for a path arriving along `a` (local frame), from one lobe chosen by `uc`; None
-    /// where the lobe's direction leaves on the side it does not serve (so `pdf_local` is its density).
-    fn sample_local(&self, a: Vec3, u: [f32; 2], uc: f32) -> Option<Vec3> {
-        let [pd, pc, pt, ps] = self.lobe_probabilities(a);
+    /// A direction `b` for a path arriving along `a` (local frame), from one lobe chosen by `uc`, and its
+    /// density; None where the lobe's direction leaves on the side it does not serve (so `pdf_local` is
+    /// the density of what it returns).
+    fn sample_local(&self, a: Vec3, u: [f32; 2], uc: f32) -> Option<(Vec3, f32)> {
+        let probabilities = self.lobe_probabilities(a);
+        let [pd, pc, pt, ps] = probabilities;
         if a.z == 0.0 || pd + pc + pt + ps <= 0.0 {
             return None;
         }
@@ -1343,7 +1348,8 @@ impl Principled {
                 (reflect(a_s, h), false)
             }
         };
-        ((b_s.z < 0.0) == transmitted && b_s.z != 0.0).then_some(b_s * s)
+        let b = ((b_s.z < 0.0) == transmitted && b_s.z != 0.0).then_some(b_s * s)?;
+        Some((b, self.pdf_given(probabilities, a, b)))
     }
 }
 
