@@ -153,6 +153,59 @@ fn every_mode_hides_only_what_the_camera_sees_directly() {
     }
 }
 
+/// A surface that is not there changes nothing, not even what is hidden: `hide.xml` seen through a
+/// `null` pane just in front of the lens (every camera ray crosses it; `max_depth` one more for that
+/// crossing, which Mitsuba and caustica both count as a bounce) leaves black, in every mode, each
+/// pixel Mitsuba's image of the plain scene leaves black (the sky, the panel light and the small
+/// sphere light seen straight on), and keeps each mode's mean. Before, the sky and the lights showed
+/// through the pane: emission was hidden only along the camera's very first segment.
+#[test]
+fn hidden_emitters_stay_hidden_behind_a_null_surface() {
+    let theirs = read_exr(&dir().join("ref/hide.exr")).unwrap();
+    let black: Vec<bool> = theirs.pixels.iter().map(|p| p.max_element() == 0.0).collect();
+    let text = std::fs::read_to_string(dir().join("hide.xml")).unwrap();
+    let pane = r#"<shape type="rectangle"><transform name="to_world"><scale value="0.5"/>
+        <lookat origin="0, 1.2412, 3.7058" target="0, 1.3, 4" up="0, 1, 0"/></transform><bsdf type="null"/></shape>
+        </scene>"#;
+    let text = text.replace("</scene>", pane).replace(r#"name="max_depth" value="6""#, r#"name="max_depth" value="7""#);
+    let d = tmp("null-pane");
+    let path = write(&d, "null-pane.xml", &text);
+    std::fs::copy(dir().join("sky.exr"), d.join("sky.exr")).unwrap();
+    let cases: [(&str, &[&str], f64); 6] = [
+        ("path", &["--spp", "256"], 0.005),
+        ("bdpt", &["--passes", "64"], 0.005),
+        ("vcm", &["--passes", "64"], 0.005),
+        ("sppm", &["--passes", "64"], 0.01),
+        ("ppm", &["--passes", "64"], 0.015),
+        ("photon_map", &["--set", "render.pm_spp=16"], 0.01),
+    ];
+    let mut failures = Vec::new();
+    for (mode, args, tol) in cases {
+        let out = d.join(mode);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
+            .arg("render")
+            .arg(&path)
+            .args(["--mode", mode])
+            .args(args)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{mode}: {}", String::from_utf8_lossy(&o.stderr));
+        let ours = read_exr(&out.with_extension("exr")).unwrap();
+        let lit = ours.pixels.iter().zip(&black).filter(|(p, b)| **b && p.max_element() != 0.0).count();
+        let ratio = mean(&ours) / mean(&theirs);
+        println!(
+            "{mode} through a null pane: {lit} pixels lit where Mitsuba's are black; mean {ratio:.4} of Mitsuba's"
+        );
+        if lit != 0 || (ratio - 1.0).abs() >= tol {
+            failures.push(format!("{mode}: {lit} pixels lit, mean {ratio:.4}"));
+        }
+    }
+    let _ = std::fs::remove_dir_all(d);
+    assert!(failures.is_empty(), "through a null pane: {failures:?}");
+}
+
 /// Mean of an image's three channels over all its pixels.
 fn mean(img: &Image) -> f64 {
     img.pixels.iter().map(|p| (p.x + p.y + p.z) as f64).sum::<f64>() / img.pixels.len() as f64

@@ -64,7 +64,8 @@ pub enum ChainLight {
     /// glints on rough metal would be missing.
     Count,
     /// As `Count`, and a first hit on smooth glass or water follows both of its lobes (below): a camera
-    /// ray's chain, so with `render.hide_emitters` what its first segment sees is left out.
+    /// ray's chain, so with `render.hide_emitters` what it sees directly (along its first segment and
+    /// on through null surfaces) is left out.
     CountSplitFirst,
 }
 
@@ -97,10 +98,12 @@ pub fn specular_chain(
     // The last bounce: delta (emission found after it counts in full) or rough, with its BSDF density
     // and origin for the MIS weight against the light sample taken there.
     let (mut specular, mut prev_pdf, mut prev_p) = (true, 0.0f32, ray.o);
+    // Still the camera's own line of sight (only null surfaces crossed so far)?
+    let mut direct_view = light == ChainLight::CountSplitFirst;
     for depth in 0..=scene.render.max_depth {
         c.rays += 1;
         let found = crate::accel::interact(scene, tracer, &ray);
-        let hidden = depth == 0 && light == ChainLight::CountSplitFirst && scene.render.hide_emitters;
+        let hidden = direct_view && scene.render.hide_emitters;
         if count && !hidden {
             let sampled = (!specular).then_some((prev_pdf, prev_p));
             let (le, w) = direct::emission_seen(scene, found.as_ref(), ray.d, sampled);
@@ -139,6 +142,7 @@ pub fn specular_chain(
         let Some((bs, next)) = si.scatter_with(&mat, wo, u, uc, crate::scene::TransportMode::Radiance) else {
             break;
         };
+        direct_view &= mat.is_null();
         // A smooth dielectric's two delta lobes (bs.pdf is then the lobe's probability).
         let two_lobes = || bs.delta && mat.transmits();
         if light == ChainLight::CountSplitFirst && depth == 0 && bs.pdf < 1.0 && two_lobes() {

@@ -27,11 +27,14 @@ impl PathTracer<'_> {
         let mut specular = true;
         let mut prev_pdf = 0.0f32;
         let mut prev_p = ray.o;
+        // Whether the ray is still the camera's own line of sight (it has crossed only null surfaces):
+        // with `render.hide_emitters`, emission seen along it is left out.
+        let mut direct_view = true;
         for depth in 0.. {
             c.rays += 1;
             let found = interact(scene, self.tracer, &ray);
             let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
-            if le != Rgb::ZERO && !(depth == 0 && scene.render.hide_emitters) {
+            if le != Rgb::ZERO && !(direct_view && scene.render.hide_emitters) {
                 l += beta * le * w;
             }
             let Some(Interaction { si, wo, .. }) = found else {
@@ -47,6 +50,7 @@ impl PathTracer<'_> {
             let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Radiance) else {
                 break;
             };
+            direct_view &= mat.is_null();
             beta *= bs.weight;
             radiance_scale *= bs.radiance_scale;
             specular = bs.delta;

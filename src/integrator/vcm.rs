@@ -877,10 +877,13 @@ impl Vcm<'_> {
         let mut prev = ray.o;
         let mut l = Rgb::ZERO;
         let lv_range = light.ends[k] as usize..light.ends[k + 1] as usize;
+        // Still the camera's own line of sight (only null surfaces crossed so far)?
+        let mut direct_view = true;
         loop {
             c.rays += 1;
-            // Only the camera sees light along its first segment (s = 0): hidden, it is hidden for all.
-            let hidden = sp.len == 1 && scene.render.hide_emitters;
+            // Only the camera sees light along its line of sight (s = 0, through null surfaces alone):
+            // hidden, it is hidden for all.
+            let hidden = direct_view && scene.render.hide_emitters;
             let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
                 if !hidden {
                     l += sp.beta * self.env_hit(&sp, ray.d);
@@ -925,6 +928,7 @@ impl Vcm<'_> {
                 }
             }
             prev = si.p;
+            direct_view &= mat.is_null();
             let Some(next) = self.scatter(&mut sp, &si, wo, &mat, vm, rng, TransportMode::Radiance, 1.0) else {
                 break;
             };

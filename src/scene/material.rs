@@ -687,6 +687,13 @@ impl Material {
         }
     }
 
+    /// A surface that is not there (`SurfaceMaterial::null`, a mask's holes; a thin pane of index 1 and
+    /// no tint is the same thing): light crosses it unbent and undimmed. What the camera sees through
+    /// it, it sees directly (`render.hide_emitters`).
+    pub fn is_null(&self) -> bool {
+        matches!(self, Material::ThinDielectric { ior, tint } if *ior == 1.0 && *tint == Rgb::ONE)
+    }
+
     /// Whether photons are stored on the surface and gathered there: a diffuse surface, or a plastic
     /// (its base). The others are only passed through.
     pub fn holds_photons(&self) -> bool {
