@@ -31,7 +31,7 @@ fn random_scene(seed: u64, tris: usize, spheres: usize) -> caustica::scene::Scen
         let rad = 0.02 + 0.2 * (i as f32 / spheres as f32);
         shapes.push(Shape {
             name: format!("sphere{i}"),
-            geometry: Geometry::Sphere { center: c, radius: rad },
+            geometry: Geometry::Sphere { center: c, radius: rad, frame: None },
             material: 0,
             emission: Vec3::ZERO,
         });
@@ -99,7 +99,7 @@ fn embree_matches_brute_force_on_random_soups_and_spheres() {
 fn rays_from_inside_a_sphere_hit_its_far_side_exactly() {
     let scene = common::shapes_scene(vec![Shape {
         name: "s".into(),
-        geometry: Geometry::Sphere { center: Vec3::new(0.3, -0.2, 0.1), radius: 0.7 },
+        geometry: Geometry::Sphere { center: Vec3::new(0.3, -0.2, 0.1), radius: 0.7, frame: None },
         material: 0,
         emission: Vec3::ZERO,
     }]);

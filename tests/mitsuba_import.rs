@@ -300,6 +300,15 @@ fn every_mode_reads_textured_parameters_as_mitsuba() {
     every_mode_means_match_mitsuba("textured");
 }
 
+/// Texture coordinates of Mitsuba's primitive shapes (`uv.xml`): the label image on two cubes (all six
+/// faces seen between them), a disk turned about its axis, a rotated sphere and a rectangle. Before,
+/// caustica's cube and disk had no texture coordinates of their own (a hit's uv was its barycentric
+/// coordinates, so each triangle showed a corner of the image) and a sphere's ignored its rotation.
+#[test]
+fn uv_xml_matches_mitsuba() {
+    matches_mitsuba("uv", 1024, 0.003);
+}
+
 /// Mitsuba's `principled` BSDF (`principled.xml`): every reflecting lobe, full metal, transmission
 /// (inside and back of a glassy ball), `twosided`, a one-sided panel, `specular` for the index,
 /// textured base colour and roughness (an image's luminance; a checkerboard through a `<ref>`).
@@ -494,8 +503,9 @@ fn one_sided_bsdfs_are_black_from_behind_unless_twosided() {
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let cases: [(&str, &[&str]); 5] = [
+    let cases: [(&str, &[&str]); 6] = [
         ("showcase", &["two_sided = false", "type = \"thin_dielectric\""]),
+        ("uv", &["type = \"box\"", "type = \"disk\"", "type = \"sphere\""]),
         ("thinlens", &["aperture_radius = 0.2", "focus_distance = 4.0"]),
         ("blend", &["type = \"blend\"", "type = \"null\"", "weight = \"label\""]),
         ("textured", &["roughness = \"label\"", "specular = \"label\"", "roughness = \"rough-squares-as-weight\""]),

@@ -28,7 +28,7 @@ fn transformed(mut scene: Scene, s: f32, t: Vec3) -> Scene {
     for sh in &mut scene.shapes {
         match &mut sh.geometry {
             Geometry::Mesh(m) => m.positions.iter_mut().for_each(|p| *p = *p * s + t),
-            Geometry::Sphere { center, radius } => {
+            Geometry::Sphere { center, radius, .. } => {
                 *center = *center * s + t;
                 *radius *= s;
             }

@@ -20,7 +20,7 @@ impl Brute {
                         tris.push((m.triangle(pi), si as u32, pi as u32));
                     }
                 }
-                Geometry::Sphere { center, radius } => spheres.push((*center, *radius, si as u32)),
+                Geometry::Sphere { center, radius, .. } => spheres.push((*center, *radius, si as u32)),
             }
         }
         Brute { tris, spheres }

@@ -173,7 +173,7 @@ impl Accel {
                         ptr::copy_nonoverlapping(m.indices.as_ptr() as *const u32, ib, m.indices.len() * 3);
                         g
                     }
-                    Geometry::Sphere { center, radius } => {
+                    Geometry::Sphere { center, radius, .. } => {
                         let data = Box::new(SphereData { center: center.to_array(), radius: *radius });
                         let g = rtcNewGeometry(device, RTCGeometryType::USER);
                         rtcSetGeometryUserPrimitiveCount(g, 1);

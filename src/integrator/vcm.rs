@@ -256,7 +256,7 @@ impl Aim {
             targets
                 .iter()
                 .map(|sh| match &sh.geometry {
-                    Geometry::Sphere { center, radius } => (*center, *radius),
+                    Geometry::Sphere { center, radius, .. } => (*center, *radius),
                     Geometry::Mesh(m) => {
                         let (lo, hi) = sh.geometry.bounds();
                         let c = 0.5 * (lo + hi);

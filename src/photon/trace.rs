@@ -144,7 +144,7 @@ impl Targets {
                     })
                     .collect(),
                 Geometry::Mesh(m) => (0..m.indices.len()).map(|j| (m.area(j), 1.0)).collect(),
-                Geometry::Sphere { center, radius } => {
+                Geometry::Sphere { center, radius, .. } => {
                     // A sphere is one element, probed at AIM_PROBES stratified points of its surface.
                     let seen = if probing {
                         (0..AIM_PROBES)

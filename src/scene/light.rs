@@ -399,7 +399,7 @@ impl Lights {
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];
-                let Geometry::Sphere { center, radius } = s.geometry else {
+                let Geometry::Sphere { center, radius, .. } = s.geometry else {
                     return None;
                 };
                 let d = center - x;
@@ -523,7 +523,7 @@ impl Lights {
                 }
                 self.choice_pdf(i) * dist2 / (cos_l * area)
             }
-            Geometry::Sphere { center, radius } => visible_cone(*radius, (*center - x).length_squared())
+            Geometry::Sphere { center, radius, .. } => visible_cone(*radius, (*center - x).length_squared())
                 .map_or(0.0, |one_minus| self.choice_pdf(off as usize) / (2.0 * PI * one_minus)),
         }
     }
@@ -631,7 +631,7 @@ impl Lights {
                 }
             }
             LightKind::Sphere { shape } => {
-                let Geometry::Sphere { center, radius } = scene.shapes[*shape as usize].geometry else {
+                let Geometry::Sphere { center, radius, .. } = scene.shapes[*shape as usize].geometry else {
                     return 0.0;
                 };
                 let Some(one_minus) = visible_cone(radius, (center - x).length_squared()) else {

@@ -898,7 +898,10 @@ fn sphere_geometry(cx: &Ctx, key: &str, center: V3, radius: f32, t: &TransformSp
             cx.err(&format!("{key}.transform"), "a sphere accepts only uniform scale, rotation and translation")
         );
     }
-    Ok(Geometry::Sphere { center: m.transform_point3(Vec3::from_array(center)), radius: radius * s })
+    // The sphere's own axes, for its texture coordinates: to_world's rotation (or reflection) undone.
+    let turn = glam::Mat3::from_cols(sx / s, sy / s, sz / s);
+    let frame = (!turn.abs_diff_eq(glam::Mat3::IDENTITY, 1e-6)).then(|| turn.transpose());
+    Ok(Geometry::Sphere { center: m.transform_point3(Vec3::from_array(center)), radius: radius * s, frame })
 }
 
 /// The triangle mesh of a generated shape (quad, disk, lathe, height field, box), its parameters checked.
@@ -1043,7 +1046,7 @@ fn build_light(
             let r = cx.positive(&format!("{key}.radius"), *radius)?;
             let area = 4.0 * std::f32::consts::PI * r * r;
             let emission = radiance_of(cx, key, power, radiance, area)?;
-            let geometry = Geometry::Sphere { center: Vec3::from_array(*center), radius: r };
+            let geometry = Geometry::Sphere { center: Vec3::from_array(*center), radius: r, frame: None };
             shapes.push(Shape { name: key.into(), geometry, material: black, emission });
         }
         LightSpec::Quad { corner, edge_u, edge_v, power, radiance } => {
@@ -1135,7 +1138,7 @@ fn scene_bounds(shapes: &[Shape], points: &[PointLight]) -> (Vec3, Vec3) {
                     hi = hi.max(*p);
                 }
             }
-            Geometry::Sphere { center, radius } => {
+            Geometry::Sphere { center, radius, .. } => {
                 lo = lo.min(*center - Vec3::splat(*radius));
                 hi = hi.max(*center + Vec3::splat(*radius));
             }

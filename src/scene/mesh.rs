@@ -549,16 +549,28 @@ pub fn quad(corner: Vec3, eu: Vec3, ev: Vec3) -> TriMesh {
     }
 }
 
-/// Disk as a triangle fan, front side along `normal`.
+/// Disk as a triangle fan, front side along `normal`, with Mitsuba's `disk` texture coordinates: u the
+/// distance from the centre over the radius, v the angle from the frame's first axis (+x for a normal
+/// along +z, as Mitsuba's disk lies in its local xy plane) over 2π, in [0, 1). Each triangle has its
+/// own three vertices, so that v runs from i/n to (i + 1)/n across triangle i (the last one ends at 1,
+/// not 0) and the centre takes the triangle's middle angle: v is then off by at most half a triangle's
+/// angle (1/(2n)) near the centre and exact along the rim.
 pub fn disk(center: Vec3, normal: Vec3, radius: f32, segments: u32) -> TriMesh {
     let f = crate::math::Frame::from_normal(normal.normalize());
-    let mut positions = vec![center];
-    for i in 0..segments {
+    let rim = |i: u32| {
         let phi = std::f32::consts::TAU * i as f32 / segments as f32;
-        positions.push(center + radius * (f.s * phi.cos() + f.t * phi.sin()));
+        center + radius * (f.s * phi.cos() + f.t * phi.sin())
+    };
+    let n = segments as f32;
+    let mut m = TriMesh { uvs: Some(Vec::new()), ..TriMesh::default() };
+    for i in 0..segments {
+        let base = m.positions.len() as u32;
+        m.positions.extend([center, rim(i), rim((i + 1) % segments)]);
+        let (v0, v1) = (i as f32 / n, (i + 1) as f32 / n);
+        m.uvs.as_mut().unwrap().extend([[0.0, (v0 + v1) / 2.0], [1.0, v0], [1.0, v1]]);
+        m.indices.push([base, base + 1, base + 2]);
     }
-    let indices = (0..segments).map(|i| [0, 1 + i, 1 + (i + 1) % segments]).collect();
-    TriMesh { positions, indices, normals: None, uvs: None }
+    m
 }
 
 /// Surface of revolution about the y axis; profile points [r, y] bottom to top give outward normals.
@@ -607,22 +619,28 @@ pub fn heightfield(size: [f32; 2], res: [u32; 2], f: impl Fn(f32, f32) -> f32) -
     m
 }
 
-/// Axis-aligned box with outward-facing triangles.
+/// Axis-aligned box with outward-facing triangles. Each face maps the whole of [0, 1]² in uv, turned as
+/// Mitsuba's `cube` turns it (its 24 vertices' texture coordinates, as functions of the position
+/// scaled to [−1, 1]³), so that an image on a `cube` reads the same in both.
 pub fn cuboid(min: Vec3, max: Vec3) -> TriMesh {
     let s = max - min;
     let (x, y, z) = (Vec3::X * s.x, Vec3::Y * s.y, Vec3::Z * s.z);
-    let faces = [
-        (min, z, y),     // -x
-        (min + x, y, z), // +x
-        (min, x, z),     // -y
-        (min + y, z, x), // +y
-        (min, y, x),     // -z
-        (min + z, x, y), // +z
+    // Corner, edges, and the face's (u, v) at a point q of the box scaled to [−1, 1]³.
+    type Uv = fn(Vec3) -> [f32; 2];
+    let faces: [(Vec3, Vec3, Vec3, Uv); 6] = [
+        (min, z, y, |q| [(q.y + 1.0) / 2.0, (q.z + 1.0) / 2.0]),     // -x
+        (min + x, y, z, |q| [(q.y + 1.0) / 2.0, (1.0 - q.z) / 2.0]), // +x
+        (min, x, z, |q| [(q.z + 1.0) / 2.0, (q.x + 1.0) / 2.0]),     // -y
+        (min + y, z, x, |q| [(1.0 - q.x) / 2.0, (1.0 - q.z) / 2.0]), // +y
+        (min, y, x, |q| [(1.0 - q.y) / 2.0, (q.x + 1.0) / 2.0]),     // -z
+        (min + z, x, y, |q| [(q.y + 1.0) / 2.0, (q.x + 1.0) / 2.0]), // +z
     ];
-    let mut m = TriMesh::default();
-    for (c, u, v) in faces {
+    let unit = |p: Vec3| (p - min) / s * 2.0 - Vec3::ONE;
+    let mut m = TriMesh { uvs: Some(Vec::new()), ..TriMesh::default() };
+    for (c, u, v, uv) in faces {
         let q = quad(c, u, v);
         let base = m.positions.len() as u32;
+        m.uvs.as_mut().unwrap().extend(q.positions.iter().map(|&p| uv(unit(p))));
         m.positions.extend(q.positions);
         m.indices.extend(q.indices.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
     }
@@ -734,6 +752,46 @@ mod tests {
             assert!(n.dot((a + b + cc) / 3.0 - c) > 0.0, "triangle {i} faces inward");
         }
         assert!((m.total_area() - 2.0 * (2.0 + 3.0 + 6.0)).abs() < 1e-4);
+    }
+
+    /// Every corner of Mitsuba 3's `cube` (its 24 vertices: position, face normal, texture coordinates,
+    /// copied from its source) has the same texture coordinates on caustica's box [−1, 1]³.
+    #[test]
+    fn cuboid_texture_coordinates_are_mitsubas() {
+        #[rustfmt::skip]
+        let mitsuba: [([f32; 3], [f32; 3], [f32; 2]); 24] = [
+            ([1., -1., -1.], [0., -1., 0.], [0., 1.]), ([1., -1., 1.], [0., -1., 0.], [1., 1.]),
+            ([-1., -1., 1.], [0., -1., 0.], [1., 0.]), ([-1., -1., -1.], [0., -1., 0.], [0., 0.]),
+            ([1., 1., -1.], [0., 1., 0.], [0., 1.]), ([-1., 1., -1.], [0., 1., 0.], [1., 1.]),
+            ([-1., 1., 1.], [0., 1., 0.], [1., 0.]), ([1., 1., 1.], [0., 1., 0.], [0., 0.]),
+            ([1., -1., -1.], [1., 0., 0.], [0., 1.]), ([1., 1., -1.], [1., 0., 0.], [1., 1.]),
+            ([1., 1., 1.], [1., 0., 0.], [1., 0.]), ([1., -1., 1.], [1., 0., 0.], [0., 0.]),
+            ([1., -1., 1.], [0., 0., 1.], [0., 1.]), ([1., 1., 1.], [0., 0., 1.], [1., 1.]),
+            ([-1., 1., 1.], [0., 0., 1.], [1., 0.]), ([-1., -1., 1.], [0., 0., 1.], [0., 0.]),
+            ([-1., -1., 1.], [-1., 0., 0.], [0., 1.]), ([-1., 1., 1.], [-1., 0., 0.], [1., 1.]),
+            ([-1., 1., -1.], [-1., 0., 0.], [1., 0.]), ([-1., -1., -1.], [-1., 0., 0.], [0., 0.]),
+            ([1., 1., -1.], [0., 0., -1.], [0., 1.]), ([1., -1., -1.], [0., 0., -1.], [1., 1.]),
+            ([-1., -1., -1.], [0., 0., -1.], [1., 0.]), ([-1., 1., -1.], [0., 0., -1.], [0., 0.]),
+        ];
+        let m = cuboid(Vec3::splat(-1.0), Vec3::ONE);
+        let uvs = m.uvs.as_ref().expect("a box has texture coordinates");
+        for (p, n, uv) in mitsuba {
+            let (p, n) = (Vec3::from_array(p), Vec3::from_array(n));
+            let mut found = 0;
+            for (i, t) in m.indices.iter().enumerate() {
+                let [a, b, c] = m.triangle(i);
+                if (b - a).cross(c - a).normalize().dot(n) < 0.999 {
+                    continue;
+                }
+                for &k in t {
+                    if (m.positions[k as usize] - p).length() < 1e-6 {
+                        assert_eq!(uvs[k as usize], uv, "corner {p} of the face facing {n}");
+                        found += 1;
+                    }
+                }
+            }
+            assert!(found > 0, "no corner {p} on the face facing {n}");
+        }
     }
 
     #[test]

@@ -40,7 +40,14 @@ pub enum SceneError {
 #[derive(Clone, Debug)]
 pub enum Geometry {
     Mesh(TriMesh),
-    Sphere { center: Vec3, radius: f32 },
+    /// A sphere; `frame` (None: the world's axes) turns a world direction into the sphere's own, where
+    /// its texture coordinates are Mitsuba's (`sphere_uv`): the rotation (or reflection) a Mitsuba
+    /// `to_world` gave it.
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        frame: Option<glam::Mat3>,
+    },
 }
 
 /// A point drawn uniformly by area on one primitive.
@@ -67,7 +74,7 @@ impl Geometry {
             Geometry::Mesh(m) => {
                 m.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
             }
-            Geometry::Sphere { center, radius } => (*center - Vec3::splat(*radius), *center + Vec3::splat(*radius)),
+            Geometry::Sphere { center, radius, .. } => (*center - Vec3::splat(*radius), *center + Vec3::splat(*radius)),
         }
     }
 
@@ -89,7 +96,7 @@ impl Geometry {
                     size: max_edge(a, b, c),
                 }
             }
-            Geometry::Sphere { center, radius } => {
+            Geometry::Sphere { center, radius, .. } => {
                 let n = crate::math::sampling::uniform_sphere(u);
                 SurfacePoint {
                     p: *center + n * *radius,
@@ -279,7 +286,12 @@ impl Scene {
                         t.iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
                     }
                 }
-                Geometry::Sphere { center, radius } => h.update(format!("sphere {center:?} {radius:?}")),
+                Geometry::Sphere { center, radius, frame } => {
+                    h.update(format!("sphere {center:?} {radius:?}"));
+                    if let Some(f) = frame {
+                        h.update(format!(" frame {f:?}"));
+                    }
+                }
             }
         }
         h.finalize().iter().map(|b| format!("{b:02x}")).collect()
@@ -483,11 +495,11 @@ impl Scene {
                 };
                 SurfaceHit { p, ng, ns, shape, prim, scale, uv }
             }
-            Geometry::Sphere { center, radius } => {
+            Geometry::Sphere { center, radius, frame } => {
                 let p = ray.at(t);
                 let n = (p - *center).normalize();
                 let p = *center + n * *radius;
-                let uv = if textured { sphere_uv(n) } else { glam::Vec2::ZERO };
+                let uv = if textured { sphere_uv(frame.map_or(n, |f| f * n)) } else { glam::Vec2::ZERO };
                 SurfaceHit { p, ng: n, ns: n, shape, prim, scale: *radius, uv }
             }
         }
