@@ -53,6 +53,71 @@ pub fn first_hit_specular(
     tracer.intersect(ray).is_some_and(|h| !scene.is_diffuse(h.shape))
 }
 
+/// Most emitting surfaces one camera ray passes when they are hidden (a guard against a ray that keeps
+/// meeting the surface it left).
+const HIDDEN_PASSES: u32 = 64;
+
+/// Whether shape `shape` emits light (an area light, a sphere light, an emitting mesh).
+fn emits(scene: &crate::scene::Scene, shape: u32) -> bool {
+    scene.shapes[shape as usize].emission != crate::color::Rgb::ZERO
+}
+
+/// What the camera sees along `ray` (its own line of sight: the first segment, and on through null
+/// surfaces). With `render.hide_emitters` the camera does not see emitting surfaces at all, as in
+/// Mitsuba 3.9: the view passes through them to what lies behind, without a bounce, while their light,
+/// their shadows and their images in mirrors and glass stay. The hit's `t` is along `ray`.
+pub fn camera_view(
+    scene: &crate::scene::Scene,
+    tracer: &dyn crate::accel::Tracer,
+    ray: &crate::math::Ray,
+    c: &mut Counters,
+) -> Option<crate::accel::Interaction> {
+    let mut found = crate::accel::interact(scene, tracer, ray)?;
+    if !scene.render.hide_emitters {
+        return Some(found);
+    }
+    let mut t = 0.0;
+    for _ in 0..HIDDEN_PASSES {
+        if !emits(scene, found.si.shape) {
+            found.hit.t += t;
+            return Some(found);
+        }
+        t += found.hit.t;
+        let next = found.si.spawn(ray.d);
+        c.rays += 1;
+        found = crate::accel::interact(scene, tracer, &next)?;
+    }
+    None
+}
+
+/// Whether the camera at `lens` sees surface point `from` (light tracing's connection to the camera):
+/// nothing in between, except, with `render.hide_emitters`, emitting surfaces, which the camera does
+/// not see (`camera_view`). A point on an emitting surface is then not seen at all.
+pub fn camera_sees(
+    scene: &crate::scene::Scene,
+    tracer: &dyn crate::accel::Tracer,
+    from: &crate::scene::SurfaceHit,
+    lens: glam::Vec3,
+) -> bool {
+    let mut ray = from.spawn_to(lens);
+    if !scene.render.hide_emitters {
+        return !tracer.occluded(&ray);
+    }
+    if emits(scene, from.shape) {
+        return false;
+    }
+    for _ in 0..HIDDEN_PASSES {
+        let Some(hit) = tracer.intersect(&ray) else {
+            return true;
+        };
+        if !emits(scene, hit.shape) {
+            return false;
+        }
+        ray = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t).spawn_to(lens);
+    }
+    false
+}
+
 /// What a chain of non-diffuse bounces counts on its way, besides the diffuse hit it ends at.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ChainLight {
@@ -102,7 +167,8 @@ pub fn specular_chain(
     let mut direct_view = light == ChainLight::CountSplitFirst;
     for depth in 0..=scene.render.max_depth {
         c.rays += 1;
-        let found = crate::accel::interact(scene, tracer, &ray);
+        let found =
+            if direct_view { camera_view(scene, tracer, &ray, c) } else { crate::accel::interact(scene, tracer, &ray) };
         let hidden = direct_view && scene.render.hide_emitters;
         if count && !hidden {
             let sampled = (!specular).then_some((prev_pdf, prev_p));

@@ -2,7 +2,7 @@
 //! point lights, delta BSDFs sampled exactly, Russian roulette after `rr_depth` bounces on the
 //! throughput without refraction's 1/η² radiance scale.
 use super::direct::{emission_seen, estimate_direct_with, DirectStrategy};
-use super::Counters;
+use super::{camera_view, Counters};
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
 use crate::math::sampling::russian_roulette;
@@ -32,7 +32,8 @@ impl PathTracer<'_> {
         let mut direct_view = true;
         for depth in 0.. {
             c.rays += 1;
-            let found = interact(scene, self.tracer, &ray);
+            let found =
+                if direct_view { camera_view(scene, self.tracer, &ray, c) } else { interact(scene, self.tracer, &ray) };
             let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
             if le != Rgb::ZERO && !(direct_view && scene.render.hide_emitters) {
                 l += beta * le * w;

@@ -17,7 +17,7 @@
 //! and light-tracing splats are summed in a fixed order (per chunk of light paths, chunks in order),
 //! so images are the same bits on any thread count.
 use super::direct::{sample_light, unoccluded};
-use super::Counters;
+use super::{camera_view, Counters};
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
 use crate::film::Image;
@@ -849,7 +849,7 @@ impl Vcm<'_> {
         }
         let val = lv.beta * f * (w * pdf_dir / dist2 / it.n_paths);
         c.rays += 1;
-        if self.tracer.occluded(&lv.si.spawn_to(lens)) {
+        if !super::camera_sees(self.scene, self.tracer, &lv.si, lens) {
             return;
         }
         cam.splat(px, py, |pixel, w| splats.push((pixel, if w == 1.0 { val } else { val * w })));
@@ -884,7 +884,9 @@ impl Vcm<'_> {
             // Only the camera sees light along its line of sight (s = 0, through null surfaces alone):
             // hidden, it is hidden for all.
             let hidden = direct_view && scene.render.hide_emitters;
-            let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
+            let found =
+                if direct_view { camera_view(scene, self.tracer, &ray, c) } else { interact(scene, self.tracer, &ray) };
+            let Some(Interaction { hit, si, wo }) = found else {
                 if !hidden {
                     l += sp.beta * self.env_hit(&sp, ray.d);
                 }
