@@ -63,7 +63,7 @@ fn emits(scene: &crate::scene::Scene, shape: u32) -> bool {
 }
 
 /// What the camera sees along `ray` (its own line of sight: the first segment, and on through null
-/// surfaces). With `render.hide_emitters` the camera does not see emitting surfaces at all, as in
+/// surfaces and thin panes). With `render.hide_emitters` the camera does not see emitting surfaces at all, as in
 /// Mitsuba 3.9: the view passes through them to what lies behind, without a bounce, while their light,
 /// their shadows and their images in mirrors and glass stay. The hit's `t` is along `ray`.
 pub fn camera_view(
@@ -130,8 +130,12 @@ pub enum ChainLight {
     Count,
     /// As `Count`, and a first hit on smooth glass or water follows both of its lobes (below): a camera
     /// ray's chain, so with `render.hide_emitters` what it sees directly (along its first segment and
-    /// on through null surfaces) is left out.
+    /// on through null surfaces and thin panes) is left out.
     CountSplitFirst,
+    /// As `Count`, along the camera's own line of sight (the other lobe of a thin pane that
+    /// `CountSplitFirst` split at the camera's first hit, its transmission): with
+    /// `render.hide_emitters` what it sees straight on is left out.
+    CountSeenDirectly,
 }
 
 /// Follows `ray` (throughput `beta`) through non-diffuse surfaces, at most `render.max_depth + 1`
@@ -163,8 +167,8 @@ pub fn specular_chain(
     // The last bounce: delta (emission found after it counts in full) or rough, with its BSDF density
     // and origin for the MIS weight against the light sample taken there.
     let (mut specular, mut prev_pdf, mut prev_p) = (true, 0.0f32, ray.o);
-    // Still the camera's own line of sight (only null surfaces crossed so far)?
-    let mut direct_view = light == ChainLight::CountSplitFirst;
+    // Still the camera's own line of sight (only null surfaces and thin panes crossed so far)?
+    let mut direct_view = matches!(light, ChainLight::CountSplitFirst | ChainLight::CountSeenDirectly);
     for depth in 0..=scene.render.max_depth {
         c.rays += 1;
         let found =
@@ -208,7 +212,9 @@ pub fn specular_chain(
         let Some((bs, next)) = si.scatter_with(&mat, wo, u, uc, crate::scene::TransportMode::Radiance) else {
             break;
         };
-        direct_view &= mat.is_null();
+        // Straight on through a thin pane (its transmission), the line of sight stays the camera's.
+        let seen_directly = direct_view && mat.is_thin();
+        direct_view = seen_directly && bs.transmitted;
         // A smooth dielectric's two delta lobes (bs.pdf is then the lobe's probability).
         let two_lobes = || bs.delta && mat.transmits();
         if light == ChainLight::CountSplitFirst && depth == 0 && bs.pdf < 1.0 && two_lobes() {
@@ -218,7 +224,9 @@ pub fn specular_chain(
                 si.scatter_with(&mat, wo, u, other_uc, crate::scene::TransportMode::Radiance)
             {
                 let share = other.weight * other.pdf;
-                emitted += specular_chain(scene, tracer, other_ray, beta * share, rng, c, ChainLight::Count).0;
+                let light =
+                    if seen_directly && other.transmitted { ChainLight::CountSeenDirectly } else { ChainLight::Count };
+                emitted += specular_chain(scene, tracer, other_ray, beta * share, rng, c, light).0;
             }
             emit_scale = bs.pdf;
         }

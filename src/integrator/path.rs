@@ -27,7 +27,7 @@ impl PathTracer<'_> {
         let mut specular = true;
         let mut prev_pdf = 0.0f32;
         let mut prev_p = ray.o;
-        // Whether the ray is still the camera's own line of sight (it has crossed only null surfaces):
+        // Whether the ray is still the camera's own line of sight (it has gone straight through null surfaces and thin panes only):
         // with `render.hide_emitters`, emission seen along it is left out.
         let mut direct_view = true;
         for depth in 0.. {
@@ -51,7 +51,7 @@ impl PathTracer<'_> {
             let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Radiance) else {
                 break;
             };
-            direct_view &= mat.is_null();
+            direct_view &= mat.is_thin() && bs.transmitted;
             beta *= bs.weight;
             radiance_scale *= bs.radiance_scale;
             specular = bs.delta;

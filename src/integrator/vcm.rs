@@ -877,11 +877,11 @@ impl Vcm<'_> {
         let mut prev = ray.o;
         let mut l = Rgb::ZERO;
         let lv_range = light.ends[k] as usize..light.ends[k + 1] as usize;
-        // Still the camera's own line of sight (only null surfaces crossed so far)?
+        // Still the camera's own line of sight (only null surfaces and thin panes crossed so far)?
         let mut direct_view = true;
         loop {
             c.rays += 1;
-            // Only the camera sees light along its line of sight (s = 0, through null surfaces alone):
+            // Only the camera sees light along its line of sight (s = 0, straight through null surfaces and thin panes):
             // hidden, it is hidden for all.
             let hidden = direct_view && scene.render.hide_emitters;
             let found =
@@ -930,10 +930,11 @@ impl Vcm<'_> {
                 }
             }
             prev = si.p;
-            direct_view &= mat.is_null();
             let Some(next) = self.scatter(&mut sp, &si, wo, &mat, vm, rng, TransportMode::Radiance, 1.0) else {
                 break;
             };
+            // Straight on through a thin pane (its transmission) or a null surface.
+            direct_view &= mat.is_thin() && next.d.normalize().dot(-wo) > 1.0 - 1e-5;
             ray = next;
             sp.len += 1;
         }

@@ -687,11 +687,12 @@ impl Material {
         }
     }
 
-    /// A surface that is not there (`SurfaceMaterial::null`, a mask's holes; a thin pane of index 1 and
-    /// no tint is the same thing): light crosses it unbent and undimmed. What the camera sees through
-    /// it, it sees directly (`render.hide_emitters`).
-    pub fn is_null(&self) -> bool {
-        matches!(self, Material::ThinDielectric { ior, tint } if *ior == 1.0 && *tint == Rgb::ONE)
+    /// A thin pane (a null surface, `SurfaceMaterial::null`, is one of index 1): what it transmits goes
+    /// on unbent, so what the camera sees through it, it sees along its own line of sight
+    /// (`render.hide_emitters` hides it there, as Mitsuba, whose thin dielectric's transmission is a
+    /// null event, does for the sky).
+    pub fn is_thin(&self) -> bool {
+        matches!(self, Material::ThinDielectric { .. })
     }
 
     /// Whether photons are stored on the surface and gathered there: a diffuse surface, or a plastic
