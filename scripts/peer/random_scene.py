@@ -1,0 +1,195 @@
+"""A random Mitsuba 3 XML scene made of what caustica's import reads, for scripts/random-check (caustica's
+path tracer against Mitsuba's on scenes nobody chose).
+
+    python3 scripts/peer/random_scene.py SEED OUT.xml [--no-blend]
+
+The same SEED gives the same scene. A floor (and half the time a back wall) under one to four objects
+(sphere, cube, cylinder, disk, rectangle, the PLY ball, the OBJ tile) with random transforms, each of a
+random BSDF (diffuse with a colour or a checkerboard, plastic, roughplastic, conductor and
+roughconductor by named metal or eta/k, dielectric, thindielectric, roughdielectric, principled with a
+random subset of its weights, and blendbsdf, mask and twosided around those), lit by one or two of
+area rectangle, area sphere, point, spot, directional, constant and envmap (at most one of the last
+two). Random max_depth (2 to unlimited), hide_emitters, box, tent or Gaussian filter; 64 x 48 pixels.
+The files it names (ball.ply, tile.obj, tile.mtl, label.png, sky.exr) are tests/mitsuba's; the
+caller copies them beside OUT. --no-blend leaves out blendbsdf, mask and twosided (Mitsuba 3.9.1's
+own blends are biased where caustica's are not: see the README).
+"""
+import argparse
+import random
+
+ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+ap.add_argument("seed", type=int)
+ap.add_argument("out")
+ap.add_argument("--no-blend", action="store_true", help="no blendbsdf, mask or twosided")
+args = ap.parse_args()
+R = random.Random(args.seed)
+NOBLEND = args.no_blend
+
+
+def f(x):
+    return f"{x:.4g}"
+
+
+def rgb(lo=0.05, hi=0.95):
+    return ", ".join(f(R.uniform(lo, hi)) for _ in range(3))
+
+
+CONDUCTORS = ["Au", "Cu", "Al", "Ag", "Cr", "none"]
+
+
+def bsdf(depth=0, allow_glass=True):
+    kinds = ["diffuse", "diffuse_tex", "plastic", "roughplastic", "conductor", "roughconductor",
+             "principled", "blend", "mask", "twosided"]
+    if allow_glass:
+        kinds += ["dielectric", "thindielectric", "roughdielectric"]
+    if depth > 0 or NOBLEND:
+        kinds = [k for k in kinds if k not in ("blend", "mask", "twosided")]
+    k = R.choice(kinds)
+    if k == "diffuse":
+        return f'<bsdf type="diffuse"><rgb name="reflectance" value="{rgb()}"/></bsdf>'
+    if k == "diffuse_tex":
+        s = R.choice([2, 4, 7])
+        return (f'<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">'
+                f'<rgb name="color0" value="{rgb()}"/><rgb name="color1" value="{rgb()}"/>'
+                f'<transform name="to_uv"><scale x="{s}" y="{s}"/></transform></texture></bsdf>')
+    if k == "plastic":
+        return (f'<bsdf type="plastic"><rgb name="diffuse_reflectance" value="{rgb(0.05, 0.8)}"/>'
+                f'<float name="int_ior" value="{f(R.uniform(1.3, 1.9))}"/>'
+                f'<boolean name="nonlinear" value="{R.choice(["true", "false"])}"/></bsdf>')
+    if k == "roughplastic":
+        return (f'<bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="{rgb(0.05, 0.8)}"/>'
+                f'<string name="distribution" value="{R.choice(["beckmann", "ggx"])}"/>'
+                f'<float name="alpha" value="{f(R.uniform(0.05, 0.6))}"/>'
+                f'<float name="int_ior" value="{f(R.uniform(1.3, 1.9))}"/>'
+                f'<boolean name="nonlinear" value="{R.choice(["true", "false"])}"/></bsdf>')
+    if k in ("conductor", "roughconductor"):
+        m = R.choice(CONDUCTORS)
+        body = f'<string name="material" value="{m}"/>'
+        if R.random() < 0.3:
+            body = f'<rgb name="eta" value="{rgb(0.1, 2.0)}"/><rgb name="k" value="{rgb(1.0, 5.0)}"/>'
+        if R.random() < 0.3:
+            body += f'<rgb name="specular_reflectance" value="{rgb(0.4, 1.0)}"/>'
+        if k == "roughconductor":
+            body += (f'<string name="distribution" value="{R.choice(["beckmann", "ggx"])}"/>'
+                     f'<float name="alpha" value="{f(R.uniform(0.05, 0.5))}"/>')
+        return f'<bsdf type="{k}">{body}</bsdf>'
+    if k in ("dielectric", "thindielectric", "roughdielectric"):
+        body = f'<float name="int_ior" value="{f(R.uniform(1.2, 2.0))}"/>'
+        if R.random() < 0.3:
+            body += f'<rgb name="specular_transmittance" value="{rgb(0.5, 1.0)}"/>'
+        if k == "roughdielectric":
+            body += (f'<string name="distribution" value="{R.choice(["beckmann", "ggx"])}"/>'
+                     f'<float name="alpha" value="{f(R.uniform(0.05, 0.5))}"/>')
+        return f'<bsdf type="{k}">{body}</bsdf>'
+    if k == "principled":
+        body = f'<rgb name="base_color" value="{rgb()}"/>'
+        for name in ["roughness", "metallic", "spec_tint", "sheen", "sheen_tint", "flatness", "clearcoat",
+                     "clearcoat_gloss"]:
+            if R.random() < 0.6:
+                body += f'<float name="{name}" value="{f(R.uniform(0.0, 1.0))}"/>'
+        if R.random() < 0.5:
+            body += f'<float name="specular" value="{f(R.uniform(0.1, 0.9))}"/>'
+        if allow_glass and R.random() < 0.3:
+            body += f'<float name="spec_trans" value="{f(R.uniform(0.1, 1.0))}"/>'
+        return f'<bsdf type="principled">{body}</bsdf>'
+    if k == "blend":
+        return (f'<bsdf type="blendbsdf"><float name="weight" value="{f(R.uniform(0.1, 0.9))}"/>'
+                f'{bsdf(depth + 1, allow_glass)}{bsdf(depth + 1, allow_glass)}</bsdf>')
+    if k == "mask":
+        return (f'<bsdf type="mask"><float name="opacity" value="{f(R.uniform(0.2, 0.9))}"/>'
+                f'{bsdf(depth + 1, allow_glass)}</bsdf>')
+    # twosided around an opaque BSDF
+    return f'<bsdf type="twosided">{bsdf(depth + 1, False)}</bsdf>'
+
+
+def transform(s, rx, ry, rz, t):
+    return (f'<transform name="to_world"><scale x="{f(s[0])}" y="{f(s[1])}" z="{f(s[2])}"/>'
+            f'<rotate x="1" angle="{f(rx)}"/><rotate y="1" angle="{f(ry)}"/><rotate z="1" angle="{f(rz)}"/>'
+            f'<translate x="{f(t[0])}" y="{f(t[1])}" z="{f(t[2])}"/></transform>')
+
+
+def obj():
+    kind = R.choice(["sphere", "cube", "cylinder", "disk", "rectangle", "ply", "obj"])
+    x, z = R.uniform(-1.3, 1.3), R.uniform(-1.0, 1.0)
+    m = bsdf()
+    while kind == "cylinder" and "texture" in m:
+        m = bsdf()
+    if kind == "sphere":
+        r = R.uniform(0.2, 0.55)
+        return (f'<shape type="sphere"><point name="center" x="{f(x)}" y="{f(r + R.uniform(0.01, 0.4))}" '
+                f'z="{f(z)}"/><float name="radius" value="{f(r)}"/>{m}</shape>')
+    if kind == "ply":
+        r = R.uniform(0.2, 0.5)
+        return (f'<shape type="ply"><string name="filename" value="ball.ply"/>'
+                f'{transform((r, r, r), 0, R.uniform(0, 90), 0, (x, r + 0.02, z))}{m}</shape>')
+    s = [R.uniform(0.15, 0.45) for _ in range(3)]
+    rot = (R.uniform(-40, 40), R.uniform(0, 90), R.uniform(-40, 40))
+    y = max(s) * 1.8 + 0.02
+    if kind == "obj":
+        return (f'<shape type="obj"><string name="filename" value="tile.obj"/>'
+                f'{transform((s[0] * 2, s[1] * 2, 1), *rot, (x, y, z))}<boolean name="face_normals" value="true"/>{m}</shape>')
+    flip = '<boolean name="flip_normals" value="true"/>' if R.random() < 0.2 else ""
+    return f'<shape type="{kind}">{transform(s, *rot, (x, y, z))}{flip}{m}</shape>'
+
+
+def emitter():
+    kind = R.choice(["area_rect", "area_sphere", "point", "spot", "directional", "constant", "envmap"])
+    c = rgb(0.3, 1.0)
+    if kind == "area_rect":
+        s = R.uniform(0.2, 0.8)
+        e = R.uniform(2, 12)
+        return (f'<shape type="rectangle">{transform((s, s, 1), 90 + R.uniform(-30, 30), R.uniform(0, 90), 0, (R.uniform(-1, 1), R.uniform(1.8, 3), R.uniform(-1, 1)))}'
+                f'<bsdf type="diffuse"/><emitter type="area"><rgb name="radiance" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter></shape>')
+    if kind == "area_sphere":
+        r = R.uniform(0.05, 0.3)
+        e = R.uniform(2, 20)
+        return (f'<shape type="sphere"><point name="center" x="{f(R.uniform(-1.5, 1.5))}" y="{f(R.uniform(1.5, 3))}" z="{f(R.uniform(-1, 1.5))}"/>'
+                f'<float name="radius" value="{f(r)}"/><emitter type="area"><rgb name="radiance" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter></shape>')
+    if kind == "point":
+        e = R.uniform(3, 20)
+        return (f'<emitter type="point"><point name="position" x="{f(R.uniform(-1.5, 1.5))}" y="{f(R.uniform(1.5, 3))}" z="{f(R.uniform(-1, 2))}"/>'
+                f'<rgb name="intensity" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter>')
+    if kind == "spot":
+        e = R.uniform(5, 30)
+        return (f'<emitter type="spot"><transform name="to_world"><lookat origin="{f(R.uniform(-1.5, 1.5))}, {f(R.uniform(2, 3))}, {f(R.uniform(-1, 2))}" target="{f(R.uniform(-0.5, 0.5))}, 0, {f(R.uniform(-0.5, 0.5))}"/></transform>'
+                f'<float name="cutoff_angle" value="{f(R.uniform(15, 50))}"/><float name="beam_width" value="{f(R.uniform(5, 14))}"/>'
+                f'<rgb name="intensity" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter>')
+    if kind == "directional":
+        e = R.uniform(1, 4)
+        return (f'<emitter type="directional"><vector name="direction" x="{f(R.uniform(-1, 1))}" y="-1" z="{f(R.uniform(-1, 1))}"/>'
+                f'<rgb name="irradiance" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter>')
+    if kind == "constant":
+        return f'<emitter type="constant"><rgb name="radiance" value="{rgb(0.1, 0.8)}"/></emitter>'
+    return (f'<emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="{f(R.uniform(0.3, 2))}"/>'
+            f'<transform name="to_world"><rotate y="1" angle="{f(R.uniform(0, 360))}"/></transform></emitter>')
+
+
+w, h = 64, 48
+depth = R.choice([2, 3, 5, 8, 12, -1])
+hide = R.random() < 0.2
+filt = R.choice(["box", "box", "gaussian", "tent"])
+parts = [f'<scene version="3.0.0"><default name="spp" value="64"/>',
+         f'<integrator type="path"><integer name="max_depth" value="{depth}"/>'
+         f'<boolean name="hide_emitters" value="{"true" if hide else "false"}"/></integrator>',
+         f'<sensor type="perspective"><float name="fov" value="{f(R.uniform(35, 60))}"/>'
+         f'<transform name="to_world"><lookat origin="{f(R.uniform(-1, 1))}, {f(R.uniform(1.2, 2.5))}, {f(R.uniform(3.5, 5))}" target="0, 0.4, 0" up="0, 1, 0"/></transform>'
+         f'<sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>'
+         f'<film type="hdrfilm"><integer name="width" value="{w}"/><integer name="height" value="{h}"/>'
+         f'<rfilter type="{filt}"/></film></sensor>',
+         # floor
+         f'<shape type="rectangle"><transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/></transform>{bsdf(allow_glass=False)}</shape>']
+if R.random() < 0.5:
+    parts.append(f'<shape type="rectangle"><transform name="to_world"><scale x="4" y="2.5"/><translate y="2" z="-2"/></transform>{bsdf(allow_glass=False)}</shape>')
+for _ in range(R.randint(1, 4)):
+    parts.append(obj())
+envs = 0
+for _ in range(R.randint(1, 2)):
+    e = emitter()
+    if 'type="constant"' in e or 'type="envmap"' in e:
+        envs += 1
+        if envs > 1:
+            continue
+    parts.append(e)
+parts.append("</scene>")
+with open(args.out, "w") as fh:
+    fh.write("\n".join(parts) + "\n")
