@@ -37,6 +37,12 @@ def rgb(lo=0.05, hi=0.95):
 CONDUCTORS = ["Au", "Cu", "Al", "Ag", "Cr", "none"]
 
 
+def roughness(hi):
+    """A microfacet distribution and an alpha up to `hi`."""
+    return (f'<string name="distribution" value="{R.choice(["beckmann", "ggx"])}"/>'
+            f'<float name="alpha" value="{f(R.uniform(0.05, hi))}"/>')
+
+
 def bsdf(depth=0, allow_glass=True):
     kinds = ["diffuse", "diffuse_tex", "plastic", "roughplastic", "conductor", "roughconductor",
              "principled", "blend", "mask", "twosided"]
@@ -58,8 +64,7 @@ def bsdf(depth=0, allow_glass=True):
                 f'<boolean name="nonlinear" value="{R.choice(["true", "false"])}"/></bsdf>')
     if k == "roughplastic":
         return (f'<bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="{rgb(0.05, 0.8)}"/>'
-                f'<string name="distribution" value="{R.choice(["beckmann", "ggx"])}"/>'
-                f'<float name="alpha" value="{f(R.uniform(0.05, 0.6))}"/>'
+                f'{roughness(0.6)}'
                 f'<float name="int_ior" value="{f(R.uniform(1.3, 1.9))}"/>'
                 f'<boolean name="nonlinear" value="{R.choice(["true", "false"])}"/></bsdf>')
     if k in ("conductor", "roughconductor"):
@@ -70,16 +75,14 @@ def bsdf(depth=0, allow_glass=True):
         if R.random() < 0.3:
             body += f'<rgb name="specular_reflectance" value="{rgb(0.4, 1.0)}"/>'
         if k == "roughconductor":
-            body += (f'<string name="distribution" value="{R.choice(["beckmann", "ggx"])}"/>'
-                     f'<float name="alpha" value="{f(R.uniform(0.05, 0.5))}"/>')
+            body += roughness(0.5)
         return f'<bsdf type="{k}">{body}</bsdf>'
     if k in ("dielectric", "thindielectric", "roughdielectric"):
         body = f'<float name="int_ior" value="{f(R.uniform(1.2, 2.0))}"/>'
         if R.random() < 0.3:
             body += f'<rgb name="specular_transmittance" value="{rgb(0.5, 1.0)}"/>'
         if k == "roughdielectric":
-            body += (f'<string name="distribution" value="{R.choice(["beckmann", "ggx"])}"/>'
-                     f'<float name="alpha" value="{f(R.uniform(0.05, 0.5))}"/>')
+            body += roughness(0.5)
         return f'<bsdf type="{k}">{body}</bsdf>'
     if k == "principled":
         body = f'<rgb name="base_color" value="{rgb()}"/>'
