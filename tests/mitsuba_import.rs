@@ -181,18 +181,7 @@ fn hidden_emitters_stay_hidden_behind_a_null_surface() {
     ];
     let mut failures = Vec::new();
     for (mode, args, tol) in cases {
-        let out = d.join(mode);
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
-            .arg("render")
-            .arg(&path)
-            .args(["--mode", mode])
-            .args(args)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{mode}: {}", String::from_utf8_lossy(&o.stderr));
-        let ours = read_exr(&out.with_extension("exr")).unwrap();
+        let ours = render_file_mode(&path, mode, args);
         let lit = ours.pixels.iter().zip(&black).filter(|(p, b)| **b && p.max_element() != 0.0).count();
         let ratio = mean(&ours) / mean(&theirs);
         println!(
@@ -272,11 +261,17 @@ fn mean(img: &Image) -> f64 {
 
 /// `caustica render tests/mitsuba/NAME.xml --mode MODE ARGS…` (the command line, as a user runs it).
 fn render_mode(name: &str, mode: &str, args: &[&str]) -> Image {
+    render_file_mode(&dir().join(format!("{name}.xml")), mode, args)
+}
+
+/// `caustica render PATH --mode MODE ARGS…`, into a directory of its own that is removed after.
+fn render_file_mode(path: &Path, mode: &str, args: &[&str]) -> Image {
+    let name = path.file_stem().unwrap().to_string_lossy();
     let d = tmp(&format!("{name}-{mode}"));
     let out = d.join(mode);
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
         .arg("render")
-        .arg(dir().join(format!("{name}.xml")))
+        .arg(path)
         .args(["--mode", mode])
         .args(args)
         .arg("-o")
