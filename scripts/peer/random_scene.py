@@ -135,6 +135,11 @@ def obj():
     return f'<shape type="{kind}">{transform(s, *rot, (x, y, z))}{flip}{m}</shape>'
 
 
+def scaled(colour, e):
+    """An "r, g, b" colour times e."""
+    return ", ".join(f(e * float(v)) for v in colour.split(", "))
+
+
 def emitter():
     kind = R.choice(["area_rect", "area_sphere", "point", "spot", "directional", "constant", "envmap"])
     c = rgb(0.3, 1.0)
@@ -142,25 +147,25 @@ def emitter():
         s = R.uniform(0.2, 0.8)
         e = R.uniform(2, 12)
         return (f'<shape type="rectangle">{transform((s, s, 1), 90 + R.uniform(-30, 30), R.uniform(0, 90), 0, (R.uniform(-1, 1), R.uniform(1.8, 3), R.uniform(-1, 1)))}'
-                f'<bsdf type="diffuse"/><emitter type="area"><rgb name="radiance" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter></shape>')
+                f'<bsdf type="diffuse"/><emitter type="area"><rgb name="radiance" value="{scaled(c, e)}"/></emitter></shape>')
     if kind == "area_sphere":
         r = R.uniform(0.05, 0.3)
         e = R.uniform(2, 20)
         return (f'<shape type="sphere"><point name="center" x="{f(R.uniform(-1.5, 1.5))}" y="{f(R.uniform(1.5, 3))}" z="{f(R.uniform(-1, 1.5))}"/>'
-                f'<float name="radius" value="{f(r)}"/><emitter type="area"><rgb name="radiance" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter></shape>')
+                f'<float name="radius" value="{f(r)}"/><emitter type="area"><rgb name="radiance" value="{scaled(c, e)}"/></emitter></shape>')
     if kind == "point":
         e = R.uniform(3, 20)
         return (f'<emitter type="point"><point name="position" x="{f(R.uniform(-1.5, 1.5))}" y="{f(R.uniform(1.5, 3))}" z="{f(R.uniform(-1, 2))}"/>'
-                f'<rgb name="intensity" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter>')
+                f'<rgb name="intensity" value="{scaled(c, e)}"/></emitter>')
     if kind == "spot":
         e = R.uniform(5, 30)
         return (f'<emitter type="spot"><transform name="to_world"><lookat origin="{f(R.uniform(-1.5, 1.5))}, {f(R.uniform(2, 3))}, {f(R.uniform(-1, 2))}" target="{f(R.uniform(-0.5, 0.5))}, 0, {f(R.uniform(-0.5, 0.5))}"/></transform>'
                 f'<float name="cutoff_angle" value="{f(R.uniform(15, 50))}"/><float name="beam_width" value="{f(R.uniform(5, 14))}"/>'
-                f'<rgb name="intensity" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter>')
+                f'<rgb name="intensity" value="{scaled(c, e)}"/></emitter>')
     if kind == "directional":
         e = R.uniform(1, 4)
         return (f'<emitter type="directional"><vector name="direction" x="{f(R.uniform(-1, 1))}" y="-1" z="{f(R.uniform(-1, 1))}"/>'
-                f'<rgb name="irradiance" value="{", ".join(f(e * float(v)) for v in c.split(", "))}"/></emitter>')
+                f'<rgb name="irradiance" value="{scaled(c, e)}"/></emitter>')
     if kind == "constant":
         return f'<emitter type="constant"><rgb name="radiance" value="{rgb(0.1, 0.8)}"/></emitter>'
     return (f'<emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="{f(R.uniform(0.3, 2))}"/>'
