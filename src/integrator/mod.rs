@@ -62,11 +62,50 @@ fn emits(scene: &crate::scene::Scene, shape: u32) -> bool {
     scene.shapes[shape as usize].emission != crate::color::Rgb::ZERO
 }
 
-/// What the camera sees along `ray` (its own line of sight: the first segment, and on through null
-/// surfaces and thin panes). With `render.hide_emitters` the camera does not see emitting surfaces at all, as in
-/// Mitsuba 3.9: the view passes through them to what lies behind, without a bounce, while their light,
-/// their shadows and their images in mirrors and glass stay. The hit's `t` is along `ray`.
-pub fn camera_view(
+/// Whether a path is still the camera's own line of sight: its first segment, and on straight through
+/// null surfaces and thin panes (their transmission), as Mitsuba's null events. With
+/// `render.hide_emitters` the camera sees no emitter and no sky along it (`trace`, `hides`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LineOfSight(bool);
+
+impl LineOfSight {
+    /// A camera ray's first segment.
+    pub const CAMERA: LineOfSight = LineOfSight(true);
+    /// Any other segment.
+    pub const NOT: LineOfSight = LineOfSight(false);
+
+    /// The first surface along `ray`: `camera_view` on the line of sight, else the plain hit.
+    pub fn trace(
+        self,
+        scene: &crate::scene::Scene,
+        tracer: &dyn crate::accel::Tracer,
+        ray: &crate::math::Ray,
+        c: &mut Counters,
+    ) -> Option<crate::accel::Interaction> {
+        if self.0 {
+            camera_view(scene, tracer, ray, c)
+        } else {
+            crate::accel::interact(scene, tracer, ray)
+        }
+    }
+
+    /// Whether emission (or the sky) met along this segment is left out.
+    pub fn hides(self, scene: &crate::scene::Scene) -> bool {
+        self.0 && scene.render.hide_emitters
+    }
+
+    /// The next segment, after a bounce off `mat` that `transmitted` through it or not: still the line
+    /// of sight only straight through a thin pane (a null surface is one).
+    pub fn after(self, mat: &crate::scene::Material, transmitted: bool) -> LineOfSight {
+        LineOfSight(self.0 && mat.is_thin() && transmitted)
+    }
+}
+
+/// What the camera sees along `ray` (its own line of sight, `LineOfSight`). With
+/// `render.hide_emitters` the camera does not see emitting surfaces at all, as in Mitsuba 3.9: the view
+/// passes through them to what lies behind, without a bounce, while their light, their shadows and
+/// their images in mirrors and glass stay. The hit's `t` is along `ray`.
+fn camera_view(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
     ray: &crate::math::Ray,
@@ -168,12 +207,14 @@ pub fn specular_chain(
     // and origin for the MIS weight against the light sample taken there.
     let (mut specular, mut prev_pdf, mut prev_p) = (true, 0.0f32, ray.o);
     // Still the camera's own line of sight (only null surfaces and thin panes crossed so far)?
-    let mut direct_view = matches!(light, ChainLight::CountSplitFirst | ChainLight::CountSeenDirectly);
+    let mut view = match light {
+        ChainLight::CountSplitFirst | ChainLight::CountSeenDirectly => LineOfSight::CAMERA,
+        ChainLight::Skip | ChainLight::Count => LineOfSight::NOT,
+    };
     for depth in 0..=scene.render.max_depth {
         c.rays += 1;
-        let found =
-            if direct_view { camera_view(scene, tracer, &ray, c) } else { crate::accel::interact(scene, tracer, &ray) };
-        let hidden = direct_view && scene.render.hide_emitters;
+        let found = view.trace(scene, tracer, &ray, c);
+        let hidden = view.hides(scene);
         if count && !hidden {
             let sampled = (!specular).then_some((prev_pdf, prev_p));
             let (le, w) = direct::emission_seen(scene, found.as_ref(), ray.d, sampled);
@@ -212,9 +253,8 @@ pub fn specular_chain(
         let Some((bs, next)) = si.scatter_with(&mat, wo, u, uc, crate::scene::TransportMode::Radiance) else {
             break;
         };
-        // Straight on through a thin pane (its transmission), the line of sight stays the camera's.
-        let seen_directly = direct_view && mat.is_thin();
-        direct_view = seen_directly && bs.transmitted;
+        let before = view;
+        view = before.after(&mat, bs.transmitted);
         // A smooth dielectric's two delta lobes (bs.pdf is then the lobe's probability).
         let two_lobes = || bs.delta && mat.transmits();
         if light == ChainLight::CountSplitFirst && depth == 0 && bs.pdf < 1.0 && two_lobes() {
@@ -224,8 +264,11 @@ pub fn specular_chain(
                 si.scatter_with(&mat, wo, u, other_uc, crate::scene::TransportMode::Radiance)
             {
                 let share = other.weight * other.pdf;
-                let light =
-                    if seen_directly && other.transmitted { ChainLight::CountSeenDirectly } else { ChainLight::Count };
+                let light = if before.after(&mat, other.transmitted) == LineOfSight::CAMERA {
+                    ChainLight::CountSeenDirectly
+                } else {
+                    ChainLight::Count
+                };
                 emitted += specular_chain(scene, tracer, other_ray, beta * share, rng, c, light).0;
             }
             emit_scale = bs.pdf;

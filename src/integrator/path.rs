@@ -2,8 +2,8 @@
 //! point lights, delta BSDFs sampled exactly, Russian roulette after `rr_depth` bounces on the
 //! throughput without refraction's 1/η² radiance scale.
 use super::direct::{emission_seen, estimate_direct_with, DirectStrategy};
-use super::{camera_view, Counters};
-use crate::accel::{interact, Interaction, Tracer};
+use super::{Counters, LineOfSight};
+use crate::accel::{Interaction, Tracer};
 use crate::color::Rgb;
 use crate::math::sampling::russian_roulette;
 use crate::math::{max_component, Ray, Rng};
@@ -27,15 +27,12 @@ impl PathTracer<'_> {
         let mut specular = true;
         let mut prev_pdf = 0.0f32;
         let mut prev_p = ray.o;
-        // Whether the ray is still the camera's own line of sight (it has gone straight through null surfaces and thin panes only):
-        // with `render.hide_emitters`, emission seen along it is left out.
-        let mut direct_view = true;
+        let mut view = LineOfSight::CAMERA;
         for depth in 0.. {
             c.rays += 1;
-            let found =
-                if direct_view { camera_view(scene, self.tracer, &ray, c) } else { interact(scene, self.tracer, &ray) };
+            let found = view.trace(scene, self.tracer, &ray, c);
             let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
-            if le != Rgb::ZERO && !(direct_view && scene.render.hide_emitters) {
+            if le != Rgb::ZERO && !view.hides(scene) {
                 l += beta * le * w;
             }
             let Some(Interaction { si, wo, .. }) = found else {
@@ -51,7 +48,7 @@ impl PathTracer<'_> {
             let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Radiance) else {
                 break;
             };
-            direct_view &= mat.is_thin() && bs.transmitted;
+            view = view.after(&mat, bs.transmitted);
             beta *= bs.weight;
             radiance_scale *= bs.radiance_scale;
             specular = bs.delta;

@@ -17,7 +17,7 @@
 //! and light-tracing splats are summed in a fixed order (per chunk of light paths, chunks in order),
 //! so images are the same bits on any thread count.
 use super::direct::{sample_light, unoccluded};
-use super::{camera_view, Counters};
+use super::{Counters, LineOfSight};
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
 use crate::film::Image;
@@ -877,15 +877,12 @@ impl Vcm<'_> {
         let mut prev = ray.o;
         let mut l = Rgb::ZERO;
         let lv_range = light.ends[k] as usize..light.ends[k + 1] as usize;
-        // Still the camera's own line of sight (only null surfaces and thin panes crossed so far)?
-        let mut direct_view = true;
+        let mut view = LineOfSight::CAMERA;
         loop {
             c.rays += 1;
-            // Only the camera sees light along its line of sight (s = 0, straight through null surfaces and thin panes):
-            // hidden, it is hidden for all.
-            let hidden = direct_view && scene.render.hide_emitters;
-            let found =
-                if direct_view { camera_view(scene, self.tracer, &ray, c) } else { interact(scene, self.tracer, &ray) };
+            // Only the camera sees light along its line of sight (s = 0): hidden, it is hidden for all.
+            let hidden = view.hides(scene);
+            let found = view.trace(scene, self.tracer, &ray, c);
             let Some(Interaction { hit, si, wo }) = found else {
                 if !hidden {
                     l += sp.beta * self.env_hit(&sp, ray.d);
@@ -933,8 +930,9 @@ impl Vcm<'_> {
             let Some(next) = self.scatter(&mut sp, &si, wo, &mat, vm, rng, TransportMode::Radiance, 1.0) else {
                 break;
             };
-            // Straight on through a thin pane (its transmission) or a null surface.
-            direct_view &= mat.is_thin() && next.d.normalize().dot(-wo) > 1.0 - 1e-5;
+            // `scatter` keeps the sample to itself; a thin pane's transmission is the one lobe that goes on
+            // along the incoming direction.
+            view = view.after(&mat, next.d.normalize().dot(-wo) > 1.0 - 1e-5);
             ray = next;
             sp.len += 1;
         }
