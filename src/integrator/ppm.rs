@@ -51,14 +51,15 @@ pub fn initial_radius(scene: &Scene) -> f32 {
     if p.radius > 0.0 {
         return p.radius;
     }
-    radius_for_density(scene, 30.0, p.photons_per_pass as f64)
+    radius_for_density(scene, 30.0, p.photons_per_pass as f64, |m| scene.material_holds_photons(m))
 }
 
-/// The radius of a disc holding about `k` of `points` points spread evenly over the surfaces that hold
-/// photons, capped at `render.gather.max_radius` of the scene diagonal.
-pub fn radius_for_density(scene: &Scene, k: f64, points: f64) -> f32 {
-    let area: f64 =
-        scene.shapes.iter().filter(|s| scene.material_holds_photons(s.material)).map(|s| s.area() as f64).sum();
+/// The radius of a disc holding about `k` of `points` points spread evenly over the surfaces whose
+/// material `holds` (those the points are stored on: photons on the surfaces that hold them, VCM's
+/// light vertices on every surface that is not a delta BSDF), capped at `render.gather.max_radius` of
+/// the scene diagonal.
+pub fn radius_for_density(scene: &Scene, k: f64, points: f64, holds: impl Fn(u32) -> bool) -> f32 {
+    let area: f64 = scene.shapes.iter().filter(|s| holds(s.material)).map(|s| s.area() as f64).sum();
     let r = (k * area / (std::f64::consts::PI * points)).sqrt() as f32;
     let cap = scene.render.gather.max_radius * scene.diagonal();
     if r.is_finite() && r > 0.0 {

@@ -321,6 +321,13 @@ impl Scene {
         !self.any_leaf(material, &mut |m| !m.bsdf.is_diffuse())
     }
 
+    /// Whether some material a hit on `material` can be is not a delta BSDF: bidirectional light
+    /// vertices are kept there (for connections and merging), as light vertices are on any surface
+    /// a path can be connected to.
+    pub fn material_keeps_light_vertices(&self, material: u32) -> bool {
+        self.any_leaf(material, &mut |m| !m.bsdf.is_delta())
+    }
+
     /// Whether photons can be held on `shape`: some material a hit on it can be holds them.
     pub fn holds_photons(&self, shape: u32) -> bool {
         self.material_holds_photons(self.shapes[shape as usize].material)
