@@ -191,11 +191,28 @@ pub enum ChainLight {
 pub fn specular_chain(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
+    ray: crate::math::Ray,
+    beta: crate::color::Rgb,
+    rng: &mut crate::math::Rng,
+    c: &mut Counters,
+    light: ChainLight,
+) -> (crate::color::Rgb, Option<ChainEnd>) {
+    chain_from(scene, tracer, ray, beta, rng, c, light, 0)
+}
+
+/// `specular_chain` for a ray leaving its `first`-th bounce (0: from the camera): its hits count their
+/// bounces from there, against `render.max_depth`. The lobe a split leaves unsampled goes on from
+/// bounce 1 (counted from 0, a path through a glass ball at max_depth 1 saw the sky through it).
+#[allow(clippy::too_many_arguments)]
+fn chain_from(
+    scene: &crate::scene::Scene,
+    tracer: &dyn crate::accel::Tracer,
     mut ray: crate::math::Ray,
     mut beta: crate::color::Rgb,
     rng: &mut crate::math::Rng,
     c: &mut Counters,
     light: ChainLight,
+    first: u32,
 ) -> (crate::color::Rgb, Option<ChainEnd>) {
     use crate::color::Rgb;
     let count = light != ChainLight::Skip;
@@ -211,7 +228,7 @@ pub fn specular_chain(
         ChainLight::CountSplitFirst | ChainLight::CountSeenDirectly => LineOfSight::CAMERA,
         ChainLight::Skip | ChainLight::Count => LineOfSight::NOT,
     };
-    for depth in 0..=scene.render.max_depth {
+    for depth in first..=scene.render.max_depth {
         c.rays += 1;
         let found = view.trace(scene, tracer, &ray, c);
         let hidden = view.hides(scene);
@@ -269,7 +286,7 @@ pub fn specular_chain(
                 } else {
                     ChainLight::Count
                 };
-                emitted += specular_chain(scene, tracer, other_ray, beta * share, rng, c, light).0;
+                emitted += chain_from(scene, tracer, other_ray, beta * share, rng, c, light, depth + 1).0;
             }
             emit_scale = bs.pdf;
         }
