@@ -115,7 +115,15 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     // Caustic photons are stored only where a surface holds photons (diffuse, a plastic's base). The
     // targets stay: VCM's light subpaths aim at them too.
     let any_holder = (0..scene.shapes.len()).any(holds);
-    let caustic = if r.force_all_passes || (!targets.is_empty() && any_holder) {
+    // A caustic or indirect photon bounced before it landed: its path and its gather are at least two
+    // scattering events, which `render.max_depth` 1 never counts (the photons would be traced, never
+    // stored, until the shot budget ran out).
+    let bounced_fit = r.max_depth >= 2;
+    let too_shallow = || format!("render.max_depth {}: no path with a bounce before its gather fits", r.max_depth);
+    let caustic = if !r.force_all_passes && !bounced_fit {
+        reasons.push(format!("no caustic map: {}", too_shallow()));
+        0
+    } else if r.force_all_passes || (!targets.is_empty() && any_holder) {
         reasons.push(format!("caustic map: {} specular shape(s) lit by a light", targets.len()));
         r.photons.caustic
     } else if !targets.is_empty() {
@@ -133,7 +141,10 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     // surface, through a curved one lighting itself, or through a mirror or glass (L D S⁺ D).
     let via_specular = !lit_diffuse.is_empty() && !specular.is_empty();
     let bounce_possible = lit_diffuse.len() >= 2 || lit_diffuse.iter().any(|&s| !planar(scene, s)) || via_specular;
-    let indirect = if r.force_all_passes || bounce_possible {
+    let indirect = if !r.force_all_passes && !bounced_fit {
+        reasons.push(format!("no indirect map: {}", too_shallow()));
+        0
+    } else if r.force_all_passes || bounce_possible {
         reasons.push(if via_specular && lit_diffuse.len() < 2 {
             "indirect map: a diffuse surface lights itself through a specular one".into()
         } else {

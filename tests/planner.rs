@@ -73,6 +73,34 @@ fn without_a_surface_that_holds_photons_no_caustic_photons_are_shot() {
     assert!(images[0].pixels.iter().any(|p| p.x > 0.0), "the eye pass finds the light");
 }
 
+/// At `render.max_depth` 1 a photon can only be counted where it first lands (one event: the gather),
+/// so no indirect or caustic photon (a bounce before its gather) can ever be stored: the planner shoots
+/// none, and forcing every pass changes no pixel. Before, the glass box at max_depth 1 shot its whole
+/// budget (50 per requested photon) for two maps that stayed empty, and warned about it.
+#[test]
+fn at_max_depth_1_no_bounced_photons_are_shot() {
+    let mut images = Vec::new();
+    for forced in [false, true] {
+        let sets = [
+            "camera.resolution=[24, 24]".to_string(),
+            "render.max_depth=1".into(),
+            "render.photons.indirect=2000".into(),
+            "render.photons.caustic=2000".into(),
+            format!("render.force_all_passes={forced}"),
+        ];
+        let s = load_scene_with(&scene_path("cornell-glass.toml"), &sets).unwrap();
+        let a = Accel::new(&s).unwrap();
+        let plan = plan_for(&s, &a);
+        if !forced {
+            assert_eq!(plan.photons[1..], [0, 0], "{:?}", plan.reasons);
+            assert!(plan.reasons.iter().any(|r| r.contains("render.max_depth")), "{:?}", plan.reasons);
+        }
+        images.push(render_pm_default(&s, &a, true).unwrap().image);
+    }
+    assert_eq!(images[0], images[1]);
+    assert!(images[0].pixels.iter().any(|p| p.x > 0.0), "direct light and the light itself show");
+}
+
 #[test]
 fn glass_box_targets_both_balls_and_samples_them_more() {
     let s = load_scene_with(&scene_path("cornell-glass.toml"), &SMALL.map(String::from)).unwrap();
