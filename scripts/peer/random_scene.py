@@ -1,7 +1,7 @@
 """A random Mitsuba 3 XML scene made of what caustica's import reads, for scripts/random-check (caustica's
 path tracer against Mitsuba's on scenes nobody chose).
 
-    python3 scripts/peer/random_scene.py SEED OUT.xml [--no-blend]
+    python3 scripts/peer/random_scene.py SEED OUT.xml [--no-blend] [--area-lights]
 
 The same SEED gives the same scene. A floor (and half the time a back wall) under one to four objects
 (sphere, cube, cylinder, disk, rectangle, the PLY ball, the OBJ tile) with random transforms, each of a
@@ -12,7 +12,10 @@ area rectangle, area sphere, point, spot, directional, constant and envmap (at m
 two). Random max_depth (2 to unlimited), hide_emitters, box, tent or Gaussian filter; 64 x 48 pixels.
 The files it names (ball.ply, tile.obj, tile.mtl, label.png, sky.exr) are tests/mitsuba's; the
 caller copies them beside OUT. --no-blend leaves out blendbsdf, mask and twosided (Mitsuba 3.9.1's
-own blends are biased where caustica's are not: see the README).
+own blends are biased where caustica's are not: see the README). --area-lights draws the lights from
+area rectangle, area sphere, constant and envmap only: no point, spot or distant light, whose light
+through mirrors and glass a path tracer cannot find, so that every mode can be held to the path tracer
+(`scripts/random-check --modes --area-lights`).
 """
 import argparse
 import random
@@ -21,6 +24,7 @@ ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("seed", type=int)
 ap.add_argument("out")
 ap.add_argument("--no-blend", action="store_true", help="no blendbsdf, mask or twosided")
+ap.add_argument("--area-lights", action="store_true", help="no point, spot or directional emitter")
 args = ap.parse_args()
 R = random.Random(args.seed)
 NOBLEND = args.no_blend
@@ -141,7 +145,10 @@ def scaled(colour, e):
 
 
 def emitter():
-    kind = R.choice(["area_rect", "area_sphere", "point", "spot", "directional", "constant", "envmap"])
+    kinds = ["area_rect", "area_sphere", "point", "spot", "directional", "constant", "envmap"]
+    if args.area_lights:
+        kinds = ["area_rect", "area_sphere", "constant", "envmap"]
+    kind = R.choice(kinds)
     c = rgb(0.3, 1.0)
     if kind == "area_rect":
         s = R.uniform(0.2, 0.8)
