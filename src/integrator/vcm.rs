@@ -1191,7 +1191,7 @@ mod radius_tests {
     /// (delta BSDFs, area 4 each). Counting only the surfaces that hold photons (the diffuse quad) gave
     /// a radius √5 too small here, and, in a scene with no diffuse surface, the cap (a twentieth of the
     /// diagonal) where a handful of light vertices were meant: merging then blurred rough glass seen in
-    /// a mirror by 10% in an 8×8 block (a random scene's, against BDPT).
+    /// a mirror by 10% in an 8×8 block (a random scene's, against PT).
     #[test]
     fn the_first_merge_radius_counts_every_surface_light_vertices_are_kept_on() {
         let quad = |x: f32, y: f32, side: f32, m: &str| {
