@@ -180,12 +180,22 @@ fn add_counters(stats: &mut serde_json::Value, c: &Counters, seconds: f64) {
 
 /// The planner, asking Embree its visibility questions.
 pub fn plan_for(scene: &Scene, tracer: &dyn Tracer) -> Plan {
+    // Both look past see-through surfaces (null surfaces, masks), as light and camera rays do.
     let visible = |a: glam::Vec3, b: glam::Vec3| {
         let mut r = Ray::new(a, b - a);
         r.tmax = 1.0;
-        !tracer.occluded(&r)
+        crate::accel::shadow(scene, tracer, &r, b, &mut 0) != crate::color::Rgb::ZERO
     };
-    let first = |r: Ray| tracer.intersect(&r).map(|h| (h.shape, r.at(h.t)));
+    let first = |mut r: Ray| {
+        for _ in 0..crate::accel::MAX_CROSSINGS {
+            let h = tracer.intersect(&r)?;
+            if !scene.is_see_through(h.shape) {
+                return Some((h.shape, r.at(h.t)));
+            }
+            r = scene.surface(&r, h.shape, h.prim, h.u, h.v, h.t).spawn(r.d);
+        }
+        None
+    };
     crate::plan::plan(scene, &Probe { visible: &visible, first_hit: &first })
 }
 

@@ -99,7 +99,8 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     let holds = |s: usize| scene.holds_photons(s as u32);
     let lit_diffuse: Vec<usize> =
         (0..scene.shapes.len()).filter(|&s| holds(s) && scene.max_albedo(s as u32) > 0.0).collect();
-    let specular: Vec<usize> = (0..scene.shapes.len()).filter(|&s| !is_diffuse(s)).collect();
+    // What can cast a caustic: a see-through surface's holes only let light by.
+    let specular: Vec<usize> = (0..scene.shapes.len()).filter(|&s| scene.casts_caustics(s as u32)).collect();
 
     let mut targets = Vec::new();
     for &s in &specular {

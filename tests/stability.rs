@@ -72,6 +72,7 @@ fn clone_scene(s: &Scene) -> Scene {
         render: s.render.clone(),
         bounds: s.bounds,
         load_seconds: 0.0,
+        see_through: s.see_through.clone(),
     }
 }
 

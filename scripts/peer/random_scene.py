@@ -206,5 +206,10 @@ for _ in range(R.randint(1, 2)):
             continue
     parts.append(e)
 parts.append("</scene>")
+text = "\n".join(parts) + "\n"
+# Mitsuba's path integrator stops shadow rays at a mask's holes and counts crossing them as a bounce;
+# its volpath (the same without media) lets them by, as caustica does: the reference for such scenes.
+if 'type="mask"' in text:
+    text = text.replace('<integrator type="path">', '<integrator type="volpath">', 1)
 with open(args.out, "w") as fh:
-    fh.write("\n".join(parts) + "\n")
+    fh.write(text)

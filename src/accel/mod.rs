@@ -33,6 +33,63 @@ pub fn interact(scene: &crate::scene::Scene, tracer: &dyn Tracer, ray: &Ray) -> 
     Some(Interaction { hit, si, wo: -ray.d.normalize() })
 }
 
+/// Most see-through surfaces one ray crosses (a guard against a ray that keeps meeting the surface it
+/// left); a ray that would cross more is taken as blocked.
+pub const MAX_CROSSINGS: u32 = 64;
+
+/// The light let through along a shadow ray from its origin to `end` (`ray` being
+/// `SurfaceHit::spawn_to(end)` or a segment like it): `Rgb::ONE` when nothing lies between, zero when
+/// something does that a ray cannot cross, and the product of their transmittances
+/// (`Scene::transmittance_at`) where only see-through surfaces lie between (null surfaces, masks).
+/// `hidden(shape)`: surfaces crossed as if absent (`render.hide_emitters`' emitters on the way to the
+/// camera). Rays traced past the first are added to `rays`.
+pub fn transmittance(
+    scene: &crate::scene::Scene,
+    tracer: &dyn Tracer,
+    ray: &Ray,
+    end: glam::Vec3,
+    hidden: impl Fn(u32) -> bool,
+    rays: &mut u64,
+) -> crate::color::Rgb {
+    use crate::color::Rgb;
+    let mut ray = *ray;
+    let mut tr = Rgb::ONE;
+    for _ in 0..MAX_CROSSINGS {
+        let Some(hit) = tracer.intersect(&ray) else {
+            return tr;
+        };
+        let skip = hidden(hit.shape);
+        if !skip && !scene.is_see_through(hit.shape) {
+            return Rgb::ZERO;
+        }
+        let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
+        if !skip {
+            tr *= scene.transmittance_at(&si, ray.d);
+            if tr == Rgb::ZERO {
+                return tr;
+            }
+        }
+        ray = si.spawn_to(end);
+        *rays += 1;
+    }
+    Rgb::ZERO
+}
+
+/// Whether a shadow ray (as `transmittance` takes it) lets any light through; Embree's occlusion test
+/// alone where no shape is see-through.
+pub fn shadow(
+    scene: &crate::scene::Scene,
+    tracer: &dyn Tracer,
+    ray: &Ray,
+    end: glam::Vec3,
+    rays: &mut u64,
+) -> crate::color::Rgb {
+    if scene.see_through.is_empty() {
+        return if tracer.occluded(ray) { crate::color::Rgb::ZERO } else { crate::color::Rgb::ONE };
+    }
+    transmittance(scene, tracer, ray, end, |_| false, rays)
+}
+
 /// What the integrators need from a ray tracer.
 pub trait Tracer: Sync + Send {
     /// Closest hit with t in (ray.tmin, ray.tmax).

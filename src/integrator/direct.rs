@@ -66,11 +66,16 @@ pub fn estimate_direct_with(
 ) -> Rgb {
     let mis = strategy != DirectStrategy::LightOnly;
     let light = match sample_light(scene, si, wo, mat, rng, mis) {
-        Some((ls, f)) if unoccluded(tracer, si, &ls, c) => {
-            let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns)) };
-            f * ls.li * (w / ls.pdf)
+        Some((ls, f)) => {
+            let tr = shadow(scene, tracer, si, &ls, c);
+            if tr == Rgb::ZERO {
+                Rgb::ZERO
+            } else {
+                let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns)) };
+                f * ls.li * tr * (w / ls.pdf)
+            }
         }
-        _ => Rgb::ZERO,
+        None => Rgb::ZERO,
     };
     if strategy != DirectStrategy::LightAndBsdf {
         return light;
@@ -84,12 +89,12 @@ pub fn estimate_direct_with(
         return light;
     }
     c.rays += 1;
-    let found = crate::accel::interact(scene, tracer, &ray);
-    let (le, w) = emission_seen(scene, found.as_ref(), ray.d, Some((bs.pdf, si.p)));
+    let (found, tr) = super::LineOfSight::NOT.trace_through(scene, tracer, &ray, rng, c);
+    let (le, w) = emission_seen(scene, found.as_ref().map(|f| &f.0), ray.d, Some((bs.pdf, si.p)));
     if le == Rgb::ZERO {
         return light;
     }
-    light + bs.weight * (le * w)
+    light + bs.weight * tr * (le * w)
 }
 
 /// The light a ray meets, with its MIS weight: the emission of the surface it hits (`found`), or of
@@ -145,9 +150,10 @@ pub fn sample_light(
     (f != Rgb::ZERO).then_some((ls, f))
 }
 
-/// Traces the shadow ray from `si` to the sampled light point (counted in `c`): true when nothing
-/// blocks it.
-pub fn unoccluded(tracer: &dyn Tracer, si: &SurfaceHit, ls: &LightSample, c: &mut Counters) -> bool {
+/// Traces the shadow ray from `si` to the sampled light point (its rays counted in `c`): the light let
+/// through, `Rgb::ONE` when nothing lies between, the see-through surfaces' transmittance where only
+/// they do (`accel::transmittance`), zero when anything else does.
+pub fn shadow(scene: &Scene, tracer: &dyn Tracer, si: &SurfaceHit, ls: &LightSample, c: &mut Counters) -> Rgb {
     c.rays += 1;
-    !tracer.occluded(&si.spawn_to(ls.p))
+    crate::accel::shadow(scene, tracer, &si.spawn_to(ls.p), ls.p, &mut c.rays)
 }

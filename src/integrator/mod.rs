@@ -89,6 +89,43 @@ impl LineOfSight {
         }
     }
 
+    /// The first surface along `ray` that the path scatters at, with the material picked there, and the
+    /// light let through on the way: see-through surfaces whose pick lets the light straight by (a null
+    /// surface, a mask's holes: `Scene::passes`) are crossed, each multiplying in its tint, as no
+    /// scattering event (the segment stays one, from the ray's origin: the hit's `t` is along `ray`).
+    /// None with the light let through when the ray leaves the scene; zero light when it crosses more
+    /// than `accel::MAX_CROSSINGS` surfaces.
+    pub fn trace_through(
+        self,
+        scene: &crate::scene::Scene,
+        tracer: &dyn crate::accel::Tracer,
+        ray: &crate::math::Ray,
+        rng: &mut crate::math::Rng,
+        c: &mut Counters,
+    ) -> (Option<(crate::accel::Interaction, crate::scene::Material)>, crate::color::Rgb) {
+        let mut tr = crate::color::Rgb::ONE;
+        let mut next = *ray;
+        for crossed in 0..crate::accel::MAX_CROSSINGS {
+            let Some(mut found) = self.trace(scene, tracer, &next, c) else {
+                return (None, tr);
+            };
+            let mat = scene.bsdf(&found.si, found.wo, || rng.next_f32());
+            let Some(t) = scene.passes(&found.si, &mat) else {
+                if crossed > 0 {
+                    found.hit.t = (found.si.p - ray.o).dot(ray.d) / ray.d.length_squared();
+                }
+                return (Some((found, mat)), tr);
+            };
+            tr *= t;
+            if tr == crate::color::Rgb::ZERO {
+                return (None, tr);
+            }
+            next = found.si.spawn(ray.d);
+            c.rays += 1;
+        }
+        (None, crate::color::Rgb::ZERO)
+    }
+
     /// Whether emission (or the sky) met along this segment is left out.
     pub fn hides(self, scene: &crate::scene::Scene) -> bool {
         self.0 && scene.render.hide_emitters
@@ -129,32 +166,26 @@ fn camera_view(
     None
 }
 
-/// Whether the camera at `lens` sees surface point `from` (light tracing's connection to the camera):
-/// nothing in between, except, with `render.hide_emitters`, emitting surfaces, which the camera does
-/// not see (`camera_view`). A point on an emitting surface is then not seen at all.
+/// How much of surface point `from` the camera at `lens` sees (light tracing's connection to the
+/// camera): all of it with nothing in between, the transmittance of the see-through surfaces between
+/// (`accel::transmittance`), nothing past anything else, except, with `render.hide_emitters`, emitting
+/// surfaces, which the camera does not see (`camera_view`). A point on an emitting surface is then not
+/// seen at all. Rays past the first are added to `c`.
 pub fn camera_sees(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
     from: &crate::scene::SurfaceHit,
     lens: glam::Vec3,
-) -> bool {
-    let mut ray = from.spawn_to(lens);
+    c: &mut Counters,
+) -> crate::color::Rgb {
+    let ray = from.spawn_to(lens);
     if !scene.render.hide_emitters {
-        return !tracer.occluded(&ray);
+        return crate::accel::shadow(scene, tracer, &ray, lens, &mut c.rays);
     }
     if emits(scene, from.shape) {
-        return false;
+        return crate::color::Rgb::ZERO;
     }
-    for _ in 0..HIDDEN_PASSES {
-        let Some(hit) = tracer.intersect(&ray) else {
-            return true;
-        };
-        if !emits(scene, hit.shape) {
-            return false;
-        }
-        ray = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t).spawn_to(lens);
-    }
-    false
+    crate::accel::transmittance(scene, tracer, &ray, lens, |shape| emits(scene, shape), &mut c.rays)
 }
 
 /// What a chain of non-diffuse bounces counts on its way, besides the diffuse hit it ends at.
@@ -230,19 +261,19 @@ fn chain_from(
     };
     for depth in first..=scene.render.max_depth {
         c.rays += 1;
-        let found = view.trace(scene, tracer, &ray, c);
+        let (found, tr) = view.trace_through(scene, tracer, &ray, rng, c);
+        beta *= tr;
         let hidden = view.hides(scene);
         if count && !hidden {
             let sampled = (!specular).then_some((prev_pdf, prev_p));
-            let (le, w) = direct::emission_seen(scene, found.as_ref(), ray.d, sampled);
+            let (le, w) = direct::emission_seen(scene, found.as_ref().map(|f| &f.0), ray.d, sampled);
             if le != Rgb::ZERO {
                 emitted += beta * emit_scale * le * w;
             }
         }
-        let Some(crate::accel::Interaction { si, wo, .. }) = found else {
+        let Some((crate::accel::Interaction { si, wo, .. }, mut mat)) = found else {
             break;
         };
-        let mut mat = scene.bsdf(&si, wo, || rng.next_f32());
         // Where photons are held the chain ends, except that a plastic's coat lobe, taken by its share
         // of the choice, carries the chain on (the end then weighs 1 / the base's share). A smooth coat's
         // mirror is the lobe `sample` draws for the same choice; a rough coat's glossy lobe is followed

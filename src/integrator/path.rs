@@ -1,5 +1,6 @@
 //! Unidirectional path tracer: next-event estimation with MIS (area and sphere lights), shadow rays for
-//! point lights, delta BSDFs sampled exactly, Russian roulette after `rr_depth` bounces on the
+//! point lights (through see-through surfaces, by their transmittance), delta BSDFs sampled exactly,
+//! see-through surfaces crossed as no bounce, Russian roulette after `rr_depth` bounces on the
 //! throughput without refraction's 1/η² radiance scale.
 use super::direct::{emission_seen, estimate_direct_with, DirectStrategy};
 use super::{Counters, LineOfSight};
@@ -30,18 +31,19 @@ impl PathTracer<'_> {
         let mut view = LineOfSight::CAMERA;
         for depth in 0.. {
             c.rays += 1;
-            let found = view.trace(scene, self.tracer, &ray, c);
-            let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
+            let (found, tr) = view.trace_through(scene, self.tracer, &ray, rng, c);
+            beta *= tr;
+            let sampled = (!specular).then_some((prev_pdf, prev_p));
+            let (le, w) = emission_seen(scene, found.as_ref().map(|f| &f.0), ray.d, sampled);
             if le != Rgb::ZERO && !view.hides(scene) {
                 l += beta * le * w;
             }
-            let Some(Interaction { si, wo, .. }) = found else {
+            let Some((Interaction { si, wo, .. }, mat)) = found else {
                 break;
             };
             if depth >= self.max_depth {
                 break;
             }
-            let mat = scene.bsdf(&si, wo, || rng.next_f32());
             if !mat.is_delta() {
                 l += beta * estimate_direct_with(scene, self.tracer, &si, wo, &mat, rng, c, DirectStrategy::Mis);
             }

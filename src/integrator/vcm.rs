@@ -16,7 +16,7 @@
 //! An iteration is a pure function of (scene, seed, i): iterations can be averaged in any grouping,
 //! and light-tracing splats are summed in a fixed order (per chunk of light paths, chunks in order),
 //! so images are the same bits on any thread count.
-use super::direct::{sample_light, unoccluded};
+use super::direct::{sample_light, shadow};
 use super::{Counters, LineOfSight};
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
@@ -242,9 +242,7 @@ impl Aim {
         let share = scene.render.vcm.aim;
         let targets: Vec<&crate::scene::Shape> = (scene.shapes.iter().enumerate())
             .filter(|&(i, sh)| {
-                only.is_none_or(|o| o.contains(&(i as u32)))
-                    && !scene.material_is_diffuse(sh.material)
-                    && sh.area() > 0.0
+                only.is_none_or(|o| o.contains(&(i as u32))) && scene.casts_caustics(i as u32) && sh.area() > 0.0
             })
             .map(|(_, sh)| sh)
             .collect();
@@ -708,38 +706,60 @@ impl Vcm<'_> {
             SubPath { beta: e.phi, len: 1, specular: true, d_vcm, d_vc, s_vm: d_vc * it.vc, radiance_scale: 1.0 };
         let beta0 = max_component(e.phi).max(1e-30);
         let mut ray = e.ray;
+        // Distance from the subpath's last vertex to `ray`'s origin: see-through surfaces crossed since
+        // are no vertices (`Scene::passes`).
+        let (mut travelled, mut crossings) = (0.0f32, 0u32);
         loop {
             c.rays += 1;
             let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
                 break;
             };
-            let dist2 = (hit.t * ray.d.length()).powi(2);
-            if sp.len == 1 && finite {
-                sp.d_vcm = lights.direct_pdf_area(scene, e.light, si.p, e.origin, e.normal) / e.pdf_emit;
+            let mat = scene.bsdf(&si, wo, || rng.next_f32());
+            // The MIS state on arrival here; a crossing leaves the subpath's own as it was.
+            let mut here = sp;
+            let dist = travelled + hit.t * ray.d.length();
+            if here.len == 1 && finite {
+                here.d_vcm = lights.direct_pdf_area(scene, e.light, si.p, e.origin, e.normal) / e.pdf_emit;
             }
-            if sp.len > 1 || finite {
-                sp.d_vcm *= dist2;
+            if here.len > 1 || finite {
+                here.d_vcm *= dist * dist;
             }
             let cos_in = cos_g(&si, wo);
             if cos_in <= 0.0 {
                 break;
             }
-            sp.d_vcm /= cos_in;
-            sp.d_vc /= cos_in;
-            sp.s_vm /= cos_in;
-            let mat = scene.bsdf(&si, wo, || rng.next_f32());
+            here.d_vcm /= cos_in;
+            here.d_vc /= cos_in;
+            here.s_vm /= cos_in;
             let vm = if mat.is_delta() { 0.0 } else { it.vm_at(si.p) };
             let lv = LightVertex {
                 si,
                 wo,
                 mat,
-                beta: sp.beta,
-                len: sp.len,
-                d_vcm: sp.d_vcm,
-                d_vc: sp.d_vc,
-                s_vm: sp.s_vm,
+                beta: here.beta,
+                len: here.len,
+                d_vcm: here.d_vcm,
+                d_vc: here.d_vc,
+                s_vm: here.s_vm,
                 vm,
             };
+            if let Some(t) = scene.passes(&si, &mat) {
+                // Let by: no vertex. The light that arrived is still there for a camera subpath whose own
+                // pick there can merge with it, as at a blend's mirror (below).
+                if it.opts.merge && scene.blend_offers(&si, wo, |m| !m.is_delta()) {
+                    verts.push(lv);
+                }
+                sp.beta *= t;
+                crossings += 1;
+                if sp.beta == Rgb::ZERO || crossings > crate::accel::MAX_CROSSINGS {
+                    break;
+                }
+                travelled = dist;
+                ray = si.spawn(ray.d);
+                continue;
+            }
+            sp = here;
+            travelled = 0.0;
             if mat.is_delta() {
                 // A blend that picked a mirror or glass here for the light's next bounce: the light that
                 // arrived is still there for a camera subpath whose own pick can merge with it (this
@@ -849,11 +869,12 @@ impl Vcm<'_> {
         if w == 0.0 {
             return;
         }
-        let val = lv.beta * f * (w * pdf_dir / dist2 / it.n_paths);
         c.rays += 1;
-        if !super::camera_sees(self.scene, self.tracer, &lv.si, lens) {
+        let seen = super::camera_sees(self.scene, self.tracer, &lv.si, lens, c);
+        if seen == Rgb::ZERO {
             return;
         }
+        let val = lv.beta * f * seen * (w * pdf_dir / dist2 / it.n_paths);
         cam.splat(px, py, |pixel, w| splats.push((pixel, if w == 1.0 { val } else { val * w })));
     }
 
@@ -884,8 +905,9 @@ impl Vcm<'_> {
             c.rays += 1;
             // Only the camera sees light along its line of sight (s = 0): hidden, it is hidden for all.
             let hidden = view.hides(scene);
-            let found = view.trace(scene, self.tracer, &ray, c);
-            let Some(Interaction { hit, si, wo }) = found else {
+            let (found, tr) = view.trace_through(scene, self.tracer, &ray, rng, c);
+            sp.beta *= tr;
+            let Some((Interaction { hit, si, wo }, mat)) = found else {
                 if !hidden {
                     l += sp.beta * self.env_hit(&sp, ray.d);
                 }
@@ -906,7 +928,6 @@ impl Vcm<'_> {
             if sp.len >= it.max_len {
                 break;
             }
-            let mat = scene.bsdf(&si, wo, || rng.next_f32());
             // η here (merging's radius), and the merge strategy's share of MIS sums here.
             let (eta, vm) = if mat.is_delta() {
                 (0.0, 0.0)
@@ -1014,10 +1035,14 @@ impl Vcm<'_> {
             let w_camera = ls.emit_ratio * aim * cos_g(si, ls.wi) * (vm + sp.d_vcm + sp.d_vc * rev_pdf);
             1.0 / (w_light + 1.0 + w_camera)
         });
-        if w == 0.0 || !unoccluded(self.tracer, si, &ls, c) {
+        if w == 0.0 {
             return Rgb::ZERO;
         }
-        f * ls.li * (w / ls.pdf)
+        let tr = shadow(self.scene, self.tracer, si, &ls, c);
+        if tr == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        f * ls.li * tr * (w / ls.pdf)
     }
 
     /// Connects a camera vertex to a light vertex (s ≥ 2, t ≥ 2) [tech. rep. (40)-(41)]; the result is
@@ -1066,10 +1091,11 @@ impl Vcm<'_> {
         }
         c.rays += 1;
         let target = offset_ray_origin(lv.si.p, lv.si.ng, -dir, lv.si.scale);
-        if self.tracer.occluded(&si.spawn_to(target)) {
+        let tr = crate::accel::shadow(self.scene, self.tracer, &si.spawn_to(target), target, &mut c.rays);
+        if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        f_cam * f_light * (w / dist2)
+        f_cam * f_light * tr * (w / dist2)
     }
 
     /// Vertex merging at a non-delta camera vertex [tech. rep. (37)-(39)]: the light vertices within

@@ -106,13 +106,14 @@ pub struct Targets {
 }
 
 impl Targets {
-    /// Every non-diffuse shape is a target, or those of `only` (the planner's list); mesh triangles
+    /// Every shape that casts caustics (`Scene::casts_caustics`) is a target, or those of `only` (the
+    /// planner's list); mesh triangles
     /// probed for what the lights see of them through `tracer`.
     pub fn new(scene: &Scene, tracer: &dyn Tracer, only: Option<&[u32]>) -> Targets {
         let mut shapes = Vec::new();
         for (i, s) in scene.shapes.iter().enumerate() {
             let excluded = only.is_some_and(|o| !o.contains(&(i as u32)));
-            if scene.material_is_diffuse(s.material) || excluded || s.area() <= 0.0 {
+            if !scene.casts_caustics(i as u32) || excluded || s.area() <= 0.0 {
                 continue;
             }
             shapes.push(i as u32);
@@ -261,39 +262,57 @@ fn trace_one(
     let phi_launch = max_component(l.phi);
     let mut diffuse_bounces = 0u32;
     let mut specular_bounces = 0u32;
+    // An aimed photon must arrive at its target (shape, distance left) first, see-through surfaces
+    // whose pick lets it by apart.
+    let mut aim = l.aim;
+    let mut crossings = 0u32;
     // Hit `depth` follows `depth` scattering events; gathering there adds one more.
     for depth in 0..s.max_depth {
-        *segs += 1;
-        let Some(hit) = tracer.intersect(&ray) else {
-            return;
-        };
-        if depth == 0 {
-            if let Some((shape, dist)) = l.aim {
-                if hit.shape != shape || hit.t < dist * (1.0 - 1e-3) {
+        let (si, wo, mat) = loop {
+            *segs += 1;
+            let Some(hit) = tracer.intersect(&ray) else {
+                return;
+            };
+            let on_target = match aim {
+                Some((shape, dist)) if hit.shape == shape && hit.t >= dist * (1.0 - 1e-3) => {
+                    aim = None;
+                    true
+                }
+                _ => false,
+            };
+            if aim.is_some() && !scene.is_see_through(hit.shape) {
+                return;
+            }
+            let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
+            let wo = -ray.d.normalize();
+            let mat = scene.bsdf(&si, wo, || rng.next_f32());
+            // A see-through surface that lets the photon by: no scattering event, not a bounce. Where the
+            // surface can also hold photons (a mask's opaque part) the photon is stored there first, as a
+            // blend's photons are whatever the photon's own pick (below).
+            let Some(t) = scene.passes(&si, &mat) else {
+                if aim.is_some() && !on_target {
                     return;
                 }
+                break (si, wo, mat);
+            };
+            if scene.blend_offers(&si, wo, |m| m.holds_photons()) {
+                store(s, out, &si, wo, phi, depth, diffuse_bounces, specular_bounces);
             }
-        }
-        let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-        let wo = -ray.d.normalize();
-        let mat = scene.bsdf(&si, wo, || rng.next_f32());
+            phi *= t;
+            crossings += 1;
+            if phi == Rgb::ZERO || crossings > crate::accel::MAX_CROSSINGS {
+                return;
+            }
+            if let Some((_, dist)) = &mut aim {
+                *dist -= hit.t * ray.d.length();
+            }
+            ray = si.spawn(ray.d);
+        };
         let last = depth + 1 >= s.max_depth;
         // Stored where the surface can hold photons, also where a blend picked a mirror or glass for
         // this photon's next bounce.
         if mat.holds_photons() || scene.blend_offers(&si, wo, |m| m.holds_photons()) {
-            let map = if diffuse_bounces > 0 {
-                INDIRECT
-            } else if specular_bounces > 0 {
-                CAUSTIC
-            } else {
-                DIRECT
-            };
-            if s.want[map] > 0 {
-                // The position records the path's scattering events, this gather included (`with_events`),
-                // so a gather seen through glass can leave out paths the path tracer's depth would cut.
-                let p = with_events(si.p.to_array(), depth + 1);
-                out[map].push((p, Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
-            }
+            store(s, out, &si, wo, phi, depth, diffuse_bounces, specular_bounces);
         }
         if last {
             return;
@@ -355,6 +374,35 @@ fn trace_one(
             phi /= q;
         }
         ray = next;
+    }
+}
+
+/// Stores a photon of power `phi` arriving at `si` (from `wo`) after `depth` scattering events, in the
+/// map its bounces so far say (indirect after a diffuse one, caustic after specular ones only, else
+/// direct), if the pass wants that map.
+#[allow(clippy::too_many_arguments)]
+fn store(
+    s: &PassSettings,
+    out: &mut [Vec<Stored>; 3],
+    si: &crate::scene::SurfaceHit,
+    wo: Vec3,
+    phi: Rgb,
+    depth: u32,
+    diffuse_bounces: u32,
+    specular_bounces: u32,
+) {
+    let map = if diffuse_bounces > 0 {
+        INDIRECT
+    } else if specular_bounces > 0 {
+        CAUSTIC
+    } else {
+        DIRECT
+    };
+    if s.want[map] > 0 {
+        // The position records the path's scattering events, this gather included (`with_events`), so a
+        // gather seen through glass can leave out paths the path tracer's depth would cut.
+        let p = with_events(si.p.to_array(), depth + 1);
+        out[map].push((p, Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
     }
 }
 

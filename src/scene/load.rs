@@ -240,7 +240,9 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         render: file.render,
         bounds,
         load_seconds: 0.0,
+        see_through: Vec::new(),
     };
+    scene.see_through = scene.see_through_shapes();
     scene.lights = Lights::build(&scene, &points, &distant, env);
     let keys: Vec<String> = env_key.into_iter().chain(distant_keys).chain(point_keys).collect();
     check_power(&cx, &scene, &keys)?;

@@ -148,6 +148,9 @@ pub struct Scene {
     pub bounds: (Vec3, Vec3),
     /// Seconds spent reading files and building meshes.
     pub load_seconds: f64,
+    /// Per shape, whether a hit on it can let light straight by (`Scene::see_through_shapes`); empty
+    /// when no shape can, so that shadow rays in such scenes stay Embree's plain occlusion test.
+    pub see_through: Vec<bool>,
 }
 
 /// Mitsuba's sphere parameterisation (z is the pole, u the longitude from +x), in world axes, of the
@@ -311,6 +314,69 @@ impl Scene {
         }
     }
 
+    /// Per shape, whether some material a hit on it can be only lets light straight by (a null surface,
+    /// a mask's holes: `Material::pass_through`), on a shape that does not emit (an emitter stays a
+    /// surface its light is found on). Empty when there is none: what `see_through` holds.
+    pub fn see_through_shapes(&self) -> Vec<bool> {
+        let flags: Vec<bool> = (self.shapes.iter())
+            .map(|s| s.emission == Rgb::ZERO && self.any_leaf(s.material, &mut |m| m.bsdf.pass_through().is_some()))
+            .collect();
+        if flags.contains(&true) {
+            flags
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// Whether a hit on `shape` can let light straight by (`see_through`).
+    pub fn is_see_through(&self, shape: u32) -> bool {
+        !self.see_through.is_empty() && self.see_through[shape as usize]
+    }
+
+    /// Where a path that picked `mat` at `si` goes straight on: the light let through (the pass's tint).
+    /// Such a crossing is no scattering event: it does not count against `render.max_depth`, and the
+    /// path's last vertex (its MIS densities, its distance) stays the one before it.
+    pub fn passes(&self, si: &SurfaceHit, mat: &Material) -> Option<Rgb> {
+        if self.is_see_through(si.shape) {
+            mat.pass_through()
+        } else {
+            None
+        }
+    }
+
+    /// The light a see-through surface lets by at `si` for a ray along `dir`, whatever it picks there:
+    /// each material it can be, weighed by how often a blend picks it, its tint where it passes light
+    /// and nothing where it does not. A shadow ray is multiplied by it at each crossing, the expectation
+    /// of what a path's own pick lets through, so the strategies' MIS weights, taken without the pick,
+    /// still add up to one.
+    pub fn transmittance_at(&self, si: &SurfaceHit, dir: Vec3) -> Rgb {
+        self.leaf_transmittance(self.shapes[si.shape as usize].material, si, -dir)
+    }
+
+    fn leaf_transmittance(&self, material: u32, si: &SurfaceHit, wo: Vec3) -> Rgb {
+        let m = &self.materials[material as usize];
+        match m.blend {
+            Some(b) => {
+                let w = self.blend_weight(&b, si.uv);
+                let first = if w < 1.0 { self.leaf_transmittance(b.first, si, wo) * (1.0 - w) } else { Rgb::ZERO };
+                let second = if w > 0.0 { self.leaf_transmittance(b.second, si, wo) * w } else { Rgb::ZERO };
+                first + second
+            }
+            None => self.leaf_bsdf(m, si, wo).pass_through().unwrap_or(Rgb::ZERO),
+        }
+    }
+
+    /// Whether some material a hit on `shape` can be reflects or bends light other than diffusely (a
+    /// mirror, glass, metal, a coat): what caustic photons and VCM's light subpaths are aimed at. The
+    /// holes of a see-through surface only let light by, as if the surface were not there.
+    pub fn casts_caustics(&self, shape: u32) -> bool {
+        let see_through = self.is_see_through(shape);
+        self.any_leaf(self.shapes[shape as usize].material, &mut |m| {
+            let lets_by = see_through && m.bsdf.pass_through().is_some();
+            !m.bsdf.is_diffuse() && !lets_by
+        })
+    }
+
     /// Whether every material a hit on `shape` can be is Lambertian (no mirror, glass, coat or hole).
     pub fn is_diffuse(&self, shape: u32) -> bool {
         self.material_is_diffuse(self.shapes[shape as usize].material)
@@ -393,11 +459,7 @@ impl Scene {
         };
         let mut x = u();
         loop {
-            let w = match b.weight {
-                material::BlendWeight::Value(w) => w,
-                material::BlendWeight::Texture(t) => material::mitsuba_luminance(self.textures[t as usize].eval(uv)),
-            };
-            let w = if w.is_nan() { 0.0 } else { w.clamp(0.0, 1.0) };
+            let w = self.blend_weight(&b, uv);
             let (next, rescaled) = if x < w { (b.second, x / w) } else { (b.first, (x - w) / (1.0 - w)) };
             x = rescaled.min(f32::from_bits(0x3f7f_ffff)); // below 1, as a drawn number is
             m = &self.materials[next as usize];
@@ -405,6 +467,19 @@ impl Scene {
                 Some(n) => b = n,
                 None => return m,
             }
+        }
+    }
+
+    /// A blend's weight at `uv`: the chance it is its second material there, in [0, 1] (NaN reads 0).
+    fn blend_weight(&self, b: &material::Blend, uv: glam::Vec2) -> f32 {
+        let w = match b.weight {
+            material::BlendWeight::Value(w) => w,
+            material::BlendWeight::Texture(t) => material::mitsuba_luminance(self.textures[t as usize].eval(uv)),
+        };
+        if w.is_nan() {
+            0.0
+        } else {
+            w.clamp(0.0, 1.0)
         }
     }
 
