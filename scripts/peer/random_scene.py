@@ -207,9 +207,10 @@ for _ in range(R.randint(1, 2)):
     parts.append(e)
 parts.append("</scene>")
 text = "\n".join(parts) + "\n"
-# Mitsuba's path integrator stops shadow rays at a mask's holes and counts crossing them as a bounce;
-# its volpath (the same without media) lets them by, as caustica does: the reference for such scenes.
-if 'type="mask"' in text:
+# Mitsuba's path integrator stops shadow rays at a mask's holes and a thin pane, and counts crossing
+# them as a bounce; its volpath (the same without media) lets light straight through them by their
+# transmittance, as no bounce, as caustica does: the reference for such scenes.
+if 'type="mask"' in text or 'type="thindielectric"' in text:
     text = text.replace('<integrator type="path">', '<integrator type="volpath">', 1)
 with open(args.out, "w") as fh:
     fh.write(text)

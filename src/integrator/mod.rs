@@ -89,10 +89,10 @@ impl LineOfSight {
         }
     }
 
-    /// The first surface along `ray` that the path scatters at, with the material picked there, and the
-    /// light let through on the way: see-through surfaces whose pick lets the light straight by (a null
-    /// surface, a mask's holes: `Scene::passes`) are crossed, each multiplying in its tint, as no
-    /// scattering event (the segment stays one, from the ray's origin: the hit's `t` is along `ray`).
+    /// The first surface along `ray` that the path scatters at, with the BSDF it scatters by there, and
+    /// the light let through on the way: see-through surfaces that let the path straight through (a
+    /// null surface, a mask's holes, a thin pane's transmission: `Scene::crossing`) are crossed, each
+    /// multiplying in what it lets through, as no scattering event (the segment stays one, from the ray's origin: the hit's `t` is along `ray`).
     /// None with the light let through when the ray leaves the scene; zero light when it crosses more
     /// than `accel::MAX_CROSSINGS` surfaces.
     pub fn trace_through(
@@ -109,12 +109,15 @@ impl LineOfSight {
             let Some(mut found) = self.trace(scene, tracer, &next, c) else {
                 return (None, tr);
             };
-            let mat = scene.bsdf(&found.si, found.wo, || rng.next_f32());
-            let Some(t) = scene.passes(&found.si, &mat) else {
-                if crossed > 0 {
-                    found.hit.t = (found.si.p - ray.o).dot(ray.d) / ray.d.length_squared();
+            let picked = scene.bsdf(&found.si, found.wo, || rng.next_f32());
+            let t = match scene.crossing(&found.si, found.wo, picked, || rng.next_f32()) {
+                crate::scene::Crossing::Through(t) => t,
+                crate::scene::Crossing::At(mat) => {
+                    if crossed > 0 {
+                        found.hit.t = (found.si.p - ray.o).dot(ray.d) / ray.d.length_squared();
+                    }
+                    return (Some((found, mat)), tr);
                 }
-                return (Some((found, mat)), tr);
             };
             tr *= t;
             if tr == crate::color::Rgb::ZERO {

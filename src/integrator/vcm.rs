@@ -714,7 +714,12 @@ impl Vcm<'_> {
             let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
                 break;
             };
-            let mat = scene.bsdf(&si, wo, || rng.next_f32());
+            let picked = scene.bsdf(&si, wo, || rng.next_f32());
+            let crossing = scene.crossing(&si, wo, picked, || rng.next_f32());
+            let mat = match crossing {
+                crate::scene::Crossing::At(mat) => mat,
+                crate::scene::Crossing::Through(_) => picked,
+            };
             // The MIS state on arrival here; a crossing leaves the subpath's own as it was.
             let mut here = sp;
             let dist = travelled + hit.t * ray.d.length();
@@ -743,7 +748,7 @@ impl Vcm<'_> {
                 s_vm: here.s_vm,
                 vm,
             };
-            if let Some(t) = scene.passes(&si, &mat) {
+            if let crate::scene::Crossing::Through(t) = crossing {
                 // Let by: no vertex. The light that arrived is still there for a camera subpath whose own
                 // pick there can merge with it, as at a blend's mirror (below).
                 if it.opts.merge && scene.blend_offers(&si, wo, |m| !m.is_delta()) {

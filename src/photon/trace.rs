@@ -280,20 +280,28 @@ fn trace_one(
                 }
                 _ => false,
             };
-            if aim.is_some() && !scene.is_see_through(hit.shape) {
+            // Aimed photons count the light whose first interaction is at a target point: one that meets
+            // a surface before its point is dropped, unless the surface lets it straight through and
+            // casts no caustic (a null surface, a mask's holes over a diffuse or black surface). A
+            // target crossed on the way (its near side, another thin pane) is the first interaction of
+            // the photons aimed at it, which already count the light that goes on from there.
+            if aim.is_some() && !on_target && (!scene.is_see_through(hit.shape) || scene.casts_caustics(hit.shape)) {
                 return;
             }
             let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
             let wo = -ray.d.normalize();
-            let mat = scene.bsdf(&si, wo, || rng.next_f32());
-            // A see-through surface that lets the photon by: no scattering event, not a bounce. Where the
-            // surface can also hold photons (a mask's opaque part) the photon is stored there first, as a
-            // blend's photons are whatever the photon's own pick (below).
-            let Some(t) = scene.passes(&si, &mat) else {
-                if aim.is_some() && !on_target {
-                    return;
+            let picked = scene.bsdf(&si, wo, || rng.next_f32());
+            // A see-through surface that lets the photon straight through: no scattering event, not a
+            // bounce. Where the surface can also hold photons (a mask's opaque part) the photon is stored
+            // there first, as a blend's photons are whatever the photon's own pick (below).
+            let t = match scene.crossing(&si, wo, picked, || rng.next_f32()) {
+                crate::scene::Crossing::Through(t) => t,
+                crate::scene::Crossing::At(mat) => {
+                    if aim.is_some() && !on_target {
+                        return;
+                    }
+                    break (si, wo, mat);
                 }
-                break (si, wo, mat);
             };
             if scene.blend_offers(&si, wo, |m| m.holds_photons()) {
                 store(s, out, &si, wo, phi, depth, diffuse_bounces, specular_bounces);

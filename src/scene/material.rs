@@ -706,6 +706,30 @@ impl Material {
         }
     }
 
+    /// A thin pane's (and a null surface's) reflectance R' for light arriving at cosine `cos` to its
+    /// normal, both faces and every bounce between them summed; None for every other BSDF. What it
+    /// does not reflect goes straight through, times its tint (`Scene::crossing`).
+    pub fn thin_reflectance(&self, cos: f32) -> Option<f32> {
+        match self {
+            Material::ThinDielectric { ior, .. } if *ior == 1.0 => Some(0.0),
+            Material::ThinDielectric { ior, .. } => {
+                let (r, _) = fresnel_dielectric(cos.abs().min(1.0), *ior);
+                Some(if r < 1.0 { r + (1.0 - r) * (1.0 - r) * r / (1.0 - r * r) } else { 1.0 })
+            }
+            _ => None,
+        }
+    }
+
+    /// The light a thin pane lets straight through for light arriving at cosine `cos` to its normal:
+    /// its tint times 1 − R' (`thin_reflectance`); None for every other BSDF.
+    pub fn straight_transmittance(&self, cos: f32) -> Option<Rgb> {
+        let r = self.thin_reflectance(cos)?;
+        match self {
+            Material::ThinDielectric { tint, .. } => Some(*tint * (1.0 - r)),
+            _ => None,
+        }
+    }
+
     /// Whether photons are stored on the surface and gathered there: a diffuse surface, or a plastic
     /// (its base). The others are only passed through.
     pub fn holds_photons(&self) -> bool {
@@ -1034,11 +1058,10 @@ impl Material {
                     Some(sample(wi, *tint * scale, 1.0 - fr, true, true, scale))
                 }
             }
-            Material::ThinDielectric { ior, tint } => {
+            Material::ThinDielectric { tint, .. } => {
                 // Both faces of the pane: R' = R + T²R/(1 − R²) (Mitsuba's thindielectric). The light that
                 // passes leaves parallel to where it came from, so radiance needs no 1/η².
-                let (r, _) = fresnel_dielectric(wo.dot(side), *ior);
-                let r = if r < 1.0 { r + (1.0 - r) * (1.0 - r) * r / (1.0 - r * r) } else { 1.0 };
+                let r = self.thin_reflectance(wo.dot(side)).unwrap_or(1.0);
                 if uc < r {
                     Some(sample(reflect(wo, side), Rgb::ONE, r, true, false, 1.0))
                 } else {

@@ -153,6 +153,15 @@ pub struct Scene {
     pub see_through: Vec<bool>,
 }
 
+/// What a path does at a surface it meets (`Scene::crossing`).
+#[derive(Clone, Copy, Debug)]
+pub enum Crossing {
+    /// Straight through, as if the surface were not there, the light let through multiplied in.
+    Through(Rgb),
+    /// Scatters there with this BSDF.
+    At(Material),
+}
+
 /// Mitsuba's sphere parameterisation (z is the pole, u the longitude from +x), in world axes, of the
 /// unit normal `n`.
 fn sphere_uv(n: Vec3) -> glam::Vec2 {
@@ -314,12 +323,13 @@ impl Scene {
         }
     }
 
-    /// Per shape, whether some material a hit on it can be only lets light straight by (a null surface,
-    /// a mask's holes: `Material::pass_through`), on a shape that does not emit (an emitter stays a
-    /// surface its light is found on). Empty when there is none: what `see_through` holds.
+    /// Per shape, whether some material a hit on it can be lets light straight through: a thin pane, a
+    /// null surface (a pane of index 1), a mask's holes (`Material::thin_reflectance`), on a shape that
+    /// does not emit (an emitter stays a surface its light is found on). Empty when there is none: what
+    /// `see_through` holds.
     pub fn see_through_shapes(&self) -> Vec<bool> {
         let flags: Vec<bool> = (self.shapes.iter())
-            .map(|s| s.emission == Rgb::ZERO && self.any_leaf(s.material, &mut |m| m.bsdf.pass_through().is_some()))
+            .map(|s| s.emission == Rgb::ZERO && self.any_leaf(s.material, &mut |m| m.bsdf.is_thin()))
             .collect();
         if flags.contains(&true) {
             flags
@@ -328,27 +338,43 @@ impl Scene {
         }
     }
 
-    /// Whether a hit on `shape` can let light straight by (`see_through`).
+    /// Whether a hit on `shape` can let light straight through (`see_through`).
     pub fn is_see_through(&self, shape: u32) -> bool {
         !self.see_through.is_empty() && self.see_through[shape as usize]
     }
 
-    /// Where a path that picked `mat` at `si` goes straight on: the light let through (the pass's tint).
-    /// Such a crossing is no scattering event: it does not count against `render.max_depth`, and the
-    /// path's last vertex (its MIS densities, its distance) stays the one before it.
-    pub fn passes(&self, si: &SurfaceHit, mat: &Material) -> Option<Rgb> {
-        if self.is_see_through(si.shape) {
-            mat.pass_through()
+    /// What a path arriving along `wo` does at `si`, where it picked `mat`: it goes straight through
+    /// (`Crossing::Through`, the light let through) or scatters there (`Crossing::At`, the BSDF to
+    /// sample). A see-through surface lets light straight through as no scattering event: it does not
+    /// count against `render.max_depth`, and the path's last vertex (its MIS densities, its distance)
+    /// stays the one before it. A thin pane also reflects: `u` draws which, reflection with probability
+    /// R' (`Material::thin_reflectance`), then a perfect mirror (weight R'/R' = 1), else straight through
+    /// with the pane's tint (weight tint·(1 − R')/(1 − R')). Elsewhere `mat` as it is, `u` not drawn.
+    pub fn crossing(&self, si: &SurfaceHit, wo: Vec3, mat: Material, u: impl FnOnce() -> f32) -> Crossing {
+        if !self.is_see_through(si.shape) {
+            return Crossing::At(mat);
+        }
+        let (Some(r), Material::ThinDielectric { tint, .. }) = (mat.thin_reflectance(wo.dot(si.ns)), mat) else {
+            return Crossing::At(mat);
+        };
+        if r > 0.0 && u() < r {
+            let mirror = Material::Conductor {
+                fresnel: material::Fresnel::Constant(Rgb::ONE),
+                alpha: 0.0,
+                distribution: material::Microfacet::Ggx,
+            };
+            Crossing::At(mirror)
         } else {
-            None
+            Crossing::Through(tint)
         }
     }
 
-    /// The light a see-through surface lets by at `si` for a ray along `dir`, whatever it picks there:
-    /// each material it can be, weighed by how often a blend picks it, its tint where it passes light
-    /// and nothing where it does not. A shadow ray is multiplied by it at each crossing, the expectation
-    /// of what a path's own pick lets through, so the strategies' MIS weights, taken without the pick,
-    /// still add up to one.
+    /// The light a see-through surface lets straight through at `si` for a ray along `dir`, whatever it
+    /// picks there: each material it can be, weighed by how often a blend picks it, its straight
+    /// transmission where it has one (a thin pane's tint·(1 − R'), a null surface's 1) and nothing where
+    /// it has not. A shadow ray is multiplied by it at each crossing: the expectation of what a path's
+    /// own choices there let through, so the strategies' MIS weights, taken without those choices, still
+    /// add up to one.
     pub fn transmittance_at(&self, si: &SurfaceHit, dir: Vec3) -> Rgb {
         self.leaf_transmittance(self.shapes[si.shape as usize].material, si, -dir)
     }
@@ -362,7 +388,7 @@ impl Scene {
                 let second = if w > 0.0 { self.leaf_transmittance(b.second, si, wo) * w } else { Rgb::ZERO };
                 first + second
             }
-            None => self.leaf_bsdf(m, si, wo).pass_through().unwrap_or(Rgb::ZERO),
+            None => self.leaf_bsdf(m, si, wo).straight_transmittance(wo.dot(si.ns)).unwrap_or(Rgb::ZERO),
         }
     }
 
