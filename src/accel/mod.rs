@@ -43,6 +43,8 @@ pub const MAX_CROSSINGS: u32 = 64;
 /// (`Scene::transmittance_at`) where only see-through surfaces lie between (null surfaces, masks).
 /// `hidden(shape)`: surfaces crossed as if absent (`render.hide_emitters`' emitters on the way to the
 /// camera). Rays traced past the first are added to `rays`.
+#[cold]
+#[inline(never)]
 pub fn transmittance(
     scene: &crate::scene::Scene,
     tracer: &dyn Tracer,
@@ -77,6 +79,7 @@ pub fn transmittance(
 
 /// Whether a shadow ray (as `transmittance` takes it) lets any light through; Embree's occlusion test
 /// alone where no shape is see-through.
+#[inline(always)]
 pub fn shadow(
     scene: &crate::scene::Scene,
     tracer: &dyn Tracer,

@@ -95,6 +95,7 @@ impl LineOfSight {
     /// multiplying in what it lets through, as no scattering event (the segment stays one, from the ray's origin: the hit's `t` is along `ray`).
     /// None with the light let through when the ray leaves the scene; zero light when it crosses more
     /// than `accel::MAX_CROSSINGS` surfaces.
+    #[inline(always)]
     pub fn trace_through(
         self,
         scene: &crate::scene::Scene,
@@ -103,13 +104,32 @@ impl LineOfSight {
         rng: &mut crate::math::Rng,
         c: &mut Counters,
     ) -> (Option<(crate::accel::Interaction, crate::scene::Material)>, crate::color::Rgb) {
+        let Some(found) = self.trace(scene, tracer, ray, c) else {
+            return (None, crate::color::Rgb::ONE);
+        };
+        if scene.is_see_through(found.si.shape) {
+            return self.cross_from(scene, tracer, ray, found, rng, c);
+        }
+        let mat = scene.bsdf(&found.si, found.wo, || rng.next_f32());
+        (Some((found, mat)), crate::color::Rgb::ONE)
+    }
+
+    /// `trace_through` from `ray`'s first hit, `found`, on a see-through surface (`Scene::see_through`).
+    /// Out of line, so that the paths of scenes without one stay as short as they were.
+    #[cold]
+    #[inline(never)]
+    pub fn cross_from(
+        self,
+        scene: &crate::scene::Scene,
+        tracer: &dyn crate::accel::Tracer,
+        ray: &crate::math::Ray,
+        mut found: crate::accel::Interaction,
+        rng: &mut crate::math::Rng,
+        c: &mut Counters,
+    ) -> (Option<(crate::accel::Interaction, crate::scene::Material)>, crate::color::Rgb) {
+        let mut picked = scene.bsdf(&found.si, found.wo, || rng.next_f32());
         let mut tr = crate::color::Rgb::ONE;
-        let mut next = *ray;
         for crossed in 0..crate::accel::MAX_CROSSINGS {
-            let Some(mut found) = self.trace(scene, tracer, &next, c) else {
-                return (None, tr);
-            };
-            let picked = scene.bsdf(&found.si, found.wo, || rng.next_f32());
             let t = match scene.crossing(&found.si, found.wo, picked, || rng.next_f32()) {
                 crate::scene::Crossing::Through(t) => t,
                 crate::scene::Crossing::At(mat) => {
@@ -123,8 +143,12 @@ impl LineOfSight {
             if tr == crate::color::Rgb::ZERO {
                 return (None, tr);
             }
-            next = found.si.spawn(ray.d);
             c.rays += 1;
+            let Some(next) = self.trace(scene, tracer, &found.si.spawn(ray.d), c) else {
+                return (None, tr);
+            };
+            found = next;
+            picked = scene.bsdf(&found.si, found.wo, || rng.next_f32());
         }
         (None, crate::color::Rgb::ZERO)
     }

@@ -31,19 +31,29 @@ impl PathTracer<'_> {
         let mut view = LineOfSight::CAMERA;
         for depth in 0.. {
             c.rays += 1;
-            let (found, tr) = view.trace_through(scene, self.tracer, &ray, rng, c);
-            beta *= tr;
-            let sampled = (!specular).then_some((prev_pdf, prev_p));
-            let (le, w) = emission_seen(scene, found.as_ref().map(|f| &f.0), ray.d, sampled);
+            let mut found = view.trace(scene, self.tracer, &ray, c);
+            // Past see-through surfaces (out of line: most scenes have none), with the BSDF picked where
+            // the path scatters.
+            let mut picked = None;
+            if let Some(f) = found.take_if(|f| scene.is_see_through(f.si.shape)) {
+                let (at, tr) = view.cross_from(scene, self.tracer, &ray, f, rng, c);
+                beta *= tr;
+                found = at.map(|(i, m)| {
+                    picked = Some(m);
+                    i
+                });
+            }
+            let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
             if le != Rgb::ZERO && !view.hides(scene) {
                 l += beta * le * w;
             }
-            let Some((Interaction { si, wo, .. }, mat)) = found else {
+            let Some(Interaction { si, wo, .. }) = found else {
                 break;
             };
             if depth >= self.max_depth {
                 break;
             }
+            let mat = picked.unwrap_or_else(|| scene.bsdf(&si, wo, || rng.next_f32()));
             if !mat.is_delta() {
                 l += beta * estimate_direct_with(scene, self.tracer, &si, wo, &mat, rng, c, DirectStrategy::Mis);
             }

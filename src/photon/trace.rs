@@ -197,8 +197,22 @@ impl Targets {
             if dist.is_nan() || dist <= 0.0 {
                 return false;
             }
-            let ray = Ray::new(ls.p, d / dist);
-            return tracer.intersect(&ray).is_some_and(|h| h.shape == shape && h.t >= dist * (1.0 - 1e-3));
+            let mut ray = Ray::new(ls.p, d / dist);
+            // Past see-through surfaces that cast no caustic, as `trace_one` lets aimed photons pass them.
+            for _ in 0..crate::accel::MAX_CROSSINGS {
+                let Some(h) = tracer.intersect(&ray) else {
+                    return false;
+                };
+                let far = (ray.o - ls.p).length() + h.t;
+                if h.shape == shape && far >= dist * (1.0 - 1e-3) {
+                    return true;
+                }
+                if !scene.is_see_through(h.shape) || scene.casts_caustics(h.shape) {
+                    return false;
+                }
+                ray = scene.surface(&ray, h.shape, h.prim, h.u, h.v, h.t).spawn(ray.d);
+            }
+            return false;
         }
         false
     }

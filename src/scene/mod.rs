@@ -339,6 +339,7 @@ impl Scene {
     }
 
     /// Whether a hit on `shape` can let light straight through (`see_through`).
+    #[inline(always)]
     pub fn is_see_through(&self, shape: u32) -> bool {
         !self.see_through.is_empty() && self.see_through[shape as usize]
     }
@@ -350,6 +351,7 @@ impl Scene {
     /// stays the one before it. A thin pane also reflects: `u` draws which, reflection with probability
     /// R' (`Material::thin_reflectance`), then a perfect mirror (weight R'/R' = 1), else straight through
     /// with the pane's tint (weight tint·(1 − R')/(1 − R')). Elsewhere `mat` as it is, `u` not drawn.
+    #[inline(always)]
     pub fn crossing(&self, si: &SurfaceHit, wo: Vec3, mat: Material, u: impl FnOnce() -> f32) -> Crossing {
         if !self.is_see_through(si.shape) {
             return Crossing::At(mat);
