@@ -105,14 +105,15 @@ fn pane_reflectance(cos: f64) -> f64 {
 }
 
 /// What the see-through shape `case` lets through from the light at `light` to floor point `p`:
-/// crossing the null sphere 1, the mask sphere (1 − 0.5)² (twice), the horizontal thin pane 1 − R' at
+/// crossing the null sphere 1, the mask sphere (1 − 0.5)² (twice), a square of thin glass 1 − R' at
 /// the segment's angle to it (once), 1 where the segment misses the shape.
 fn expected_transmittance(case: &str, p: Vec3, light: Vec3) -> f64 {
     let d = (light - p).normalize();
-    if case == "pane" {
-        let q = p + d * ((PANE_HEIGHT - p.y) / d.y);
-        let inside = q.x.abs() < PANE_HALF && q.z.abs() < PANE_HALF;
-        return if inside { 1.0 - pane_reflectance(d.y as f64) } else { 1.0 };
+    if let Some((c, u, v)) = pane_frame(case) {
+        let n = u.cross(v);
+        let q = p + d * (n.dot(c - p) / n.dot(d));
+        let inside = (q - c).dot(u).abs() < 0.5 && (q - c).dot(v).abs() < 0.5;
+        return if inside { 1.0 - pane_reflectance(n.dot(d).abs() as f64) } else { 1.0 };
     }
     let t = (SPHERE_CENTER - p).dot(d);
     if (p + d * t - SPHERE_CENTER).length() >= SPHERE_RADIUS {
@@ -125,18 +126,32 @@ fn expected_transmittance(case: &str, p: Vec3, light: Vec3) -> f64 {
     }
 }
 
-const PANE_HEIGHT: f32 = 1.0;
-const PANE_HALF: f32 = 0.5;
+/// A unit square of thin glass between the light and the floor's centre: its centre and unit edges.
+/// `pane` lies flat (the light's segments cross it near its normal), `tilted` is turned 60° about z
+/// (they cross it at about 60° from its normal, where R' is twice what it is straight on).
+fn pane_frame(case: &str) -> Option<(Vec3, Vec3, Vec3)> {
+    let c = Vec3::new(0.0, 1.0, 0.0);
+    let a = 60f32.to_radians();
+    match case {
+        "pane" => Some((c, Vec3::X, Vec3::Z)),
+        "tilted" => Some((c, Vec3::new(a.cos(), -a.sin(), 0.0), Vec3::Z)),
+        _ => None,
+    }
+}
 
 /// The see-through shape of each closed-form case: a null sphere, a black mask sphere of opacity 0.5,
-/// a horizontal square of thin glass (index 1.5) between the light and the floor.
+/// a flat or a tilted square of thin glass (index 1.5).
 fn see_through_shape(case: &str) -> String {
-    match case {
-        "pane" => format!(
-            "[[shapes]]\ntype = \"quad\"\ncorner = [-{PANE_HALF}, {PANE_HEIGHT}, -{PANE_HALF}]\nedge_u = [1.0, 0.0, 0.0]\n\
-             edge_v = [0.0, 0.0, 1.0]\nmaterial = \"pane\"\n"
-        ),
-        _ => sphere(case),
+    match pane_frame(case) {
+        Some((c, u, v)) => {
+            let corner = c - 0.5 * u - 0.5 * v;
+            format!(
+                "[[shapes]]\ntype = \"quad\"\ncorner = [{}, {}, {}]\nedge_u = [{}, {}, {}]\nedge_v = [{}, {}, {}]\n\
+                 material = \"pane\"\n",
+                corner.x, corner.y, corner.z, u.x, u.y, u.z, v.x, v.y, v.z
+            )
+        }
+        None => sphere(case),
     }
 }
 
@@ -171,7 +186,7 @@ fn a_point_lights_shadow_through_see_through_surfaces_is_the_closed_form() {
         let lit = floor_pixels(&plain, 1.1..2.0);
         assert!(core.iter().filter(|k| **k).count() >= 20 && lit.iter().filter(|k| **k).count() >= 50);
         let base = render(&plain);
-        for case in ["holes", "half", "pane"] {
+        for case in ["holes", "half", "pane", "tilted"] {
             let mut expected = 0.0;
             for (i, _) in core.iter().enumerate().filter(|(_, k)| **k) {
                 let p = floor_point(&plain, i as u32 % w, i as u32 / w).unwrap();
@@ -185,8 +200,8 @@ fn a_point_lights_shadow_through_see_through_surfaces_is_the_closed_form() {
             println!(
                 "{mode}, {case}: core {in_core:.4} of the plain floor's (expected {expected:.4}), outside {outside:.4}"
             );
-            // The square's shadow reaches into the ring `lit` at its corners: only its core is held.
-            let outside_off = case != "pane" && (outside - 1.0).abs() > 0.03;
+            // The squares' shadows reach into the ring `lit`: only their core is held.
+            let outside_off = pane_frame(case).is_none() && (outside - 1.0).abs() > 0.03;
             if (in_core / expected - 1.0).abs() > 0.03 || outside_off {
                 failures
                     .push(format!("{mode} {case}: core {in_core:.4} (expected {expected:.4}), outside {outside:.4}"));
