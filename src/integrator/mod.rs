@@ -92,9 +92,9 @@ impl LineOfSight {
     /// The first surface along `ray` that the path scatters at, with the BSDF it scatters by there, and
     /// the light let through on the way: see-through surfaces that let the path straight through (a
     /// null surface, a mask's holes, a thin pane's transmission: `Scene::crossing`) are crossed, each
-    /// multiplying in what it lets through, as no scattering event (the segment stays one, from the ray's origin: the hit's `t` is along `ray`).
-    /// None with the light let through when the ray leaves the scene; zero light when it crosses more
-    /// than `accel::MAX_CROSSINGS` surfaces.
+    /// multiplying in what it lets through, as no scattering event (the segment stays one, from the
+    /// ray's origin: the hit's `t` is along `ray`). None with the light let through when the ray leaves
+    /// the scene; zero light when it crosses more than `accel::MAX_CROSSINGS` surfaces.
     #[inline(always)]
     pub fn trace_through(
         self,

@@ -707,7 +707,7 @@ impl Vcm<'_> {
         let beta0 = max_component(e.phi).max(1e-30);
         let mut ray = e.ray;
         // Distance from the subpath's last vertex to `ray`'s origin: see-through surfaces crossed since
-        // are no vertices (`Scene::passes`).
+        // are no vertices (`Scene::crossing`).
         let (mut travelled, mut crossings) = (0.0f32, 0u32);
         loop {
             c.rays += 1;

@@ -698,7 +698,7 @@ impl Material {
     /// The light a surface of this BSDF lets straight through, unbent and unreflected, when that is all
     /// it does: a thin pane of index 1 (a null surface, `SurfaceMaterial::null`, a mask's holes), its
     /// tint. None for every BSDF that reflects or bends light. A surface that only lets light by is no
-    /// scattering event: paths and shadow rays cross it (`Scene::passes`).
+    /// scattering event: paths and shadow rays cross it (`Scene::crossing`).
     pub fn pass_through(&self) -> Option<Rgb> {
         match self {
             Material::ThinDielectric { ior, tint } if *ior == 1.0 => Some(*tint),
