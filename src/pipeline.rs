@@ -186,15 +186,8 @@ pub fn plan_for(scene: &Scene, tracer: &dyn Tracer) -> Plan {
         r.tmax = 1.0;
         crate::accel::shadow(scene, tracer, &r, b, &mut 0) != crate::color::Rgb::ZERO
     };
-    let first = |mut r: Ray| {
-        for _ in 0..crate::accel::MAX_CROSSINGS {
-            let h = tracer.intersect(&r)?;
-            if !scene.is_see_through(h.shape) {
-                return Some((h.shape, r.at(h.t)));
-            }
-            r = scene.surface(&r, h.shape, h.prim, h.u, h.v, h.t).spawn(r.d);
-        }
-        None
+    let first = |r: Ray| {
+        crate::accel::first_hit_past(scene, tracer, r, |s| scene.is_see_through(s)).map(|(h, r)| (h.shape, r.at(h.t)))
     };
     crate::plan::plan(scene, &Probe { visible: &visible, first_hit: &first })
 }

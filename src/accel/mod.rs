@@ -77,6 +77,25 @@ pub fn transmittance(
     Rgb::ZERO
 }
 
+/// The first hit along `ray` on a shape that `passes` does not walk past, going straight on through
+/// those it does (at most `MAX_CROSSINGS`), with the ray it was found on (its `t` is along that ray).
+/// The probes' view past see-through surfaces: the planner's camera rays, the caustic aim's light rays.
+pub fn first_hit_past(
+    scene: &crate::scene::Scene,
+    tracer: &dyn Tracer,
+    mut ray: Ray,
+    passes: impl Fn(u32) -> bool,
+) -> Option<(Hit, Ray)> {
+    for _ in 0..MAX_CROSSINGS {
+        let h = tracer.intersect(&ray)?;
+        if !passes(h.shape) {
+            return Some((h, ray));
+        }
+        ray = scene.surface(&ray, h.shape, h.prim, h.u, h.v, h.t).spawn(ray.d);
+    }
+    None
+}
+
 /// Whether a shadow ray (as `transmittance` takes it) lets any light through; Embree's occlusion test
 /// alone where no shape is see-through.
 #[inline(always)]

@@ -107,8 +107,7 @@ pub struct Targets {
 
 impl Targets {
     /// Every shape that casts caustics (`Scene::casts_caustics`) is a target, or those of `only` (the
-    /// planner's list); mesh triangles
-    /// probed for what the lights see of them through `tracer`.
+    /// planner's list); mesh triangles probed for what the lights see of them through `tracer`.
     pub fn new(scene: &Scene, tracer: &dyn Tracer, only: Option<&[u32]>) -> Targets {
         let mut shapes = Vec::new();
         for (i, s) in scene.shapes.iter().enumerate() {
@@ -197,22 +196,11 @@ impl Targets {
             if dist.is_nan() || dist <= 0.0 {
                 return false;
             }
-            let mut ray = Ray::new(ls.p, d / dist);
-            // Past see-through surfaces that cast no caustic, as `trace_one` lets aimed photons pass them.
-            for _ in 0..crate::accel::MAX_CROSSINGS {
-                let Some(h) = tracer.intersect(&ray) else {
-                    return false;
-                };
-                let far = (ray.o - ls.p).length() + h.t;
-                if h.shape == shape && far >= dist * (1.0 - 1e-3) {
-                    return true;
-                }
-                if !scene.is_see_through(h.shape) || scene.casts_caustics(h.shape) {
-                    return false;
-                }
-                ray = scene.surface(&ray, h.shape, h.prim, h.u, h.v, h.t).spawn(ray.d);
-            }
-            return false;
+            // Past see-through surfaces that cast no caustic, as `trace_one` lets aimed photons pass them
+            // (a target casts caustics: the walk stops there).
+            let passes = |s: u32| scene.is_see_through(s) && !scene.casts_caustics(s);
+            let first = crate::accel::first_hit_past(scene, tracer, Ray::new(ls.p, d / dist), passes);
+            return first.is_some_and(|(h, r)| h.shape == shape && (r.o - ls.p).length() + h.t >= dist * (1.0 - 1e-3));
         }
         false
     }

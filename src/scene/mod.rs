@@ -371,12 +371,12 @@ impl Scene {
         }
     }
 
-    /// The light a see-through surface lets straight through at `si` for a ray along `dir` (any length), whatever it
-    /// picks there: each material it can be, weighed by how often a blend picks it, its straight
-    /// transmission where it has one (a thin pane's tint·(1 − R'), a null surface's 1) and nothing where
-    /// it has not. A shadow ray is multiplied by it at each crossing: the expectation of what a path's
-    /// own choices there let through, so the strategies' MIS weights, taken without those choices, still
-    /// add up to one.
+    /// The light a see-through surface lets straight through at `si` for a ray along `dir` (of any
+    /// length), whatever it picks there: each material it can be, weighed by how often a blend picks
+    /// it, its straight transmission where it has one (a thin pane's tint·(1 − R'), a null surface's
+    /// 1) and nothing where it has not. A shadow ray is multiplied by it at each crossing: the
+    /// expectation of what a path's own choices there let through, so the strategies' MIS weights,
+    /// taken without those choices, still add up to one.
     pub fn transmittance_at(&self, si: &SurfaceHit, dir: Vec3) -> Rgb {
         // A pane's R' reads the cosine to its normal: `dir` (a shadow ray's, target − origin) as a unit.
         self.leaf_transmittance(self.shapes[si.shape as usize].material, si, -dir.normalize())
