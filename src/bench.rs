@@ -105,6 +105,8 @@ pub fn plan(path: &Path, user_sets: &[String]) -> Result<()> {
 struct Recorder<'a> {
     inner: &'a Accel,
     rays: std::sync::Mutex<Vec<Ray>>,
+    /// Shadow-ray queries (`occluded`), counted, not replayed.
+    occluded: std::sync::atomic::AtomicU64,
 }
 
 impl Tracer for Recorder<'_> {
@@ -115,6 +117,7 @@ impl Tracer for Recorder<'_> {
         self.inner.intersect(ray)
     }
     fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         self.inner.occluded(ray)
     }
 }
@@ -137,18 +140,28 @@ pub fn photons(path: &Path, photons: u64, sets: &[String]) -> Result<()> {
     // Every ray the pipeline traced: photon path segments and the probes that aim caustic photons.
     let segments: u64 = passes.iter().flatten().map(|p| p.segments).sum::<u64>() + maps.stats.aim_rays;
     let trace_s = maps.stats.trace_seconds();
-    let rec = Recorder { inner: &accel, rays: std::sync::Mutex::new(Vec::new()) };
+    // The glossy caustics' links to the camera are shadow rays (through see-through surfaces, closest
+    // hits): counted apart, not replayed, and not credited to photon tracing's rays per second.
+    let camera_rays: u64 = passes.iter().flatten().map(|p| p.camera_rays).sum();
+    let rec = Recorder { inner: &accel, rays: std::sync::Mutex::new(Vec::new()), occluded: Default::default() };
     pool.install(|| build_maps(&scene, &rec, &req, true))?;
+    let occluded = rec.occluded.load(std::sync::atomic::Ordering::Relaxed);
     let rays = rec.rays.into_inner().map_err(|_| anyhow::anyhow!("recorder poisoned"))?;
     // The two runs are the same deterministic work: the rays we count are the rays the baseline replays.
-    if rays.len() as u64 != segments {
-        anyhow::bail!("photon tracing counted {segments} rays but traced {} (accounting bug)", rays.len());
+    if rays.len() as u64 + occluded != segments + camera_rays {
+        anyhow::bail!(
+            "photon tracing counted {segments} rays and {camera_rays} rays linking glossy caustics to the camera but \
+             traced {} closest hits and {occluded} shadow rays (accounting bug)",
+            rays.len()
+        );
     }
+    // Both sides count the same closest-hit rays: the photons' segments, the aiming probes and the
+    // links' walks past see-through surfaces; the links' `occluded` queries are uncredited extra work.
     let prepared = Accel::prepare_single(&rays);
     let t = Instant::now();
     let hits = accel.raw_intersect1(&prepared);
     let raw_s = t.elapsed().as_secs_f64();
-    let ours = segments as f64 / trace_s;
+    let ours = rays.len() as f64 / trace_s;
     let bare = rays.len() as f64 / raw_s;
     println!(
         "scene {}: {} photons stored, {} shot, {} rays traced (segments and aiming probes) in {:.3} s (1 thread)",

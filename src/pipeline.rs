@@ -247,7 +247,7 @@ pub fn render_photon_map_share(
         pm.cache = RadianceCache::build(scene, tracer, maps, &pm.gather, scene.render.gather.cache_stride);
     }
     let cam = &scene.camera;
-    render_share(
+    let mut out = render_share(
         cam,
         scene.render.pm_spp,
         scene.render.sampler,
@@ -256,7 +256,18 @@ pub fn render_photon_map_share(
         "eye pass",
         quiet,
         |x, y, rng, c: &mut Counters| pm.li(cam.sample_ray(x, y, rng), rng, c),
-    )
+    );
+    // The caustic pass's light-traced glossy caustics, on the pixels this share renders (weighted as
+    // its samples are, so that shares add up).
+    if let (Some(g), None | Some(CAUSTIC)) = (&maps.glossy, only) {
+        let sums = &mut out.sums;
+        for ((sum, &w), v) in sums.sum.iter_mut().zip(&sums.weight).zip(&g.pixels) {
+            for k in 0..3 {
+                sum[k] += v[k] as f64 * w;
+            }
+        }
+    }
+    out
 }
 
 fn parse_map(name: &str) -> Result<Vec<usize>> {

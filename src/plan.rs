@@ -114,8 +114,14 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
         }
     }
     // Caustic photons are stored only where a surface holds photons (diffuse, a plastic's base). The
-    // targets stay: VCM's light subpaths aim at them too.
+    // targets stay: VCM's light subpaths aim at them too. A point, spot or distant light's caustics on a
+    // glossy surface (rough metal or glass, a principled surface, a rough plastic's coat) are traced by
+    // the caustic pass too, to the camera: nothing else finds them.
     let any_holder = (0..scene.shapes.len()).any(holds);
+    let delta_light =
+        scene.lights.list.iter().any(|l| matches!(l, LightKind::Point { .. } | LightKind::Distant { .. }));
+    let glossy = (0..scene.shapes.len()).any(|s| scene.has_unheld_glossy_lobe(s as u32));
+    let glossy_caustics = delta_light && glossy && targets.iter().any(|&t| scene.has_delta_lobe(t));
     // A caustic or indirect photon bounced before it landed: its path and its gather are at least two
     // scattering events, which `render.max_depth` 1 never counts (the photons would be traced, never
     // stored, until the shot budget ran out).
@@ -127,10 +133,17 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     } else if r.force_all_passes || (!targets.is_empty() && any_holder) {
         reasons.push(format!("caustic map: {} specular shape(s) lit by a light", targets.len()));
         r.photons.caustic
+    } else if glossy_caustics {
+        reasons.push(format!(
+            "caustic photons, no map: {} specular shape(s) lit by a point, spot or distant light, whose caustics \
+             on glossy surfaces are traced to the camera (no surface holds photons)",
+            targets.len()
+        ));
+        r.photons.caustic
     } else if !targets.is_empty() {
         reasons.push(
-            "no caustic map: no surface holds photons (every one is specular or glossy: the eye pass's own paths \
-             find the light)"
+            "no caustic map: no surface holds photons (every one is specular or glossy, and no mirror or glass \
+             lit by a point, spot or distant light: the eye pass's own paths find the light)"
                 .into(),
         );
         0

@@ -288,3 +288,18 @@ fn time_vs_error_sweep_and_reference_overrides_reach_only_their_side() {
     assert!(err.contains("reference size differs"), "{err}");
     assert_eq!(files(&d.join("tve").join("ref")).len(), 8, "a second reference for the --ref-set");
 }
+
+/// `bench photons` replays every ray photon tracing traced, and refuses to report when the two counts
+/// differ. On `spotlight` (spot lights, which face away from some of the points the caustic aim
+/// probes, and a rough gold ring that the caustic pass light-traces the spot's caustic from) it
+/// refused: the aim counted a probe ray for every probe, also those whose light samples all faced away
+/// and traced none (20,897 rays too many, at any photon count). Both sides now count the rays traced,
+/// the links to the camera apart.
+#[test]
+fn bench_photons_counts_the_rays_it_traces() {
+    let d = dir("bench-photons");
+    let spot = scene("spotlight.toml");
+    let (code, out, err) = caustica(&["bench", "photons", spot.as_str(), "--photons", "20000"], &d);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(out.contains("ratio"), "{out}");
+}

@@ -215,6 +215,55 @@ pub fn camera_sees(
     crate::accel::transmittance(scene, tracer, &ray, lens, |shape| emits(scene, shape), &mut c.rays)
 }
 
+/// Light tracing's link to the camera: the light `beta` (a light subpath's throughput, a photon's
+/// power) arriving at `si` from `wo`, scattered by `mat` towards lens point `lens` (the pinhole for a
+/// pinhole camera), splatted with `add(pixel, value)` where it lands on the film, times `weight` of
+/// the link and divided by `norm` (the light paths it is one of). `weight` gets the unit direction to
+/// the lens and the density (per unit area at `si`) with which a camera path would reach `si`; a
+/// weight of 0 casts no ray. The lens point's density, 1 / (π r²), is the same for every strategy and
+/// cancels against the aperture's area in the camera's importance, so neither appears.
+#[allow(clippy::too_many_arguments)]
+pub fn link_to_camera(
+    scene: &crate::scene::Scene,
+    tracer: &dyn crate::accel::Tracer,
+    si: &crate::scene::SurfaceHit,
+    wo: glam::Vec3,
+    mat: &crate::scene::Material,
+    beta: crate::color::Rgb,
+    lens: glam::Vec3,
+    norm: f32,
+    c: &mut Counters,
+    weight: impl FnOnce(glam::Vec3, f32) -> f32,
+    mut add: impl FnMut(u32, crate::color::Rgb),
+) {
+    let cam = &scene.camera;
+    let Some((px, py)) = cam.film_position_from(lens, si.p) else {
+        return;
+    };
+    let to_cam = lens - si.p;
+    let dist2 = to_cam.length_squared();
+    let dir = to_cam / dist2.sqrt();
+    if !si.can_scatter(mat, wo, dir) {
+        return;
+    }
+    let f = si.scatter_light(mat, wo, dir);
+    if f == crate::color::Rgb::ZERO {
+        return;
+    }
+    let pdf_dir = cam.pixel_pdf_dir(-dir);
+    let w = weight(dir, pdf_dir * dir.dot(si.ng).abs() / dist2);
+    if w == 0.0 {
+        return;
+    }
+    c.rays += 1;
+    let seen = camera_sees(scene, tracer, si, lens, c);
+    if seen == crate::color::Rgb::ZERO {
+        return;
+    }
+    let val = beta * f * seen * (w * pdf_dir / dist2 / norm);
+    cam.splat(px, py, |pixel, w| add(pixel, if w == 1.0 { val } else { val * w }));
+}
+
 /// What a chain of non-diffuse bounces counts on its way, besides the diffuse hit it ends at.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ChainLight {

@@ -21,6 +21,10 @@ use std::cell::RefCell;
 /// The built maps (None = not built) and what it took.
 pub struct PhotonMaps {
     pub maps: [Option<PhotonMap>; 3],
+    /// The caustic pass's light-traced caustics of delta lights on glossy surfaces, per pixel (radiance,
+    /// to be added to the eye pass's estimate: `PassSettings::glossy_splats`); None without a caustic
+    /// pass or without any such light reaching the film.
+    pub glossy: Option<Image>,
     pub stats: MapsStats,
 }
 
@@ -100,6 +104,7 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
     let mut maps: [Option<PhotonMap>; 3] = Default::default();
     let t0 = std::time::Instant::now();
     let mut collected: [Option<crate::photon::trace::MapPhotons>; 3] = Default::default();
+    let holds = (0..scene.shapes.len() as u32).any(|s| scene.holds_photons(s));
     if req.want[DIRECT] + req.want[INDIRECT] > 0 {
         let want = [req.want[DIRECT], req.want[INDIRECT], 0];
         let s = PassSettings {
@@ -111,6 +116,7 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
                 .unwrap_or_else(|| want.iter().max().copied().unwrap_or(0).saturating_mul(ps.max_shots_factor)),
             seed: scene.render.seed,
             pass: 1 + 2 * req.key,
+            glossy_splats: false,
         };
         let pb = bar(want[DIRECT].saturating_add(want[INDIRECT]), "photons: direct+indirect");
         let (m, st) = run_pass(scene, tracer, &s, None, &pb);
@@ -134,15 +140,19 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
             }
         };
         let targeted = req.targeted && !targets.is_empty();
+        // With no surface to hold them, caustic photons are traced for their glossy caustics alone: as
+        // many shots as photons asked for (a count of stored photons would never be reached).
+        let shots = req.shots.or((!holds).then_some(req.want[CAUSTIC]));
         let s = PassSettings {
-            want: [0, 0, if req.shots.is_some() { u64::MAX } else { req.want[CAUSTIC] }],
+            want: [0, 0, if shots.is_some() { u64::MAX } else { req.want[CAUSTIC] }],
             max_depth: scene.render.max_depth,
             rr_depth: scene.render.rr_depth,
-            max_shots: req.shots.unwrap_or_else(|| req.want[CAUSTIC].saturating_mul(ps.max_shots_factor)),
+            max_shots: shots.unwrap_or_else(|| req.want[CAUSTIC].saturating_mul(ps.max_shots_factor)),
             seed: scene.render.seed,
             pass: 2 + 2 * req.key,
+            glossy_splats: true,
         };
-        let pb = bar(req.want[CAUSTIC], "photons: caustic");
+        let pb = bar(req.want[CAUSTIC], if holds { "photons: caustic" } else { "photons: caustic (shots)" });
         let (m, st) = run_pass(scene, tracer, &s, targeted.then_some(targets), &pb);
         pb.finish_and_clear();
         let [_, _, c] = m;
@@ -152,9 +162,14 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
     }
     let trace_s = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
+    let mut glossy = None;
     for (i, c) in collected.into_iter().enumerate() {
-        if let Some(c) = c {
-            if !c.complete && req.shots.is_none() {
+        if let Some(mut c) = c {
+            if !c.splats.is_empty() {
+                glossy = Some(splat_image(scene, &std::mem::take(&mut c.splats), c.n_emitted));
+            }
+            // (A caustic pass with nothing to hold its photons shoots a count, not to a count.)
+            if !c.complete && req.shots.is_none() && (i != CAUSTIC || holds) {
                 eprintln!(
                     "warning: the {} map got {} photons of {} requested before the shot budget ran out ({} shot)",
                     MAP_NAMES[i],
@@ -173,7 +188,24 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
     }
     stats.build_seconds = t1.elapsed().as_secs_f64();
     stats.photons_per_second = stats.stored.iter().sum::<u64>() as f64 / trace_s.max(1e-9);
-    Ok(PhotonMaps { maps, stats })
+    Ok(PhotonMaps { maps, glossy, stats })
+}
+
+/// Light-tracing splats (pixel, value) of `n_emitted` photons as a radiance image.
+fn splat_image(scene: &Scene, splats: &[(u32, Rgb)], n_emitted: u64) -> Image {
+    let cam = &scene.camera;
+    let mut sum = vec![[0.0f64; 3]; cam.width as usize * cam.height as usize];
+    for &(px, v) in splats {
+        for k in 0..3 {
+            sum[px as usize][k] += v[k] as f64;
+        }
+    }
+    let mut img = Image::new(cam.width, cam.height);
+    let n = n_emitted.max(1) as f64;
+    for (o, s) in img.pixels.iter_mut().zip(&sum) {
+        *o = Rgb::new((s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32);
+    }
+    img
 }
 
 thread_local! {

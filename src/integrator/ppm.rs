@@ -105,7 +105,13 @@ pub fn ppm_pass(
     let cam = &scene.camera;
     // Each pass is one eye sample per pixel with its own scramble (passes must stay independent).
     let (sampler, seed) = (scene.render.sampler, pass_seed(scene.render.seed, i));
-    let out = render(cam, 1, sampler, seed, "eye pass", true, |x, y, rng, c| pm.li(cam.sample_ray(x, y, rng), rng, c));
+    let mut out =
+        render(cam, 1, sampler, seed, "eye pass", true, |x, y, rng, c| pm.li(cam.sample_ray(x, y, rng), rng, c));
+    if let Some(g) = &maps.glossy {
+        for (o, v) in out.image.pixels.iter_mut().zip(&g.pixels) {
+            *o += *v;
+        }
+    }
     let record = PassRecord {
         pass: i,
         seconds: t0.elapsed().as_secs_f64(),

@@ -147,8 +147,10 @@ impl<'a> Sppm<'a> {
             .zip(&camera)
             .enumerate()
             .map(|(k, (px, (l, vp, _)))| {
+                // The iteration's light-traced glossy caustics count as light its camera path found.
+                let glossy = maps.glossy.as_ref().map_or(Rgb::ZERO, |g| g.pixels[k]);
                 for c in 0..3 {
-                    px.ld[c] += l[c] as f64;
+                    px.ld[c] += l[c] as f64 + glossy[c] as f64;
                 }
                 let Some(vp) = vp else {
                     px.discs += 1.0;

@@ -113,8 +113,7 @@ impl LightVertex {
     /// The adjoint BSDF at the vertex scattering the arriving light towards `dir`, times |cos θ| there
     /// (Veach's shading-normal correction included).
     fn f_to(&self, dir: Vec3) -> Rgb {
-        self.mat.eval(self.wo, dir, self.si.ns, TransportMode::Importance)
-            * (self.si.shading_correction(self.wo, dir) * dir.dot(self.si.ns).abs())
+        self.si.scatter_light(&self.mat, self.wo, dir)
     }
 }
 
@@ -840,47 +839,34 @@ impl Vcm<'_> {
     }
 
     /// Light tracing (t = 1): the light vertex seen from lens point `lens` (the pinhole for a pinhole
-    /// camera), splatted where it lands on the film. The lens point's density, 1 / (π r²), is the same
-    /// for every strategy and cancels against the aperture's area in the camera's importance, so neither
-    /// appears.
+    /// camera), splatted where it lands on the film (`link_to_camera`).
     fn connect_to_camera(&self, lv: &LightVertex, lens: Vec3, splats: &mut Vec<(u32, Rgb)>, c: &mut Counters) {
         let it = &self.it;
         let (s, t) = (lv.len + 1, 1);
         if lv.len + 1 > it.max_len {
             return;
         }
-        let cam = &self.scene.camera;
-        let Some((px, py)) = cam.film_position_from(lens, lv.si.p) else {
-            return;
+        let weight = |dir: Vec3, camera_pdf_a: f32| {
+            it.weight(s, t, || {
+                let rev = lv.mat.pdf(dir, lv.wo, lv.si.ns);
+                let w_light = camera_pdf_a / it.n_paths * (lv.vm + lv.d_vcm + lv.d_vc * rev);
+                1.0 / (w_light + 1.0)
+            })
         };
-        let to_cam = lens - lv.si.p;
-        let dist2 = to_cam.length_squared();
-        let dir = to_cam / dist2.sqrt();
-        if !lv.si.can_scatter(&lv.mat, lv.wo, dir) {
-            return;
-        }
-        let f = lv.f_to(dir);
-        if f == Rgb::ZERO {
-            return;
-        }
-        // Density (per unit area at the vertex) with which a camera subpath reaches it.
-        let pdf_dir = cam.pixel_pdf_dir(-dir);
-        let camera_pdf_a = pdf_dir * cos_g(&lv.si, dir) / dist2;
-        let w = it.weight(s, t, || {
-            let rev = lv.mat.pdf(dir, lv.wo, lv.si.ns);
-            let w_light = camera_pdf_a / it.n_paths * (lv.vm + lv.d_vcm + lv.d_vc * rev);
-            1.0 / (w_light + 1.0)
-        });
-        if w == 0.0 {
-            return;
-        }
-        c.rays += 1;
-        let seen = super::camera_sees(self.scene, self.tracer, &lv.si, lens, c);
-        if seen == Rgb::ZERO {
-            return;
-        }
-        let val = lv.beta * f * seen * (w * pdf_dir / dist2 / it.n_paths);
-        cam.splat(px, py, |pixel, w| splats.push((pixel, if w == 1.0 { val } else { val * w })));
+        let add = |pixel, val| splats.push((pixel, val));
+        super::link_to_camera(
+            self.scene,
+            self.tracer,
+            &lv.si,
+            lv.wo,
+            &lv.mat,
+            lv.beta,
+            lens,
+            it.n_paths,
+            c,
+            weight,
+            add,
+        );
     }
 
     /// One camera subpath through film position `film`, paired with light subpath `k`.

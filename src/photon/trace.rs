@@ -12,6 +12,7 @@ use crate::accel::Tracer;
 use crate::color::Rgb;
 use crate::math::{face_forward, max_component, offset_ray_origin, sampling, Ray, Rng};
 use crate::photon::photon::{with_events, Photon};
+use crate::scene::light::LightKind;
 use crate::scene::{Geometry, Scene, TransportMode};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -35,6 +36,9 @@ pub struct MapPhotons {
     pub n_emitted: u64,
     /// False when the shot budget ran out before the requested count was reached.
     pub complete: bool,
+    /// Light-tracing splats (pixel, value; power not yet divided by `n_emitted`) of the photons shot for
+    /// this map, in the order shot: the caustic pass's glossy caustics (`PassSettings::glossy_splats`).
+    pub splats: Vec<(u32, Rgb)>,
 }
 
 /// A photon as the tracer keeps it: position and compact payload (what the k-d tree stores).
@@ -48,6 +52,7 @@ impl MapPhotons {
             photons: photons.iter().map(|p| (with_events(p.p.to_array(), 0), p.payload())).collect(),
             n_emitted,
             complete: true,
+            splats: Vec::new(),
         }
     }
 }
@@ -58,6 +63,9 @@ pub struct PassStats {
     pub shot: u64,
     /// Rays traced, also those of batches traced past the point where the maps filled up.
     pub segments: u64,
+    /// Rays of the glossy caustics' links to the camera (`PassSettings::glossy_splats`; shadow rays,
+    /// not in `segments`).
+    pub camera_rays: u64,
     pub seconds: f64,
     pub budget_exhausted: bool,
 }
@@ -109,6 +117,9 @@ impl Targets {
     /// Every shape that casts caustics (`Scene::casts_caustics`) is a target, or those of `only` (the
     /// planner's list); mesh triangles probed for what the lights see of them through `tracer`.
     pub fn new(scene: &Scene, tracer: &dyn Tracer, only: Option<&[u32]>) -> Targets {
+        // The probes' rays, counted as traced (a probe whose light samples all face away traces none;
+        // one past see-through surfaces traces several).
+        let tracer = &CountingTracer { inner: tracer, rays: Default::default() };
         let mut shapes = Vec::new();
         for (i, s) in scene.shapes.iter().enumerate() {
             let excluded = only.is_some_and(|o| !o.contains(&(i as u32)));
@@ -118,11 +129,13 @@ impl Targets {
             shapes.push(i as u32);
         }
         let probing = !scene.lights.is_empty();
-        let (triangles, spheres) =
-            shapes.iter().fold((0usize, 0usize), |(t, n), &s| match &scene.shapes[s as usize].geometry {
-                Geometry::Mesh(m) => (t + m.indices.len(), n),
-                Geometry::Sphere { .. } => (t, n + 1),
-            });
+        let triangles: usize = shapes
+            .iter()
+            .map(|&s| match &scene.shapes[s as usize].geometry {
+                Geometry::Mesh(m) => m.indices.len(),
+                Geometry::Sphere { .. } => 0,
+            })
+            .sum();
         let per_triangle = (AIM_PROBE_RAYS / triangles.max(1)).clamp(1, AIM_PROBES);
         // Per target shape, per element (triangle, or the whole sphere): (area, fraction seen).
         let elements: Vec<Vec<(f32, f32)>> = shapes
@@ -167,7 +180,7 @@ impl Targets {
         let seen: f64 = elements.iter().flatten().map(|e| e.0 as f64 * e.1 as f64).sum();
         let a = if seen > 0.0 { AIM_BY_AREA as f64 } else { 1.0 };
         let density = |v: f32| (1.0 - a) * v as f64 / seen.max(f64::MIN_POSITIVE) + a / area;
-        let probe_rays = if probing { (triangles * per_triangle + spheres * AIM_PROBES) as u64 } else { 0 };
+        let probe_rays = tracer.rays.load(std::sync::atomic::Ordering::Relaxed);
         let mut t = Targets { shapes, probe_rays, ..Targets::none() };
         let mut total = 0.0f64;
         for (els, &shape) in elements.iter().zip(&t.shapes) {
@@ -228,6 +241,23 @@ impl Targets {
     }
 }
 
+/// A tracer that counts the rays it is asked to trace.
+struct CountingTracer<'a> {
+    inner: &'a dyn Tracer,
+    rays: std::sync::atomic::AtomicU64,
+}
+
+impl Tracer for CountingTracer<'_> {
+    fn intersect(&self, ray: &Ray) -> Option<crate::accel::Hit> {
+        self.rays.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.inner.intersect(ray)
+    }
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.rays.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.inner.occluded(ray)
+    }
+}
+
 /// Settings of one tracing pass.
 pub struct PassSettings {
     /// Requested stored photons per map (0 = map not built in this pass).
@@ -241,6 +271,13 @@ pub struct PassSettings {
     pub seed: u64,
     /// Distinguishes the random streams of different passes.
     pub pass: u64,
+    /// Light-trace the caustics of point, spot and distant lights on glossy surfaces to the camera
+    /// (the caustic pass): a photon from such a light whose every bounce so far was a mirror or glass
+    /// (one at least) and that meets a glossy lobe no photon is stored for (rough metal, rough glass, a
+    /// principled surface, a rough plastic's coat) is splatted onto the film from there. Nothing else
+    /// finds that light: a camera path's light samples and BSDF samples never reach a point light
+    /// through a mirror, and photons are gathered on diffuse surfaces only.
+    pub glossy_splats: bool,
 }
 
 /// One photon's flight: where it starts, with what power, and (targeted emission) which surface it was
@@ -249,8 +286,16 @@ struct Launch {
     ray: Ray,
     phi: Rgb,
     aim: Option<(u32, f32)>,
+    /// From a point, spot or distant light (a delta light: no camera path's BSDF sample finds it).
+    delta: bool,
 }
 
+/// Whether light `li` is a point (or spot) or distant light.
+fn is_delta_light(scene: &Scene, li: usize) -> bool {
+    matches!(scene.lights.list[li], LightKind::Point { .. } | LightKind::Distant { .. })
+}
+
+#[allow(clippy::too_many_arguments)]
 fn trace_one(
     scene: &Scene,
     tracer: &dyn Tracer,
@@ -258,12 +303,16 @@ fn trace_one(
     rng: &mut Rng,
     s: &PassSettings,
     out: &mut [Vec<Stored>; 3],
+    splats: &mut Vec<(u32, Rgb)>,
     segs: &mut u64,
+    camera_rays: &mut u64,
 ) {
     let (mut ray, mut phi) = (l.ray, l.phi);
     let phi_launch = max_component(l.phi);
     let mut diffuse_bounces = 0u32;
     let mut specular_bounces = 0u32;
+    // Every bounce so far a delta lobe (mirror, glass, a smooth coat), from a delta light.
+    let mut delta_chain = l.delta;
     // An aimed photon must arrive at its target (shape, distance left) first, see-through surfaces
     // whose pick lets it by apart.
     let mut aim = l.aim;
@@ -319,6 +368,26 @@ fn trace_one(
             ray = si.spawn(ray.d);
         };
         let last = depth + 1 >= s.max_depth;
+        if s.glossy_splats && delta_chain && specular_bounces > 0 {
+            if let Some(lobe) = mat.unheld_glossy_lobe() {
+                let lens = scene.camera.sample_lens(rng);
+                let (add, mut c) = (|pixel, val| splats.push((pixel, val)), Default::default());
+                crate::integrator::link_to_camera(
+                    scene,
+                    tracer,
+                    &si,
+                    wo,
+                    &lobe,
+                    phi,
+                    lens,
+                    1.0,
+                    &mut c,
+                    |_, _| 1.0,
+                    add,
+                );
+                *camera_rays += c.rays;
+            }
+        }
         // Stored where the surface can hold photons, also where a blend picked a mirror or glass for
         // this photon's next bounce.
         if mat.holds_photons() || scene.blend_offers(&si, wo, |m| m.holds_photons()) {
@@ -341,6 +410,7 @@ fn trace_one(
             };
             phi *= bs.weight / p;
             diffuse_bounces += 1;
+            delta_chain = false;
             ray = next;
             continue;
         }
@@ -372,11 +442,13 @@ fn trace_one(
             }
             phi *= bs.weight / q;
             diffuse_bounces += 1;
+            delta_chain = false;
             ray = next;
             continue;
         }
         phi *= bs.weight;
         specular_bounces += 1;
+        delta_chain &= bs.delta;
         if specular_bounces >= s.rr_depth {
             let Some(q) = sampling::russian_roulette(max_component(phi) / phi_launch, rng.next_f32()) else {
                 return;
@@ -419,7 +491,7 @@ fn store(
 /// Uniform emission from the lights (power-weighted choice, then position and direction on the light).
 fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
     let e = scene.lights.emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d())?;
-    Some(Launch { ray: e.ray, phi: e.phi, aim: None })
+    Some(Launch { ray: e.ray, phi: e.phi, aim: None, delta: is_delta_light(scene, e.light) })
 }
 
 /// Emission aimed at a point drawn on the specular targets (by `Targets`' density). The power is the
@@ -438,7 +510,8 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
         let (shape, y, ny, inv_p) = targets.sample(scene, u_sel, u_tri, u);
         let far = lights.beyond_scene(y);
         let phi = s.li * (ny.dot(s.wi).abs() * inv_p / (s.pdf * p_sel));
-        return Some(Launch { ray: Ray::new(y + s.wi * far, -s.wi), phi, aim: Some((shape, far)) });
+        let delta = is_delta_light(scene, li);
+        return Some(Launch { ray: Ray::new(y + s.wi * far, -s.wi), phi, aim: Some((shape, far)), delta });
     }
     let lp = lights.sample_point(scene, li, rng.next_2d())?;
     let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());
@@ -462,8 +535,12 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     let phi = lp.le * (falloff * cos_x * cos_y / dist2 * inv_p / (lp.pdf_area * p_sel));
     let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w, lp.size) };
     let travelled = (o - lp.p).length();
-    Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)) })
+    Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)), delta: is_delta_light(scene, li) })
 }
+
+/// What a batch of photons left: each map's photons, the glossy caustics' splats, where the batch
+/// ended, and its rays (photon segments, links to the camera).
+type BatchOut = ([Vec<Stored>; 3], Vec<(u32, Rgb)>, u64, [u64; 2]);
 
 /// Runs one pass until every wanted map has its photons or `max_shots` photons were shot.
 pub fn run_pass(
@@ -490,13 +567,14 @@ pub fn run_pass(
     let mut next = 0u64;
     while done.iter().any(|d| !d) && next < s.max_shots {
         let batches = (threads * 4).max(1);
-        let results: Vec<([Vec<Stored>; 3], u64, u64)> = (0..batches)
+        let results: Vec<BatchOut> = (0..batches)
             .into_par_iter()
             .map(|b| {
                 let start = (next + b * BATCH).min(s.max_shots);
                 let end = (start + BATCH).min(s.max_shots);
                 let mut out: [Vec<Stored>; 3] = Default::default();
-                let mut segs = 0u64;
+                let mut splats = Vec::new();
+                let (mut segs, mut camera_rays) = (0u64, 0u64);
                 for i in start..end {
                     let mut rng = Rng::new(s.seed, s.pass, i);
                     let launch = match targets {
@@ -504,18 +582,23 @@ pub fn run_pass(
                         None => launch_uniform(scene, &mut rng),
                     };
                     if let Some(l) = launch {
-                        trace_one(scene, tracer, l, &mut rng, s, &mut out, &mut segs);
+                        trace_one(scene, tracer, l, &mut rng, s, &mut out, &mut splats, &mut segs, &mut camera_rays);
                     }
                 }
-                (out, end, segs)
+                (out, splats, end, [segs, camera_rays])
             })
             .collect();
         // Every batch was traced, also those past the point where the maps filled up (their photons
         // are dropped so that the maps do not depend on the thread count): all their rays count.
-        stats.segments += results.iter().map(|r| r.2).sum::<u64>();
-        for (out, end, _) in results {
+        stats.segments += results.iter().map(|r| r.3[0]).sum::<u64>();
+        stats.camera_rays += results.iter().map(|r| r.3[1]).sum::<u64>();
+        for (out, splats, end, _) in results {
             if end <= next {
                 continue;
+            }
+            // The splats belong to the caustic map's shots (the only pass that makes them).
+            if !done[CAUSTIC] {
+                maps[CAUSTIC].splats.extend_from_slice(&splats);
             }
             for (m, photons) in out.into_iter().enumerate() {
                 if done[m] {
@@ -534,8 +617,10 @@ pub fn run_pass(
             }
         }
         // Each map counts up to what it wants, so the bar reaches 100% exactly when the pass is done.
+        // (A pass that shoots a count instead, every map unbounded, counts its shots.)
         let stored: u64 = maps.iter().zip(s.want).map(|(m, w)| (m.photons.len() as u64).min(w)).sum();
-        progress.set_position(stored.min(progress.length().unwrap_or(u64::MAX)));
+        let shooting = s.want.iter().all(|&w| w == 0 || w == u64::MAX);
+        progress.set_position(if shooting { next } else { stored }.min(progress.length().unwrap_or(u64::MAX)));
     }
     stats.shot = next;
     stats.budget_exhausted = done.iter().any(|d| !d);

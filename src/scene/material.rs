@@ -687,6 +687,16 @@ impl Material {
         }
     }
 
+    /// Whether the BSDF has a delta lobe that bends or mirrors light: a mirror, smooth glass, a thin
+    /// pane's reflection, a smooth plastic's coat (a null surface's straight crossing is none).
+    pub fn has_delta_lobe(&self) -> bool {
+        match self {
+            Material::Plastic { rough: None, specular, .. } => *specular != Rgb::ZERO,
+            Material::ThinDielectric { ior, .. } => *ior != 1.0,
+            m => m.is_delta(),
+        }
+    }
+
     /// A thin pane (a null surface, `SurfaceMaterial::null`, is one of index 1): what it transmits goes
     /// on unbent, so what the camera sees through it, it sees along its own line of sight
     /// (`render.hide_emitters` hides it there, as Mitsuba, whose thin dielectric's transmission is a
@@ -734,6 +744,19 @@ impl Material {
     /// (its base). The others are only passed through.
     pub fn holds_photons(&self) -> bool {
         matches!(self, Material::Diffuse { .. } | Material::Plastic { .. })
+    }
+
+    /// The part of the BSDF that scatters light from a glossy lobe no photon is stored for: a rough
+    /// metal's, rough glass's or principled surface's whole BSDF, a rough plastic's coat (its base holds
+    /// photons); None for diffuse surfaces, smooth plastics and delta BSDFs. The photon-mapping eye
+    /// passes follow camera rays through such lobes by sampling, so what lands there from a delta light
+    /// by mirrors and glass alone reaches the film only by light tracing (the photon tracer's
+    /// `PassSettings::glossy_splats`).
+    pub fn unheld_glossy_lobe(&self) -> Option<Material> {
+        if self.holds_photons() {
+            return self.coat_lobe();
+        }
+        (!self.is_delta()).then_some(*self)
     }
 
     /// A plastic's probability of sampling its mirror lobe for a path arriving along `wo` (Mitsuba's

@@ -255,6 +255,14 @@ impl SurfaceHit {
         }
         wo.dot(self.ns).abs() * wi.dot(self.ng).abs() / den
     }
+
+    /// The adjoint BSDF of `mat` here scattering light that arrived from `wo` towards `dir`, times
+    /// |cos θ| at `dir` (Veach's shading-normal correction included): what a light path carries on
+    /// towards `dir`, per unit of its throughput.
+    pub fn scatter_light(&self, mat: &Material, wo: Vec3, dir: Vec3) -> Rgb {
+        mat.eval(wo, dir, self.ns, TransportMode::Importance)
+            * (self.shading_correction(wo, dir) * dir.dot(self.ns).abs())
+    }
 }
 
 /// Feeds the exact bits of each vector (x, y, z, little-endian) into a content hash.
@@ -373,8 +381,8 @@ impl Scene {
 
     /// The light a see-through surface lets straight through at `si` for a ray along `dir` (of any
     /// length), whatever it picks there: each material it can be, weighed by how often a blend picks
-    /// it, its straight transmission where it has one (a thin pane's tint·(1 − R'), a null surface's
-    /// 1) and nothing where it has not. A shadow ray is multiplied by it at each crossing: the
+    /// it, its straight transmission where it has one (a thin pane's tint·(1 − R'), all of it for a
+    /// null surface) and nothing where it has not. A shadow ray is multiplied by it at each crossing: the
     /// expectation of what a path's own choices there let through, so the strategies' MIS weights,
     /// taken without those choices, still add up to one.
     pub fn transmittance_at(&self, si: &SurfaceHit, dir: Vec3) -> Rgb {
@@ -421,6 +429,19 @@ impl Scene {
     /// a path can be connected to.
     pub fn material_keeps_light_vertices(&self, material: u32) -> bool {
         self.any_leaf(material, &mut |m| !m.bsdf.is_delta())
+    }
+
+    /// Whether some material a hit on `shape` can be mirrors or bends light by a delta lobe
+    /// (`Material::has_delta_lobe`).
+    pub fn has_delta_lobe(&self, shape: u32) -> bool {
+        self.any_leaf(self.shapes[shape as usize].material, &mut |m| m.bsdf.has_delta_lobe())
+    }
+
+    /// Whether some material a hit on `shape` can be has a glossy lobe that holds no photons (rough
+    /// metal or glass, a principled surface, a rough plastic's coat): where the photon mappers
+    /// light-trace the caustics of delta lights to the camera.
+    pub fn has_unheld_glossy_lobe(&self, shape: u32) -> bool {
+        self.any_leaf(self.shapes[shape as usize].material, &mut |m| m.bsdf.unheld_glossy_lobe().is_some())
     }
 
     /// Whether photons can be held on `shape`: some material a hit on it can be holds them.

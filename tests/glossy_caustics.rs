@@ -1,0 +1,130 @@
+//! Caustics of point, spot and distant lights on glossy surfaces. Photons are stored on diffuse
+//! surfaces (and a plastic's base) only; the photon mappers' eye passes follow a camera ray through a
+//! glossy lobe (rough metal or glass, a principled surface, a rough plastic's coat) by sampling, with a
+//! light sample there. A point light's light that reaches the glossy surface through glass reaches
+//! neither: the light sample is blocked by the glass and a sampled direction never finds a point. The
+//! caustic pass therefore light-traces such photons to the camera from the glossy surface they land
+//! on (when every bounce before was a mirror or glass); BDPT's light tracing is the reference.
+use caustica::accel::Accel;
+use caustica::film::Image;
+use caustica::pipeline::{plan_for, render_layers};
+use caustica::scene::{load_scene_str, Scene};
+use std::path::Path;
+
+/// A 1.5 glass ball 0.8 above a floor of material `floor` (a 4 × 4 square), under `light` (TOML),
+/// seen from above and in front, where a glossy floor sends the caustic below the ball towards the
+/// camera; `extra` is appended (TOML).
+fn scene(floor: &str, light: &str, ball: &str, extra: &str) -> String {
+    format!(
+        "[camera]\norigin = [0.0, 2.5, 2.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40\nresolution = [32, 24]\n\
+         [materials]\nglass = {{ type = \"dielectric\", ior = 1.5 }}\n\
+         metal = {{ type = \"conductor\", eta = [0.2, 0.9, 1.1], k = [3.9, 2.4, 2.2], roughness = 0.35, distribution = \"ggx\" }}\n\
+         coat = {{ type = \"plastic\", reflectance = [0.3, 0.3, 0.3], ior = 1.5, roughness = 0.2 }}\n\
+         grey = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 0.0, 2.0]\nedge_u = [4.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -4.0]\nmaterial = \"{floor}\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.8, 0.0]\nradius = 0.3\nmaterial = \"{ball}\"\n\
+         {light}{extra}"
+    )
+}
+
+const POINT: &str = "[[lights]]\ntype = \"point\"\nposition = [0.0, 2.0, 0.0]\npower = [30.0, 30.0, 30.0]\n";
+
+fn load(text: &str, mode: &str, sets: &[&str]) -> Scene {
+    let mut all = vec![format!("render.mode=\"{mode}\"")];
+    all.extend(sets.iter().map(|s| s.to_string()));
+    load_scene_str(text, "glossy.toml", Path::new(env!("CARGO_MANIFEST_DIR")), &all).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn render(scene: &Scene) -> Image {
+    let accel = Accel::new(scene).unwrap();
+    let plan = plan_for(scene, &accel);
+    let layers = render_layers(scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true).unwrap();
+    layers[0].sums.image()
+}
+
+/// Sum over the pixels whose centre sees the floor within `r` of the point below the ball (the
+/// caustic), and over the whole image.
+fn sums(scene: &Scene, img: &Image, r: f32) -> (f64, f64) {
+    let cam = &scene.camera;
+    let (mut near, mut all) = (0.0, 0.0);
+    for (i, p) in img.pixels.iter().enumerate() {
+        let v = (p.x + p.y + p.z) as f64;
+        all += v;
+        let ray = cam.ray((i as u32 % cam.width) as f32 + 0.5, (i as u32 / cam.width) as f32 + 0.5);
+        let d = ray.d.normalize();
+        if d.y < 0.0 {
+            let q = ray.o + d * (-ray.o.y / d.y);
+            if (q.x * q.x + q.z * q.z).sqrt() < r {
+                near += v;
+            }
+        }
+    }
+    (near, all)
+}
+
+/// The caustic region's radius on the floor: the focused spot below the ball (about 0.1 across) with
+/// what fixed PM's k nearest photons blur of it into the base of the plastic floor.
+const REGION: f32 = 0.4;
+
+const PHOTON_MODES: [(&str, &[&str]); 4] = [
+    ("sppm", &["render.progressive.passes=64", "render.progressive.photons_per_pass=20000"]),
+    ("ppm", &["render.progressive.passes=64", "render.progressive.photons_per_pass=20000"]),
+    ("photon_map", &["render.pm_spp=32", "render.photons.caustic=400000"]),
+    ("vcm", &["render.progressive.passes=256"]),
+];
+
+/// A glass ball's caustic under a point light on a rough metal floor (no surface in the scene holds
+/// photons: before, the planner traced no caustic photons at all) and on a rough plastic floor (its
+/// base holds the caustic photons, its coat reflects the caustic too): every photon mode's sum over
+/// the caustic region and over the image is BDPT's. Before, the photon mappers left the caustic out
+/// of both floors' glossy reflection.
+#[test]
+fn a_point_lights_caustic_on_a_glossy_floor_is_in_every_mode() {
+    let mut failures = Vec::new();
+    for floor in ["metal", "coat"] {
+        let text = scene(floor, POINT, "glass", "");
+        let bdpt_scene = load(&text, "bdpt", &["render.progressive.passes=1024"]);
+        let (ref_near, ref_all) = sums(&bdpt_scene, &render(&bdpt_scene), REGION);
+        let plain = load(&scene(floor, POINT, "grey", ""), "bdpt", &["render.progressive.passes=256"]);
+        let (plain_near, _) = sums(&plain, &render(&plain), REGION);
+        println!("{floor}: BDPT caustic region {ref_near:.3} (a grey ball there instead: {plain_near:.3})");
+        assert!(ref_near > 2.0 * plain_near, "no caustic to speak of on the {floor} floor");
+        for (mode, sets) in PHOTON_MODES {
+            let s = load(&text, mode, sets);
+            let (near, all) = sums(&s, &render(&s), REGION);
+            let (a, b) = (near / ref_near, all / ref_all);
+            println!("{floor}, {mode}: caustic region {a:.4} of BDPT's, image {b:.4}");
+            if (a - 1.0).abs() > 0.05 || (b - 1.0).abs() > 0.03 {
+                failures.push(format!("{floor} {mode}: caustic {a:.4}, image {b:.4} of BDPT's"));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// Light tracing must add only what the eye passes cannot find. Under a small area light a camera ray
+/// leaving the rough floor finds the light through the ball by sampling (the path tracer renders the
+/// caustic), and under the point light a rough metal ball's light on the floor is found by a light
+/// sample at the ball: in both every photon mode's image is the path tracer's (a splat after a glossy
+/// bounce, or of an area light's photons, would count that light twice).
+#[test]
+fn glossy_caustics_the_eye_passes_find_are_counted_once() {
+    let quad = "[[lights]]\ntype = \"quad\"\ncorner = [-0.15, 2.0, -0.15]\nedge_u = [0.3, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.3]\npower = [30.0, 30.0, 30.0]\n";
+    let mut failures = Vec::new();
+    for (case, text) in [
+        ("area light, glass ball", scene("metal", quad, "glass", "")),
+        ("point light, metal ball", scene("metal", POINT, "metal", "")),
+    ] {
+        let pt = load(&text, "path", &["render.spp=4096"]);
+        let (_, ref_all) = sums(&pt, &render(&pt), REGION);
+        for (mode, sets) in PHOTON_MODES {
+            let s = load(&text, mode, sets);
+            let (_, all) = sums(&s, &render(&s), REGION);
+            println!("{case}, {mode}: image {:.4} of PT's", all / ref_all);
+            if (all / ref_all - 1.0).abs() > 0.03 {
+                failures.push(format!("{case} {mode}: {:.4} of PT's", all / ref_all));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
