@@ -131,7 +131,12 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
         reasons.push(format!("no caustic map: {}", too_shallow()));
         0
     } else if r.force_all_passes || (!targets.is_empty() && any_holder) {
-        reasons.push(format!("caustic map: {} specular shape(s) lit by a light", targets.len()));
+        let glossy = if glossy_caustics {
+            "; their caustics from point, spot or distant lights on glossy surfaces are traced to the camera"
+        } else {
+            ""
+        };
+        reasons.push(format!("caustic map: {} specular shape(s) lit by a light{glossy}", targets.len()));
         r.photons.caustic
     } else if glossy_caustics {
         reasons.push(format!(
