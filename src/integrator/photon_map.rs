@@ -191,18 +191,12 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
     Ok(PhotonMaps { maps, glossy, stats })
 }
 
-/// Light-tracing splats (pixel, value) of `n_emitted` photons as a radiance image.
-fn splat_image(scene: &Scene, splats: &[(u32, Rgb)], n_emitted: u64) -> Image {
+/// Light-tracing splats of `n_emitted` photons, summed per pixel, as a radiance image.
+fn splat_image(scene: &Scene, sum: &[[f64; 3]], n_emitted: u64) -> Image {
     let cam = &scene.camera;
-    let mut sum = vec![[0.0f64; 3]; cam.width as usize * cam.height as usize];
-    for &(px, v) in splats {
-        for k in 0..3 {
-            sum[px as usize][k] += v[k] as f64;
-        }
-    }
     let mut img = Image::new(cam.width, cam.height);
     let n = n_emitted.max(1) as f64;
-    for (o, s) in img.pixels.iter_mut().zip(&sum) {
+    for (o, s) in img.pixels.iter_mut().zip(sum) {
         *o = Rgb::new((s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32);
     }
     img

@@ -36,9 +36,11 @@ pub struct MapPhotons {
     pub n_emitted: u64,
     /// False when the shot budget ran out before the requested count was reached.
     pub complete: bool,
-    /// Light-tracing splats (pixel, value; power not yet divided by `n_emitted`) of the photons shot for
-    /// this map, in the order shot: the caustic pass's glossy caustics (`PassSettings::glossy_splats`).
-    pub splats: Vec<(u32, Rgb)>,
+    /// Light-tracing splats of the photons shot for this map, summed per pixel in the order shot (power
+    /// not yet divided by `n_emitted`; empty until the first): the caustic pass's glossy caustics
+    /// (`PassSettings::glossy_splats`). Summed as they come, so their memory is the film's, not a
+    /// record per splat.
+    pub splats: Vec<[f64; 3]>,
 }
 
 /// A photon as the tracer keeps it: position and compact payload (what the k-d tree stores).
@@ -597,8 +599,16 @@ pub fn run_pass(
                 continue;
             }
             // The splats belong to the caustic map's shots (the only pass that makes them).
-            if !done[CAUSTIC] {
-                maps[CAUSTIC].splats.extend_from_slice(&splats);
+            if !done[CAUSTIC] && !splats.is_empty() {
+                let sum = &mut maps[CAUSTIC].splats;
+                if sum.is_empty() {
+                    *sum = vec![[0.0; 3]; (scene.camera.width * scene.camera.height) as usize];
+                }
+                for (px, v) in splats {
+                    for k in 0..3 {
+                        sum[px as usize][k] += v[k] as f64;
+                    }
+                }
             }
             for (m, photons) in out.into_iter().enumerate() {
                 if done[m] {
