@@ -118,8 +118,7 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     // glossy surface (rough metal or glass, a principled surface, a rough plastic's coat) are traced by
     // the caustic pass too, to the camera: nothing else finds them.
     let any_holder = (0..scene.shapes.len()).any(holds);
-    let delta_light =
-        scene.lights.list.iter().any(|l| matches!(l, LightKind::Point { .. } | LightKind::Distant { .. }));
+    let delta_light = scene.lights.list.iter().any(|l| l.is_delta());
     let glossy = (0..scene.shapes.len()).any(|s| scene.has_unheld_glossy_lobe(s as u32));
     let glossy_caustics = delta_light && glossy && targets.iter().any(|&t| scene.has_delta_lobe(t));
     // A caustic or indirect photon bounced before it landed: its path and its gather are at least two

@@ -26,7 +26,7 @@ use crate::math::sampling::{uniform_cone, uniform_sphere};
 use crate::math::Frame;
 use crate::math::{max_component, offset_ray_origin, Ray, Rng};
 use crate::photon::kdtree::{KdTree, KnnResult};
-use crate::scene::light::{visible_cone, EmittedRay, LightKind, Lights};
+use crate::scene::light::{visible_cone, EmittedRay, Lights};
 use crate::scene::Geometry;
 use crate::scene::{Material, Scene, SurfaceHit, TransportMode};
 use glam::Vec3;
@@ -691,7 +691,7 @@ impl Vcm<'_> {
         if e.pdf_emit <= 0.0 || e.phi == Rgb::ZERO {
             return;
         }
-        let delta = matches!(kind, LightKind::Point { .. } | LightKind::Distant { .. });
+        let delta = kind.is_delta();
         // dVCM = p_direct / p_emit [tech. rep. (31)]; for lights at finite distance the direct density
         // (per unit area of the light) depends on the first hit (cone sampling of spheres), so it is
         // taken there.

@@ -12,7 +12,6 @@ use crate::accel::Tracer;
 use crate::color::Rgb;
 use crate::math::{face_forward, max_component, offset_ray_origin, sampling, Ray, Rng};
 use crate::photon::photon::{with_events, Photon};
-use crate::scene::light::LightKind;
 use crate::scene::{Geometry, Scene, TransportMode};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -274,11 +273,12 @@ pub struct PassSettings {
     /// Distinguishes the random streams of different passes.
     pub pass: u64,
     /// Light-trace the caustics of point, spot and distant lights on glossy surfaces to the camera
-    /// (the caustic pass): a photon from such a light whose every bounce so far was a mirror or glass
-    /// (one at least) and that meets a glossy lobe no photon is stored for (rough metal, rough glass, a
-    /// principled surface, a rough plastic's coat) is splatted onto the film from there. Nothing else
-    /// finds that light: a camera path's light samples and BSDF samples never reach a point light
-    /// through a mirror, and photons are gathered on diffuse surfaces only.
+    /// (the caustic pass): a photon from such a light whose first bounce was a mirror or glass, with no
+    /// diffuse bounce since, that meets a glossy lobe no photon is stored for (rough metal, rough glass,
+    /// a principled surface, a rough plastic's coat) is splatted onto the film from there. Nothing else
+    /// finds that light: a camera chain through glossy lobes takes a light sample at each (light that
+    /// came straight from the light to one of them), its BSDF samples never reach a point light, and
+    /// photons are gathered on diffuse surfaces only.
     pub glossy_splats: bool,
 }
 
@@ -294,7 +294,7 @@ struct Launch {
 
 /// Whether light `li` is a point (or spot) or distant light.
 fn is_delta_light(scene: &Scene, li: usize) -> bool {
-    matches!(scene.lights.list[li], LightKind::Point { .. } | LightKind::Distant { .. })
+    scene.lights.list[li].is_delta()
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -313,7 +313,8 @@ fn trace_one(
     let phi_launch = max_component(l.phi);
     let mut diffuse_bounces = 0u32;
     let mut specular_bounces = 0u32;
-    // Every bounce so far a delta lobe (mirror, glass, a smooth coat), from a delta light.
+    // From a delta light, first bounced by a delta lobe (mirror, glass, a smooth coat), and no diffuse
+    // bounce since: light no camera chain finds (`PassSettings::glossy_splats`).
     let mut delta_chain = l.delta;
     // An aimed photon must arrive at its target (shape, distance left) first, see-through surfaces
     // whose pick lets it by apart.
@@ -450,7 +451,9 @@ fn trace_one(
         }
         phi *= bs.weight;
         specular_bounces += 1;
-        delta_chain &= bs.delta;
+        if specular_bounces == 1 {
+            delta_chain &= bs.delta;
+        }
         if specular_bounces >= s.rr_depth {
             let Some(q) = sampling::russian_roulette(max_component(phi) / phi_launch, rng.next_f32()) else {
                 return;

@@ -121,6 +121,12 @@ impl LightKind {
         matches!(self, LightKind::Env | LightKind::Distant { .. })
     }
 
+    /// A point (or spot) or distant light: a delta in position or direction, which no sampled
+    /// direction finds.
+    pub fn is_delta(&self) -> bool {
+        matches!(self, LightKind::Point { .. } | LightKind::Distant { .. })
+    }
+
     /// The emissive shape this light belongs to (None for point lights).
     pub fn shape(&self) -> Option<u32> {
         match self {

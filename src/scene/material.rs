@@ -750,7 +750,7 @@ impl Material {
     /// metal's, rough glass's or principled surface's whole BSDF, a rough plastic's coat (its base holds
     /// photons); None for diffuse surfaces, smooth plastics and delta BSDFs. The photon-mapping eye
     /// passes follow camera rays through such lobes by sampling, so what lands there from a delta light
-    /// by mirrors and glass alone reaches the film only by light tracing (the photon tracer's
+    /// first bounced by a mirror or glass reaches the film only by light tracing (the photon tracer's
     /// `PassSettings::glossy_splats`).
     pub fn unheld_glossy_lobe(&self) -> Option<Material> {
         if self.holds_photons() {
