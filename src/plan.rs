@@ -117,7 +117,7 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     // targets stay: VCM's light subpaths aim at them too. A point, spot or distant light's caustics on a
     // glossy surface (rough metal or glass, a principled surface, a rough plastic's coat) are traced by
     // the caustic pass too, to the camera: nothing else finds them.
-    let any_holder = (0..scene.shapes.len()).any(holds);
+    let any_holder = scene.any_holds_photons();
     let delta_light = scene.lights.list.iter().any(|l| l.is_delta());
     let glossy = (0..scene.shapes.len()).any(|s| scene.has_unheld_glossy_lobe(s as u32));
     let glossy_caustics = delta_light && glossy && targets.iter().any(|&t| scene.has_delta_lobe(t));

@@ -104,7 +104,7 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
     let mut maps: [Option<PhotonMap>; 3] = Default::default();
     let t0 = std::time::Instant::now();
     let mut collected: [Option<crate::photon::trace::MapPhotons>; 3] = Default::default();
-    let holds = (0..scene.shapes.len() as u32).any(|s| scene.holds_photons(s));
+    let holds = scene.any_holds_photons();
     if req.want[DIRECT] + req.want[INDIRECT] > 0 {
         let want = [req.want[DIRECT], req.want[INDIRECT], 0];
         let s = PassSettings {

@@ -292,11 +292,6 @@ struct Launch {
     delta: bool,
 }
 
-/// Whether light `li` is a point (or spot) or distant light.
-fn is_delta_light(scene: &Scene, li: usize) -> bool {
-    scene.lights.list[li].is_delta()
-}
-
 #[allow(clippy::too_many_arguments)]
 fn trace_one(
     scene: &Scene,
@@ -315,7 +310,7 @@ fn trace_one(
     let mut specular_bounces = 0u32;
     // From a delta light, first bounced by a delta lobe (mirror, glass, a smooth coat), and no diffuse
     // bounce since: light no camera chain finds (`PassSettings::glossy_splats`).
-    let mut delta_chain = l.delta;
+    let mut delta_first = l.delta;
     // An aimed photon must arrive at its target (shape, distance left) first, see-through surfaces
     // whose pick lets it by apart.
     let mut aim = l.aim;
@@ -371,10 +366,11 @@ fn trace_one(
             ray = si.spawn(ray.d);
         };
         let last = depth + 1 >= s.max_depth;
-        if s.glossy_splats && delta_chain && specular_bounces > 0 {
+        if s.glossy_splats && delta_first && specular_bounces > 0 {
             if let Some(lobe) = mat.unheld_glossy_lobe() {
                 let lens = scene.camera.sample_lens(rng);
-                let (add, mut c) = (|pixel, val| splats.push((pixel, val)), Default::default());
+                let mut c = crate::integrator::Counters::default();
+                let add = |pixel, val| splats.push((pixel, val));
                 crate::integrator::link_to_camera(
                     scene,
                     tracer,
@@ -413,7 +409,7 @@ fn trace_one(
             };
             phi *= bs.weight / p;
             diffuse_bounces += 1;
-            delta_chain = false;
+            delta_first = false;
             ray = next;
             continue;
         }
@@ -445,14 +441,14 @@ fn trace_one(
             }
             phi *= bs.weight / q;
             diffuse_bounces += 1;
-            delta_chain = false;
+            delta_first = false;
             ray = next;
             continue;
         }
         phi *= bs.weight;
         specular_bounces += 1;
         if specular_bounces == 1 {
-            delta_chain &= bs.delta;
+            delta_first &= bs.delta;
         }
         if specular_bounces >= s.rr_depth {
             let Some(q) = sampling::russian_roulette(max_component(phi) / phi_launch, rng.next_f32()) else {
@@ -496,7 +492,7 @@ fn store(
 /// Uniform emission from the lights (power-weighted choice, then position and direction on the light).
 fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
     let e = scene.lights.emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d())?;
-    Some(Launch { ray: e.ray, phi: e.phi, aim: None, delta: is_delta_light(scene, e.light) })
+    Some(Launch { ray: e.ray, phi: e.phi, aim: None, delta: scene.lights.list[e.light].is_delta() })
 }
 
 /// Emission aimed at a point drawn on the specular targets (by `Targets`' density). The power is the
@@ -515,7 +511,7 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
         let (shape, y, ny, inv_p) = targets.sample(scene, u_sel, u_tri, u);
         let far = lights.beyond_scene(y);
         let phi = s.li * (ny.dot(s.wi).abs() * inv_p / (s.pdf * p_sel));
-        let delta = is_delta_light(scene, li);
+        let delta = lights.list[li].is_delta();
         return Some(Launch { ray: Ray::new(y + s.wi * far, -s.wi), phi, aim: Some((shape, far)), delta });
     }
     let lp = lights.sample_point(scene, li, rng.next_2d())?;
@@ -540,7 +536,7 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     let phi = lp.le * (falloff * cos_x * cos_y / dist2 * inv_p / (lp.pdf_area * p_sel));
     let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w, lp.size) };
     let travelled = (o - lp.p).length();
-    Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)), delta: is_delta_light(scene, li) })
+    Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)), delta: lights.list[li].is_delta() })
 }
 
 /// What a batch of photons left: each map's photons, the glossy caustics' splats, where the batch

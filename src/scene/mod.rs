@@ -444,6 +444,11 @@ impl Scene {
         self.any_leaf(self.shapes[shape as usize].material, &mut |m| m.bsdf.unheld_glossy_lobe().is_some())
     }
 
+    /// Whether any shape can hold photons (`holds_photons`): where caustic photons can be stored at all.
+    pub fn any_holds_photons(&self) -> bool {
+        (0..self.shapes.len() as u32).any(|s| self.holds_photons(s))
+    }
+
     /// Whether photons can be held on `shape`: some material a hit on it can be holds them.
     pub fn holds_photons(&self, shape: u32) -> bool {
         self.material_holds_photons(self.shapes[shape as usize].material)
