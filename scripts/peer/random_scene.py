@@ -15,7 +15,13 @@ caller copies them beside OUT. --no-blend leaves out blendbsdf, mask and twoside
 own blends are biased where caustica's are not: see the README). --area-lights draws the lights from
 area rectangle, area sphere, constant and envmap only: no point, spot or distant light, whose light
 through mirrors and glass a path tracer cannot find, so that every mode can be held to the path tracer
-(`scripts/random-check --modes --area-lights`).
+(`scripts/random-check --modes --area-lights`). --more adds what the plain scenes never hold, drawn from
+a second random stream so that the rest of the scene is the one the same SEED gives without it: an area
+emitter on a cube, disk, cylinder (round: Mitsuba samples no other), the PLY ball or the OBJ tile
+(non-uniform scale, turned), an object
+whose BSDF reads the bitmap label.png (a diffuse or plastic colour, a principled base colour, a rough
+conductor's alpha as raw data), a named interior IOR, a thin-lens camera, another fov_axis and a
+Mitchell, Lanczos or Catmull-Rom filter.
 """
 import argparse
 import random
@@ -25,8 +31,11 @@ ap.add_argument("seed", type=int)
 ap.add_argument("out")
 ap.add_argument("--no-blend", action="store_true", help="no blendbsdf, mask or twosided")
 ap.add_argument("--area-lights", action="store_true", help="no point, spot or directional emitter")
+ap.add_argument("--more", action="store_true", help="emitting meshes, bitmap textures, thin lens, more filters")
 args = ap.parse_args()
 R = random.Random(args.seed)
+# The extras' own stream: the scene without them stays the one the seed gives.
+M = random.Random(args.seed * 7919 + 17)
 NOBLEND = args.no_blend
 
 
@@ -179,6 +188,57 @@ def emitter():
             f'<transform name="to_world"><rotate y="1" angle="{f(R.uniform(0, 360))}"/></transform></emitter>')
 
 
+RAW = '<boolean name="raw" value="true"/>'
+
+
+def more_bsdf():
+    """A BSDF that reads label.png (colours as sRGB, a rough conductor's alpha as raw data)."""
+    tex = lambda name, raw="": (f'<texture type="bitmap" name="{name}"><string name="filename" value="label.png"/>{raw}'
+                                f'<transform name="to_uv"><scale x="{f(M.uniform(1, 3))}" y="{f(M.uniform(1, 3))}"/></transform></texture>')
+    k = M.choice(["diffuse", "plastic", "principled", "roughconductor", "dielectric"])
+    if k == "diffuse":
+        return f'<bsdf type="diffuse">{tex("reflectance")}</bsdf>'
+    if k == "plastic":
+        return f'<bsdf type="plastic">{tex("diffuse_reflectance")}<float name="int_ior" value="{f(M.uniform(1.3, 1.8))}"/></bsdf>'
+    if k == "principled":
+        return (f'<bsdf type="principled">{tex("base_color")}<float name="roughness" value="{f(M.uniform(0.1, 0.9))}"/>'
+                f'<float name="metallic" value="{f(M.uniform(0, 1))}"/></bsdf>')
+    if k == "roughconductor":
+        return (f'<bsdf type="roughconductor"><string name="material" value="{M.choice(["Au", "Cu", "Al"])}"/>'
+                f'<string name="distribution" value="ggx"/>{tex("alpha", RAW)}</bsdf>')
+    return f'<bsdf type="dielectric"><string name="int_ior" value="{M.choice(["water", "bk7", "diamond", "acrylic glass"])}"/></bsdf>'
+
+
+def more():
+    """The extras of --more: an emitting mesh or cube/disk/cylinder, a textured object."""
+    out = []
+    kind = M.choice(["cube", "disk", "cylinder", "ply", "obj"])
+    s = [M.uniform(0.1, 0.35) for _ in range(3)]
+    if kind == "cylinder":
+        # Mitsuba's cylinder takes its radius from to_world's x scale: with another y scale its
+        # intersection is an elliptic tube but its emitter samples a round one (it warns).
+        s[1] = s[0]
+    rot = (M.uniform(60, 120), M.uniform(0, 90), M.uniform(-30, 30))
+    at = (M.uniform(-1.2, 1.2), M.uniform(1.6, 2.6), M.uniform(-0.8, 1.0))
+    body = {"ply": '<string name="filename" value="ball.ply"/>',
+            "obj": '<string name="filename" value="tile.obj"/>'}.get(kind, "")
+    t = "ply" if kind == "ply" else "obj" if kind == "obj" else kind
+    out.append(f'<shape type="{t}">{body}{transform(s, *rot, at)}<bsdf type="diffuse"/>'
+               f'<emitter type="area"><rgb name="radiance" value="{", ".join(f(M.uniform(2, 12)) for _ in range(3))}"/></emitter></shape>')
+    kind = M.choice(["sphere", "cube", "ply", "rectangle"])
+    x, z = M.uniform(-1.3, 1.3), M.uniform(-1.0, 1.0)
+    if kind == "sphere":
+        r = M.uniform(0.2, 0.45)
+        out.append(f'<shape type="sphere">{transform((r, r, r), 0, M.uniform(0, 360), 0, (x, r + 0.02, z))}{more_bsdf()}</shape>')
+    elif kind == "ply":
+        r = M.uniform(0.2, 0.45)
+        out.append(f'<shape type="ply"><string name="filename" value="ball.ply"/>{transform((r, r * M.uniform(0.5, 1.5), r), 0, M.uniform(0, 90), 0, (x, r * 1.6 + 0.02, z))}{more_bsdf()}</shape>')
+    else:
+        s = [M.uniform(0.15, 0.45) for _ in range(3)]
+        out.append(f'<shape type="{kind}">{transform(s, M.uniform(-40, 40), M.uniform(0, 90), 0, (x, max(s) * 1.8 + 0.02, z))}{more_bsdf()}</shape>')
+    return out
+
+
 w, h = 64, 48
 depth = R.choice([2, 3, 5, 8, 12, -1])
 hide = R.random() < 0.2
@@ -205,8 +265,17 @@ for _ in range(R.randint(1, 2)):
         if envs > 1:
             continue
     parts.append(e)
+if args.more:
+    parts += more()
 parts.append("</scene>")
 text = "\n".join(parts) + "\n"
+if args.more:
+    text = text.replace('<rfilter type="' + filt + '"/>', f'<rfilter type="{M.choice(["mitchell", "lanczos", "catmullrom", filt])}"/>', 1)
+    text = text.replace('<float name="fov"', f'<string name="fov_axis" value="{M.choice(["x", "y", "diagonal", "smaller", "larger"])}"/><float name="fov"', 1)
+    if M.random() < 0.5:
+        text = text.replace('<sensor type="perspective">', '<sensor type="thinlens">'
+                            f'<float name="aperture_radius" value="{f(M.uniform(0.01, 0.08))}"/>'
+                            f'<float name="focus_distance" value="{f(M.uniform(3, 5))}"/>', 1)
 # Mitsuba's path integrator stops shadow rays at a mask's holes and a thin pane, and counts crossing
 # them as a bounce; its volpath (the same without media) lets light straight through them by their
 # transmittance, as no bounce, as caustica does: the reference for such scenes.
