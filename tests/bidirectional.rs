@@ -241,6 +241,30 @@ fn mis_weights_sum_to_one_for_every_kind_of_light() {
     }
 }
 
+/// VCM with and without merging at the camera's first hit (`render.vcm.merge_primary`): without it, that
+/// strategy leaves every MIS sum (light tracing, the connections and light samples at the first hit, and
+/// the camera subpath's sums past it), so the means stay PT's, caustics seen directly (the glass ball's
+/// under the area lights) and the delta lights' light included.
+#[test]
+fn vcm_keeps_the_means_with_and_without_merging_at_the_first_hit() {
+    for ball in [Ball::None, Ball::Glass, Ball::RoughPlastic] {
+        let mut s = every_light(ball);
+        s.render.max_depth = 6;
+        let a = Accel::new(&s).unwrap();
+        let (pt, pt_e) = pt_mean(&mut s, &a, 256, 16);
+        for primary in [true, false] {
+            s.render.vcm.merge_primary = primary;
+            let (m, e) = bidir_mean(&mut s, &a, VcmOptions::vcm(), 1024);
+            let sigma = (e * e + pt_e * pt_e).sqrt();
+            eprintln!(
+                "{ball:?} vcm merge_primary={primary}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ",
+                (m - pt) / sigma
+            );
+            assert!((m - pt).abs() < 3.0 * sigma, "{ball:?} merge_primary={primary}: mean {m} vs PT {pt} (σ {sigma})");
+        }
+    }
+}
+
 /// Light subpaths aimed at a specular shape (`render.vcm.aim`): a big quad light and a sphere light
 /// right above a rough gold plate that the camera sees them in, so paths found by the camera hitting
 /// the lights (s = 0) after the gold, by next-event estimation (s = 1) and by light subpaths (most of

@@ -135,6 +135,8 @@ struct Iteration<'a> {
     /// 1 when connecting (the connection strategies' share of the MIS sums), else 0.
     vc: f32,
     merge: bool,
+    /// Merging at the camera subpath's first hit (`render.vcm.merge_primary`; always without connections).
+    merge_primary: bool,
     /// The first iteration's merge radius over the scene, scaled by `shrink` for this iteration.
     radius: &'a RadiusField,
     shrink: f32,
@@ -149,6 +151,7 @@ impl<'a> Iteration<'a> {
             n_paths: light_paths(scene, opts) as f32,
             vc: if opts.connect { 1.0 } else { 0.0 },
             merge: opts.merge,
+            merge_primary: opts.merge && (scene.render.vcm.merge_primary || !opts.connect),
             radius,
             shrink,
             opts,
@@ -849,7 +852,10 @@ impl Vcm<'_> {
         let weight = |dir: Vec3, camera_pdf_a: f32| {
             it.weight(s, t, || {
                 let rev = lv.mat.pdf(dir, lv.wo, lv.si.ns);
-                let w_light = camera_pdf_a / it.n_paths * (lv.vm + lv.d_vcm + lv.d_vc * rev);
+                // The light vertex is the camera's first hit here: merging there is a strategy only with
+                // `merge_primary`.
+                let vm = if it.merge_primary { lv.vm } else { 0.0 };
+                let w_light = camera_pdf_a / it.n_paths * (vm + lv.d_vcm + lv.d_vc * rev);
                 1.0 / (w_light + 1.0)
             })
         };
@@ -919,12 +925,14 @@ impl Vcm<'_> {
             if sp.len >= it.max_len {
                 break;
             }
-            // η here (merging's radius), and the merge strategy's share of MIS sums here.
+            // η here (merging's radius), and the merge strategy's share of MIS sums here (none at the
+            // first hit without `merge_primary`).
+            let merges_here = if sp.len == 1 { it.merge_primary } else { it.merge };
             let (eta, vm) = if mat.is_delta() {
                 (0.0, 0.0)
             } else {
                 let eta = it.eta(si.p);
-                (eta, if it.merge { eta } else { 0.0 })
+                (eta, if merges_here { eta } else { 0.0 })
             };
             if !mat.is_delta() {
                 if it.opts.connect || it.opts.strategy.is_some() {
@@ -936,7 +944,7 @@ impl Vcm<'_> {
                         l += sp.beta * lv.beta * self.connect(&sp, &si, wo, &mat, vm, lv, c);
                     }
                 }
-                if let Some(tree) = light.tree {
+                if let Some(tree) = light.tree.filter(|_| merges_here) {
                     l += sp.beta * self.merge(&sp, &si, wo, &mat, eta, tree);
                 }
             }
