@@ -7,8 +7,8 @@
 //! stores them in the project's k-d tree, then traces one camera subpath per pixel that, at every
 //! non-delta vertex, takes a light sample (s = 1), connects to every vertex of "its" light subpath
 //! (s ≥ 2) and merges with the stored light vertices within r_i = r_1 · i^((α−1)/2) (vertex merging;
-//! r_1 varies over the scene with the light's density, `RadiusField`, and aimed emission, `Aim`), past
-//! its first hit unless `render.vcm.merge_primary` (there light tracing finds the same light);
+//! r_1 varies over the scene with the light's density, `RadiusField`, and aimed emission, `Aim`), at its
+//! first hit too unless `render.vcm.merge_primary` is off (light tracing alone then finds the light there);
 //! emission found by the camera subpath (s = 0) is weighted as well. Without merging this is BDPT;
 //! without connections a progressive photon mapper (merging at every camera vertex).
 //!
