@@ -222,8 +222,7 @@ def more():
     at = (M.uniform(-1.2, 1.2), M.uniform(1.6, 2.6), M.uniform(-0.8, 1.0))
     body = {"ply": '<string name="filename" value="ball.ply"/>',
             "obj": '<string name="filename" value="tile.obj"/>'}.get(kind, "")
-    t = "ply" if kind == "ply" else "obj" if kind == "obj" else kind
-    out.append(f'<shape type="{t}">{body}{transform(s, *rot, at)}<bsdf type="diffuse"/>'
+    out.append(f'<shape type="{kind}">{body}{transform(s, *rot, at)}<bsdf type="diffuse"/>'
                f'<emitter type="area"><rgb name="radiance" value="{", ".join(f(M.uniform(2, 12)) for _ in range(3))}"/></emitter></shape>')
     kind = M.choice(["sphere", "cube", "ply", "rectangle"])
     x, z = M.uniform(-1.3, 1.3), M.uniform(-1.0, 1.0)
