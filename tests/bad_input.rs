@@ -464,6 +464,18 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         ("vcm_aim", GOOD.to_string(), vec!["--set", "render.vcm.aim=1.0"], vec!["render.vcm.aim", "[0, 1)"]),
         ("vcm_aim_nan", GOOD.to_string(), vec!["--set", "render.vcm.aim=nan"], vec!["render.vcm.aim"]),
+        (
+            "vcm_merge_primary",
+            format!("{GOOD}\n[render.vcm]\nmerge_primary = \"caustic\"\n"),
+            vec![],
+            vec!["merge_primary", "line 24", "\"all\", \"caustics\" or \"none\""],
+        ),
+        (
+            "vcm_merge_primary_set",
+            GOOD.to_string(),
+            vec!["--set", "render.vcm.merge_primary=3"],
+            vec!["render.vcm.merge_primary", "\"caustics\""],
+        ),
     ];
     assert!(cases.len() >= 12);
     for (name, text, extra, expect) in &cases {

@@ -241,27 +241,92 @@ fn mis_weights_sum_to_one_for_every_kind_of_light() {
     }
 }
 
-/// VCM with and without merging at the camera's first hit (`render.vcm.merge_primary`): without it, that
-/// strategy leaves every MIS sum (light tracing, the connections and light samples at the first hit, and
-/// the camera subpath's sums past it), so the means stay PT's, caustics seen directly (the glass ball's
-/// under the area lights) and the delta lights' light included.
+/// VCM with every choice of what it merges at the camera's first hit (`render.vcm.merge_primary`):
+/// where it does not merge, that strategy leaves every MIS sum (light tracing, the connections and light
+/// samples at the first hit, and the camera subpath's sums past it); merging only light that came
+/// through a delta BSDF there, the strategy is in a path's sums exactly when the vertex before the first
+/// hit is a delta BSDF (known to the camera subpath one vertex later). The means stay PT's, caustics seen
+/// directly (the glass ball's under the area lights) and the delta lights' light included.
 #[test]
 fn vcm_keeps_the_means_with_and_without_merging_at_the_first_hit() {
+    use caustica::scene::file::MergePrimary;
     for ball in [Ball::None, Ball::Glass, Ball::RoughPlastic] {
         let mut s = every_light(ball);
         s.render.max_depth = 6;
         let a = Accel::new(&s).unwrap();
         let (pt, pt_e) = pt_mean(&mut s, &a, 256, 16);
-        for primary in [true, false] {
+        for primary in [MergePrimary::All, MergePrimary::Caustics, MergePrimary::None] {
+            if ball != Ball::Glass && primary == MergePrimary::Caustics {
+                // Without glass no light vertex comes through a delta BSDF: the same as None.
+                continue;
+            }
             s.render.vcm.merge_primary = primary;
             let (m, e) = bidir_mean(&mut s, &a, VcmOptions::vcm(), 1024);
             let sigma = (e * e + pt_e * pt_e).sqrt();
             eprintln!(
-                "{ball:?} vcm merge_primary={primary}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ",
+                "{ball:?} vcm merge_primary={primary:?}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ",
                 (m - pt) / sigma
             );
-            assert!((m - pt).abs() < 3.0 * sigma, "{ball:?} merge_primary={primary}: mean {m} vs PT {pt} (σ {sigma})");
+            assert!(
+                (m - pt).abs() < 3.0 * sigma,
+                "{ball:?} merge_primary={primary:?}: mean {m} vs PT {pt} (σ {sigma})"
+            );
         }
+    }
+}
+
+/// Merging only caustics at the camera's first hit (`merge_primary = "caustics"`) where that strategy
+/// carries weight: a point light's caustic under a smooth glass ball seen directly (light tracing and
+/// the first hit's merges are its only strategies, so BDPT is the reference, PT cannot see it) and a
+/// mirror wall the camera's first hits see much of the room in (paths whose second vertex is a delta
+/// BSDF, whose MIS sums must take the first hit's merge in one vertex late), besides a quad light's
+/// diffuse light. VCM's means with each `merge_primary` equal BDPT's.
+#[test]
+fn vcm_merging_only_caustics_at_the_first_hit_keeps_the_means() {
+    use caustica::scene::file::MergePrimary;
+    let mut s = common::scene(
+        "[camera]\norigin = [0.0, 1.2, 2.4]\ntarget = [0.0, 0.3, 0.0]\nfov = 45\nresolution = [24, 24]\n\
+         [materials]\nm = { type = \"diffuse\", reflectance = [0.6, 0.5, 0.4] }\n\
+         glass = { type = \"dielectric\", ior = 1.5 }\nchrome = { type = \"mirror\" }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, -1.0]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 1.5, 0.0]\nmaterial = \"chrome\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.1, 0.4, 0.1]\nradius = 0.4\nmaterial = \"glass\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.2, 1.4, 0.2]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.8]\n\
+         material = \"m\"\nemission = [6.0, 6.0, 6.0]\n\
+         [[lights]]\ntype = \"sphere\"\ncenter = [0.2, 1.6, 0.2]\nradius = 0.15\nradiance = [9.0, 9.0, 9.0]\n\
+         [render]\nmax_depth = 6\n[render.progressive]\nradius = 0.1\n",
+    );
+    let a = Accel::new(&s).unwrap();
+    let (pt, pt_e) = pt_mean(&mut s, &a, 1024, 16);
+    // Every iteration rendered with each setting from the same random numbers (merging draws none):
+    // the settings' differences are unbiased estimates of zero with a fraction of either's noise.
+    s.render.sampler = caustica::math::rng::Sampler::Independent;
+    let setup = Setup::new(&s, &a, VcmOptions::vcm(), None);
+    let kinds = [MergePrimary::All, MergePrimary::None, MergePrimary::Caustics];
+    let per_iteration: Vec<[f64; 3]> = (1..=1024)
+        .map(|i| {
+            kinds.map(|k| {
+                s.render.vcm.merge_primary = k;
+                mean(&iterate(&s, &a, &setup, i).image)
+            })
+        })
+        .collect();
+    let column = |f: &dyn Fn(&[f64; 3]) -> f64| mean_and_error(&per_iteration.iter().map(f).collect::<Vec<_>>());
+    let (all, all_e) = column(&|m| m[0]);
+    let sigma = (all_e * all_e + pt_e * pt_e).sqrt();
+    eprintln!(
+        "caustics seen directly: vcm (all) {all:.5} ± {all_e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ",
+        (all - pt) / sigma
+    );
+    assert!((all - pt).abs() < 3.0 * sigma, "merge_primary=all: mean {all} vs PT {pt} (σ {sigma})");
+    for (k, kind) in kinds.iter().enumerate().skip(1) {
+        let (d, d_e) = column(&|m| m[k] - m[0]);
+        let (m, _) = column(&|m| m[k]);
+        eprintln!(
+            "  merge_primary={kind:?}: {m:.5}, minus all's on the same numbers {d:+.6} ± {d_e:.6}: {:+.2}σ",
+            d / d_e
+        );
+        assert!(d.abs() < 3.0 * d_e, "merge_primary={kind:?}: {m} differs from all's {all} by {d} (σ {d_e})");
     }
 }
 

@@ -7,9 +7,9 @@
 //! stores them in the project's k-d tree, then traces one camera subpath per pixel that, at every
 //! non-delta vertex, takes a light sample (s = 1), connects to every vertex of "its" light subpath
 //! (s ≥ 2) and merges with the stored light vertices within r_i = r_1 · i^((α−1)/2) (vertex merging;
-//! r_1 varies over the scene with the light's density, `RadiusField`, and aimed emission, `Aim`), at its
-//! first hit too unless `render.vcm.merge_primary` is off (light tracing alone then finds the light there);
-//! emission found by the camera subpath (s = 0) is weighted as well. Without merging this is BDPT;
+//! r_1 varies over the scene with the light's density, `RadiusField`, and aimed emission, `Aim`); at its
+//! first hit with the light vertices `render.vcm.merge_primary` names (`Primary`); emission found by
+//! the camera subpath (s = 0) is weighted as well. Without merging this is BDPT;
 //! without connections a progressive photon mapper (merging at every camera vertex).
 //!
 //! MIS pdfs use geometric normals for the area ↔ solid-angle conversions (true densities), Russian
@@ -27,6 +27,7 @@ use crate::math::sampling::{uniform_cone, uniform_sphere};
 use crate::math::Frame;
 use crate::math::{max_component, offset_ray_origin, Ray, Rng};
 use crate::photon::kdtree::{KdTree, KnnResult};
+use crate::scene::file::MergePrimary as Primary;
 use crate::scene::light::{visible_cone, EmittedRay, Lights};
 use crate::scene::Geometry;
 use crate::scene::{Material, Scene, SurfaceHit, TransportMode};
@@ -85,6 +86,8 @@ struct SubPath {
     len: u32,
     /// Every scattering so far was a delta BSDF.
     specular: bool,
+    /// The last scattering was a delta BSDF (false at the first hit).
+    after_delta: bool,
     d_vcm: f32,
     d_vc: f32,
     /// dVM times η of the vertex merged at (η varies over the scene with the merge radius): divided
@@ -92,6 +95,10 @@ struct SubPath {
     s_vm: f32,
     /// Product of the refractions' 1/η² (camera subpaths), divided out for Russian roulette.
     radiance_scale: f32,
+    /// Camera subpaths that merge at their first hit only with light that came through a delta BSDF:
+    /// that strategy's share of dVC and dVM (both alike) since the first hit, held back until the second
+    /// vertex shows whether the path could be merged there (it goes in if that vertex is a delta BSDF).
+    held_vm: f32,
 }
 
 /// A stored light vertex (never on a delta BSDF).
@@ -108,6 +115,8 @@ struct LightVertex {
     s_vm: f32,
     /// The merge strategy's weight at this vertex in a MIS sum: η here, 0 without merging.
     vm: f32,
+    /// The light arrived through a delta BSDF (a caustic): merged at a camera's first hit by `Caustics`.
+    after_delta: bool,
 }
 
 impl LightVertex {
@@ -136,8 +145,9 @@ struct Iteration<'a> {
     /// 1 when connecting (the connection strategies' share of the MIS sums), else 0.
     vc: f32,
     merge: bool,
-    /// Merging at the camera subpath's first hit (`render.vcm.merge_primary`; always without connections).
-    merge_primary: bool,
+    /// What the camera subpath merges with at its first hit (`render.vcm.merge_primary`; everything
+    /// without connections, nothing without merging).
+    primary: Primary,
     /// The first iteration's merge radius over the scene, scaled by `shrink` for this iteration.
     radius: &'a RadiusField,
     shrink: f32,
@@ -152,7 +162,13 @@ impl<'a> Iteration<'a> {
             n_paths: light_paths(scene, opts) as f32,
             vc: if opts.connect { 1.0 } else { 0.0 },
             merge: opts.merge,
-            merge_primary: opts.merge && (scene.render.vcm.merge_primary || !opts.connect),
+            primary: if !opts.merge {
+                Primary::None
+            } else if !opts.connect {
+                Primary::All
+            } else {
+                scene.render.vcm.merge_primary
+            },
             radius,
             shrink,
             opts,
@@ -176,6 +192,15 @@ impl<'a> Iteration<'a> {
             self.eta(p)
         } else {
             0.0
+        }
+    }
+
+    /// The merge strategy at a light vertex that is the camera's first hit (light tracing's MIS sum).
+    fn vm_as_first_hit(&self, lv: &LightVertex) -> f32 {
+        match self.primary {
+            Primary::All => lv.vm,
+            Primary::Caustics if lv.after_delta => lv.vm,
+            _ => 0.0,
         }
     }
 
@@ -596,19 +621,31 @@ pub fn iterate(scene: &Scene, tracer: &dyn Tracer, setup: &Setup, i: u32) -> Ite
         }
         counters += c;
     }
-    let tree = if opts.merge && !verts.is_empty() {
+    // The light vertices to merge with: all of them, and (merging only caustics at the camera's first
+    // hit) a tree of those that came through a delta BSDF, searched there.
+    let build = |keep: fn(&LightVertex) -> bool| {
         let pts: Vec<([f32; 3], MergeVertex)> = verts
             .iter()
+            .filter(|lv| keep(lv))
             .map(|lv| {
                 let m = MergeVertex { wo: lv.wo, beta: lv.beta, len: lv.len, d_vcm: lv.d_vcm, s_vm: lv.s_vm };
                 (lv.si.p.to_array(), m)
             })
             .collect();
-        KdTree::build(pts).ok()
-    } else {
-        None
+        if pts.is_empty() {
+            None
+        } else {
+            KdTree::build(pts).ok()
+        }
     };
-    let light = LightPaths { verts: &verts, ends: &ends, tree: tree.as_ref() };
+    let tree = if opts.merge { build(|_| true) } else { None };
+    let caustic_tree = if v.it.primary == Primary::Caustics { build(|lv| lv.after_delta) } else { None };
+    let first_hit_tree = match v.it.primary {
+        Primary::All => tree.as_ref(),
+        Primary::Caustics => caustic_tree.as_ref(),
+        Primary::None => None,
+    };
+    let light = LightPaths { verts: &verts, ends: &ends, tree: tree.as_ref(), first_hit_tree };
     let camera: Vec<(Rgb, Counters)> = (0..pixels)
         .into_par_iter()
         .map(|k| {
@@ -641,7 +678,9 @@ struct LightPaths<'a> {
     verts: &'a [LightVertex],
     /// Light path k's vertices are verts[ends[k]..ends[k + 1]].
     ends: &'a [u32],
+    /// The light vertices merged with past the camera's first hit, and at the first hit.
     tree: Option<&'a KdTree<MergeVertex>>,
+    first_hit_tree: Option<&'a KdTree<MergeVertex>>,
 }
 
 struct Vcm<'a> {
@@ -705,8 +744,17 @@ impl Vcm<'_> {
             lights.direct_pdf_area(scene, e.light, e.origin + e.ray.d, e.origin, Vec3::ZERO) / e.pdf_emit
         };
         let d_vc = if delta { 0.0 } else { (if finite { e.cos } else { 1.0 }) / e.pdf_emit };
-        let mut sp =
-            SubPath { beta: e.phi, len: 1, specular: true, d_vcm, d_vc, s_vm: d_vc * it.vc, radiance_scale: 1.0 };
+        let mut sp = SubPath {
+            beta: e.phi,
+            len: 1,
+            specular: true,
+            after_delta: false,
+            d_vcm,
+            d_vc,
+            s_vm: d_vc * it.vc,
+            radiance_scale: 1.0,
+            held_vm: 0.0,
+        };
         let beta0 = max_component(e.phi).max(1e-30);
         let mut ray = e.ray;
         // Distance from the subpath's last vertex to `ray`'s origin: see-through surfaces crossed since
@@ -750,6 +798,7 @@ impl Vcm<'_> {
                 d_vc: here.d_vc,
                 s_vm: here.s_vm,
                 vm,
+                after_delta: here.after_delta,
             };
             if let crate::scene::Crossing::Through(t) = crossing {
                 // Let by: no vertex. The light that arrived is still there for a camera subpath whose own
@@ -788,7 +837,8 @@ impl Vcm<'_> {
             if sp.len + 2 > it.max_len {
                 break;
             }
-            let Some(next) = self.scatter(&mut sp, &si, wo, &mat, vm, rng, TransportMode::Importance, beta0) else {
+            let Some(next) = self.scatter(&mut sp, &si, wo, &mat, vm, 0.0, rng, TransportMode::Importance, beta0)
+            else {
                 break;
             };
             ray = next;
@@ -797,8 +847,9 @@ impl Vcm<'_> {
     }
 
     /// Samples the BSDF at the subpath's end and updates its throughput and MIS quantities [tech. rep.
-    /// (34)-(36), (53)-(55)], `vm` being the merge strategy at the vertex (`Iteration::vm_at`); Russian
-    /// roulette after `render.rr_depth` edges. None ends the subpath.
+    /// (34)-(36), (53)-(55)], `vm` being the merge strategy at the vertex (`Iteration::vm_at`) and `held`
+    /// its share held back (`SubPath::held_vm`); Russian roulette after `render.rr_depth` edges. None ends
+    /// the subpath.
     #[allow(clippy::too_many_arguments)]
     fn scatter(
         &self,
@@ -807,6 +858,7 @@ impl Vcm<'_> {
         wo: Vec3,
         mat: &Material,
         vm: f32,
+        held: f32,
         rng: &mut Rng,
         mode: TransportMode,
         beta0: f32,
@@ -822,14 +874,17 @@ impl Vcm<'_> {
             sp.d_vcm = 0.0;
             sp.d_vc *= cos_out;
             sp.s_vm *= cos_out;
+            sp.held_vm = 0.0;
         } else {
             let rev = mat.pdf(bs.wi, wo, si.ns);
             let f = cos_out / bs.pdf;
             sp.d_vc = f * (sp.d_vc * rev + sp.d_vcm + vm);
             sp.s_vm = f * (sp.s_vm * rev + sp.d_vcm * it.vc + vm);
+            sp.held_vm = f * held;
             sp.d_vcm = 1.0 / bs.pdf;
             sp.specular = false;
         }
+        sp.after_delta = bs.delta;
         sp.beta *= bs.weight;
         sp.radiance_scale *= bs.radiance_scale;
         if sp.beta == Rgb::ZERO {
@@ -853,9 +908,9 @@ impl Vcm<'_> {
         let weight = |dir: Vec3, camera_pdf_a: f32| {
             it.weight(s, t, || {
                 let rev = lv.mat.pdf(dir, lv.wo, lv.si.ns);
-                // The light vertex is the camera's first hit here: merging there is a strategy only with
-                // `merge_primary`.
-                let vm = if it.merge_primary { lv.vm } else { 0.0 };
+                // The light vertex is the camera's first hit here: merging there is a strategy as
+                // `merge_primary` says.
+                let vm = it.vm_as_first_hit(lv);
                 let w_light = camera_pdf_a / it.n_paths * (vm + lv.d_vcm + lv.d_vc * rev);
                 1.0 / (w_light + 1.0)
             })
@@ -894,6 +949,8 @@ impl Vcm<'_> {
             d_vc: 0.0,
             s_vm: 0.0,
             radiance_scale: 1.0,
+            after_delta: false,
+            held_vm: 0.0,
         };
         let mut prev = ray.o;
         let mut l = Rgb::ZERO;
@@ -919,6 +976,8 @@ impl Vcm<'_> {
             sp.d_vcm *= dist2 / cos_in;
             sp.d_vc /= cos_in;
             sp.s_vm /= cos_in;
+            // Emission here ends the path at the light: the first hit's caustic merge (held back) is no
+            // strategy for it.
             let le = if hidden { Rgb::ZERO } else { scene.emitted(&si, wo) };
             if le != Rgb::ZERO {
                 l += sp.beta * le * self.emitter_hit(&sp, &si, wo, prev);
@@ -926,14 +985,32 @@ impl Vcm<'_> {
             if sp.len >= it.max_len {
                 break;
             }
-            // η here (merging's radius), and the merge strategy's share of MIS sums here (none at the
-            // first hit without `merge_primary`).
-            let merges_here = if sp.len == 1 { it.merge_primary } else { it.merge };
-            let (eta, vm) = if mat.is_delta() {
-                (0.0, 0.0)
+            if sp.held_vm != 0.0 {
+                // The second vertex: light scattered by a delta BSDF here could have been merged at the
+                // first hit, for every path that goes on from here.
+                if mat.is_delta() {
+                    let held = sp.held_vm / cos_in;
+                    sp.d_vc += held;
+                    sp.s_vm += held;
+                }
+                sp.held_vm = 0.0;
+            }
+            // η here (merging's radius), the merge strategy's share of MIS sums here and what it merges
+            // with (at the first hit as `merge_primary` says: only caustics' light vertices, whose MIS
+            // share is held back until the next vertex, or none).
+            let first = sp.len == 1;
+            let merges_here = if first { it.primary != Primary::None } else { it.merge };
+            let only_caustics = first && it.primary == Primary::Caustics;
+            let merge_tree = if first { light.first_hit_tree } else { light.tree };
+            let (eta, vm, held) = if mat.is_delta() || !merges_here {
+                (0.0, 0.0, 0.0)
             } else {
                 let eta = it.eta(si.p);
-                (eta, if merges_here { eta } else { 0.0 })
+                if only_caustics {
+                    (eta, 0.0, eta)
+                } else {
+                    (eta, eta, 0.0)
+                }
             };
             if !mat.is_delta() {
                 if it.opts.connect || it.opts.strategy.is_some() {
@@ -945,12 +1022,12 @@ impl Vcm<'_> {
                         l += sp.beta * lv.beta * self.connect(&sp, &si, wo, &mat, vm, lv, c);
                     }
                 }
-                if let Some(tree) = light.tree.filter(|_| merges_here) {
+                if let Some(tree) = merge_tree.filter(|_| merges_here) {
                     l += sp.beta * self.merge(&sp, &si, wo, &mat, eta, tree);
                 }
             }
             prev = si.p;
-            let Some(next) = self.scatter(&mut sp, &si, wo, &mat, vm, rng, TransportMode::Radiance, 1.0) else {
+            let Some(next) = self.scatter(&mut sp, &si, wo, &mat, vm, held, rng, TransportMode::Radiance, 1.0) else {
                 break;
             };
             // `scatter` keeps the sample to itself; a thin pane's transmission is the one lobe that goes on
@@ -1098,9 +1175,9 @@ impl Vcm<'_> {
         f_cam * f_light * tr * (w / dist2)
     }
 
-    /// Vertex merging at a non-delta camera vertex [tech. rep. (37)-(39)]: the light vertices within
-    /// the iteration's radius, as a density estimate over the disc; to be multiplied by the camera
-    /// throughput.
+    /// Vertex merging at a non-delta camera vertex [tech. rep. (37)-(39)]: the light vertices of `tree`
+    /// within the iteration's radius, as a density estimate over the disc; to be multiplied by the
+    /// camera throughput.
     fn merge(
         &self,
         sp: &SubPath,

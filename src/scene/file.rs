@@ -672,8 +672,9 @@ pub struct RenderSettings {
 /// light_paths = 0  # light subpaths per iteration (0 = one per pixel; never fewer than the pixels)
 /// aim = 0.2        # share of light subpaths that head for the specular shapes (aimed as needed; 0 = none)
 /// local_radius = true  # merge radius set per region from a pilot's light vertices (false: one radius)
-/// merge_primary = true # merge at the camera's first hit too (false: light tracing and connections alone
-///                      # there, merging past it; without connections it always merges there)
+/// merge_primary = "caustics" # what the camera's first hit merges with: the light vertices that came
+///                       # through a mirror or glass; "all" (or true) every one, "none" (or false) none
+///                       # (light tracing alone there); without connections always "all"
 /// ```
 #[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
@@ -688,18 +689,64 @@ pub struct VcmSettings {
     /// The merge radius follows the light's density over the scene (`integrator::vcm::RadiusField`),
     /// unless `render.progressive.radius` sets one radius.
     pub local_radius: bool,
-    /// Merge at the camera's first hit as well (the default). Off, that strategy leaves every MIS sum and
-    /// light tracing alone finds the light there from the same light subpaths: less noise on diffuse
-    /// light, more on a caustic seen directly (at 256² and 12 s: the Cornell box's RMSE 0.00944 with,
-    /// 0.00842 without; the glass box 0.0128 / 0.0114; the cardioid 0.0118 / 0.0161). Ignored without
+    /// Which light vertices the camera's first hit merges with (`MergePrimary`). Ignored without
     /// connections (a progressive photon mapper must merge there).
-    pub merge_primary: bool,
+    pub merge_primary: MergePrimary,
 }
 
 impl Default for VcmSettings {
     fn default() -> Self {
-        VcmSettings { connect: true, merge: true, light_paths: 0, aim: 0.2, local_radius: true, merge_primary: true }
+        VcmSettings {
+            connect: true,
+            merge: true,
+            light_paths: 0,
+            aim: 0.2,
+            local_radius: true,
+            merge_primary: MergePrimary::Caustics,
+        }
     }
+}
+
+/// `render.vcm.merge_primary`: the light vertices VCM merges with at the camera's first hit. Where it
+/// does not merge, that strategy leaves every MIS sum and light tracing finds the same light there from
+/// the same light subpaths: less noise on diffuse light, more on a caustic seen directly. `Caustics`
+/// (the default) merges only the light vertices whose last bounce was a delta BSDF (a mirror, smooth
+/// glass or water), light that no connection brings to the first hit: at 256² and 12 s (session 37,
+/// three runs each, min–max) the Cornell box's RMSE 0.0093–0.0099 with all, 0.0084–0.0085 with none
+/// (caustics is none there: no delta BSDF), the glass box 0.0123–0.0134 / 0.0112–0.0120 / caustics
+/// 0.0113–0.0124, the cardioid 0.0128–0.0130 with all, 0.0120–0.0122 with caustics (0.0172 with none).
+#[derive(Debug, Clone, Copy, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MergePrimary {
+    All,
+    Caustics,
+    None,
+}
+
+impl<'de> Deserialize<'de> for MergePrimary {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Ok(match MergePrimaryRepr::deserialize(d)? {
+            MergePrimaryRepr::Flag(true) | MergePrimaryRepr::Name(MergePrimaryName::All) => MergePrimary::All,
+            MergePrimaryRepr::Name(MergePrimaryName::Caustics) => MergePrimary::Caustics,
+            MergePrimaryRepr::Flag(false) | MergePrimaryRepr::Name(MergePrimaryName::None) => MergePrimary::None,
+        })
+    }
+}
+
+/// What `merge_primary` may be written as: the old switch (true, false) or a name.
+#[derive(Deserialize)]
+#[serde(untagged, expecting = "true, false, \"all\", \"caustics\" or \"none\"")]
+enum MergePrimaryRepr {
+    Flag(bool),
+    Name(MergePrimaryName),
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum MergePrimaryName {
+    All,
+    Caustics,
+    None,
 }
 
 /// `[render.progressive]`: the progressive modes (`ppm`, `sppm`).
