@@ -678,7 +678,8 @@ struct LightPaths<'a> {
     verts: &'a [LightVertex],
     /// Light path k's vertices are verts[ends[k]..ends[k + 1]].
     ends: &'a [u32],
-    /// The light vertices merged with past the camera's first hit, and at the first hit.
+    /// The light vertices merged with past the camera's first hit, and at the first hit (None where no
+    /// merging happens: without merging, or at the first hit with `merge_primary = "none"`).
     tree: Option<&'a KdTree<MergeVertex>>,
     first_hit_tree: Option<&'a KdTree<MergeVertex>>,
 }
@@ -1022,7 +1023,7 @@ impl Vcm<'_> {
                         l += sp.beta * lv.beta * self.connect(&sp, &si, wo, &mat, vm, lv, c);
                     }
                 }
-                if let Some(tree) = merge_tree.filter(|_| merges_here) {
+                if let Some(tree) = merge_tree {
                     l += sp.beta * self.merge(&sp, &si, wo, &mat, eta, tree);
                 }
             }
