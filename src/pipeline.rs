@@ -243,8 +243,10 @@ pub fn render_photon_map_share(
 ) -> ShareOutput {
     let mut pm = PhotonMapper::new(scene, tracer, maps, only);
     pm.specular_spp = plan.specular_spp;
+    pm.edges = scene.render.gather.edge_correction;
     if scene.render.final_gather > 0 && only.is_none() {
-        pm.cache = RadianceCache::build(scene, tracer, maps, &pm.gather, scene.render.gather.cache_stride);
+        let stride = scene.render.gather.cache_stride;
+        pm.cache = RadianceCache::build(scene, tracer, maps, &pm.gather, stride, pm.edges);
     }
     let cam = &scene.camera;
     let mut out = render_share(

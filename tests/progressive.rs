@@ -42,15 +42,10 @@ fn the_furnace_converges_to_le_over_one_minus_albedo_in_both_modes() {
     }
 }
 
-#[test]
-fn sppm_reads_the_furnace_right_up_to_its_edges_and_corners() {
-    // The furnace seen from close to one of its corners: every point of every wall reads
-    // Le/(1 − a) = 2, the reflected half of it from photons (direct light too, so no shadow-ray noise).
-    // A gather disc that reaches past an edge holds photons over only part of its area; divided by the
-    // whole disc it reads 1 + c (c the part covered: about 1.5 at an edge, 1.25 in the corner). Checked
-    // on the pixels that see within 0.03 of an edge (about one radius), with and without the edge
-    // correction (the same photons and visible points: only the divisor differs).
-    let mut s = furnace(Mode::Sppm);
+/// The furnace seen from close to one of its corners (`mode`, 64 passes, direct light from photons
+/// too), with a mask of the pixels that see within 0.03 of an edge.
+fn furnace_corner(mode: Mode) -> (Scene, Accel, Vec<bool>) {
+    let mut s = furnace(mode);
     s.camera = caustica::scene::Camera::new(
         glam::Vec3::new(-0.6, -0.55, -0.5),
         glam::Vec3::splat(-1.0),
@@ -69,25 +64,86 @@ fn sppm_reads_the_furnace_right_up_to_its_edges_and_corners() {
             ray.at(hit.t).to_array().iter().filter(|c| c.abs() > 0.97).count() >= 2
         })
         .collect();
+    (s, a, near_edge)
+}
+
+/// Mean of the pixels `near_edge` marks, and of the others.
+fn edge_and_rest(img: &Image, near_edge: &[bool]) -> (f64, f64) {
     let edge_pixels = near_edge.iter().filter(|&&e| e).count();
     assert!(edge_pixels >= 30, "only {edge_pixels} pixels see an edge");
-    let means = |img: &Image| {
-        let (mut edge, mut rest) = (0.0f64, 0.0f64);
-        for (p, &e) in img.pixels.iter().zip(&near_edge) {
-            *(if e { &mut edge } else { &mut rest }) += p.x as f64;
-        }
-        (edge / edge_pixels as f64, rest / (img.pixels.len() - edge_pixels) as f64)
-    };
-    let (edge, rest) = means(&run(&s, &a, &[]).output.image);
+    let (mut edge, mut rest) = (0.0f64, 0.0f64);
+    for (p, &e) in img.pixels.iter().zip(near_edge) {
+        *(if e { &mut edge } else { &mut rest }) += p.x as f64;
+    }
+    (edge / edge_pixels as f64, rest / (img.pixels.len() - edge_pixels) as f64)
+}
+
+#[test]
+fn sppm_reads_the_furnace_right_up_to_its_edges_and_corners() {
+    // The furnace seen from close to one of its corners: every point of every wall reads
+    // Le/(1 − a) = 2, the reflected half of it from photons (direct light too, so no shadow-ray noise).
+    // A gather disc that reaches past an edge holds photons over only part of its area; divided by the
+    // whole disc it reads 1 + c (c the part covered: about 1.5 at an edge, 1.25 in the corner). Checked
+    // on the pixels that see within 0.03 of an edge (about one radius), with and without the edge
+    // correction (the same photons and visible points: only the divisor differs).
+    let (mut s, a, near_edge) = furnace_corner(Mode::Sppm);
+    let (edge, rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
     s.render.progressive.edge_correction = false;
-    let (plain_edge, plain_rest) = means(&run(&s, &a, &[]).output.image);
+    let (plain_edge, plain_rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
     eprintln!(
-        "furnace corner, {edge_pixels} edge pixels: corrected {edge:.4} (elsewhere {rest:.4}), \
+        "SPPM furnace corner: edge pixels corrected {edge:.4} (elsewhere {rest:.4}), \
          plain {plain_edge:.4} (elsewhere {plain_rest:.4}); expected 2"
     );
     assert!((edge / 2.0 - 1.0).abs() < 0.015, "edge pixels read {edge} with the correction, expected 2");
     assert!((rest / 2.0 - 1.0).abs() < 0.015, "other pixels read {rest} with the correction, expected 2");
     assert!(plain_edge < 1.95, "without the correction the edge pixels should read dark, not {plain_edge}");
+}
+
+#[test]
+fn ppm_reads_the_furnace_right_up_to_its_edges_and_corners() {
+    // As SPPM's test, for probabilistic PPM: its passes share one radius, and each gather multiplies
+    // its photons by an unbiased estimate of 1 / (the part of its disc that is surface), so the edge
+    // pixels must read 2 like the rest. Without the correction they read 1 + c over 2 as well.
+    let (mut s, a, near_edge) = furnace_corner(Mode::Ppm);
+    let (edge, rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
+    s.render.progressive.edge_correction = false;
+    let (plain_edge, plain_rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
+    eprintln!(
+        "PPM furnace corner: edge pixels corrected {edge:.4} (elsewhere {rest:.4}), \
+         plain {plain_edge:.4} (elsewhere {plain_rest:.4}); expected 2"
+    );
+    assert!((edge / 2.0 - 1.0).abs() < 0.015, "edge pixels read {edge} with the correction, expected 2");
+    assert!((rest / 2.0 - 1.0).abs() < 0.015, "other pixels read {rest} with the correction, expected 2");
+    assert!(plain_edge < 1.95, "without the correction the edge pixels should read dark, not {plain_edge}");
+}
+
+#[test]
+fn fixed_photon_map_reads_the_furnace_right_up_to_its_edges_and_corners() {
+    // The fixed photon map gathers its k nearest photons (cone filter): at an edge the k spread over the
+    // part of the disc that is surface, and dividing by the whole disc read 1.73-1.78 instead of 2 on
+    // the edge pixels. Each gather multiplies by an estimate of 1 / (the cone-weighted part covered).
+    // The map's noise is low-frequency (one set of photons per render), so three seeds are averaged.
+    let (mut s, a, near_edge) = furnace_corner(Mode::PhotonMap);
+    let mut read = |edges: bool| {
+        s.render.gather.edge_correction = edges;
+        let (mut edge, mut rest) = (0.0, 0.0);
+        for seed in 1..=3 {
+            s.render.seed = seed;
+            let img = caustica::pipeline::render_pm(&s, &a, &plan_for(&s, &a), true).unwrap().1.image;
+            let (e, r) = edge_and_rest(&img, &near_edge);
+            (edge, rest) = (edge + e / 3.0, rest + r / 3.0);
+        }
+        (edge, rest)
+    };
+    let (edge, rest) = read(true);
+    let (plain_edge, plain_rest) = read(false);
+    eprintln!(
+        "fixed PM furnace corner: edge pixels corrected {edge:.4} (elsewhere {rest:.4}), \
+         plain {plain_edge:.4} (elsewhere {plain_rest:.4}); expected 2"
+    );
+    assert!((edge / 2.0 - 1.0).abs() < 0.02, "edge pixels read {edge} with the correction, expected 2");
+    assert!((rest / 2.0 - 1.0).abs() < 0.02, "other pixels read {rest} with the correction, expected 2");
+    assert!(plain_edge < 1.9, "without the correction the edge pixels should read dark, not {plain_edge}");
 }
 
 fn glass(mode: Mode) -> (Scene, Accel) {

@@ -1,6 +1,7 @@
 //! Integrators: the path tracer (reference), the photon-map eye pass and the progressive photon
 //! mappers, bidirectional path tracing and vertex connection and merging, sharing light sampling and the walk of a camera ray through mirrors and glass.
 pub mod direct;
+pub mod edges;
 pub mod path;
 pub mod photon_map;
 pub mod ppm;

@@ -3,6 +3,7 @@
 //! (caustic map) and indirect light (indirect map, or a final gather that reads the maps one bounce
 //! further) are added. Also the map views: photon splats and single-map estimates.
 use super::direct::{estimate_direct_with, DirectStrategy};
+use super::edges::{inverse_coverage, EDGE_PROBES_KEY};
 use super::{ChainLight, Counters};
 use crate::accel::Tracer;
 use crate::color::{luminance, Rgb};
@@ -206,6 +207,26 @@ thread_local! {
     static SCRATCH: RefCell<KnnResult> = RefCell::new(KnnResult::new());
 }
 
+/// An estimate of 1 / (the part of the gather disc of radius `r` about `si` that is surface, weighed by
+/// the kernel), from its own random stream keyed by two draws of `rng`'s generator (which leaves a
+/// camera sample's Sobol dimensions as they were): `edges::inverse_coverage`. Its rays go to `c`.
+#[allow(clippy::too_many_arguments)]
+fn edge_factor(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    si: &SurfaceHit,
+    wo: glam::Vec3,
+    r: f32,
+    cone_k: f32,
+    rng: &mut Rng,
+    c: &mut Counters,
+) -> f32 {
+    let mut probes = Rng::new(EDGE_PROBES_KEY, rng.next_u32() as u64, rng.next_u32() as u64);
+    let (inv, rays) = inverse_coverage(scene, tracer, si, wo, r, cone_k, &mut probes);
+    c.rays += rays;
+    inv
+}
+
 /// Radiance per unit albedo (indirect + caustic maps) precomputed at a point of a surface.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CachedRadiance {
@@ -238,6 +259,7 @@ impl RadianceCache {
         maps: &PhotonMaps,
         gather: &[Gather; 3],
         stride: u32,
+        edges: bool,
     ) -> Option<RadianceCache> {
         use rayon::prelude::*;
         let ind = maps.maps[INDIRECT].as_ref()?;
@@ -259,16 +281,24 @@ impl RadianceCache {
                 let h = tracer.intersect(&probe)?;
                 let si = scene.surface(&probe, h.shape, h.prim, h.u, h.v, h.t);
                 let wo = crate::math::face_forward(si.ng, nc);
-                let from_maps = |which: &[usize]| {
-                    SCRATCH.with(|r| {
-                        let r = &mut r.borrow_mut();
-                        which.iter().fold(Rgb::ZERO, |acc, &m| match &maps.maps[m] {
-                            Some(map) => {
-                                acc + map.radiance(&si, wo, DiffuseLobe::lambert(Rgb::ONE), gather[m], budget, r)
-                            }
-                            None => acc,
-                        })
-                    })
+                // The edge correction's probes draw from a stream of their own.
+                let mut edge_rng = Rng::new(scene.render.seed ^ EDGE_PROBES_KEY, CACHE_STREAM, i as u64);
+                let mut from_maps = |which: &[usize]| {
+                    let mut sum = Rgb::ZERO;
+                    for &m in which {
+                        let Some(map) = &maps.maps[m] else { continue };
+                        let unit = DiffuseLobe::lambert(Rgb::ONE);
+                        let (l, r) = SCRATCH.with(|res| {
+                            map.radiance_and_radius(&si, wo, unit, gather[m], budget, &mut res.borrow_mut())
+                        });
+                        if edges && l != Rgb::ZERO {
+                            let mut c = Counters::default();
+                            sum += l * edge_factor(scene, tracer, &si, wo, r, gather[m].cone_k, &mut edge_rng, &mut c);
+                        } else {
+                            sum += l;
+                        }
+                    }
+                    sum
                 };
                 let direct = if maps.direct_from_map(scene) {
                     from_maps(&[DIRECT])
@@ -333,6 +363,9 @@ pub struct PhotonMapper<'a> {
     /// Final gather's precomputed radiance, read by gather rays when set (the fixed photon mapper's
     /// eye pass sets it when `render.final_gather` > 0; progressive passes do not).
     pub cache: Option<RadianceCache>,
+    /// Multiply each gather's photons by an estimate of 1 / (the part of its disc that is surface), so
+    /// that discs reaching past an edge do not read dark (`edges::inverse_coverage`).
+    pub edges: bool,
 }
 
 impl<'a> PhotonMapper<'a> {
@@ -354,20 +387,47 @@ impl<'a> PhotonMapper<'a> {
             specular_spp: scene.render.specular_spp,
             radius: None,
             cache: None,
+            edges: false,
         }
     }
 
-    fn map_radiance(&self, m: usize, si: &SurfaceHit, wo: glam::Vec3, lobe: DiffuseLobe, budget: u32) -> Rgb {
+    /// Map `m`'s estimate at `si`, times an unbiased estimate of 1 / (the part of its gather disc that
+    /// is surface) when `edges` is set (`edges::inverse_coverage`, drawn only where photons were found).
+    /// With a fixed radius every map's disc is the same, so the first map's draw is kept in `shared`
+    /// for the others of the same gather point.
+    #[allow(clippy::too_many_arguments)]
+    fn map_radiance(
+        &self,
+        m: usize,
+        si: &SurfaceHit,
+        wo: glam::Vec3,
+        lobe: DiffuseLobe,
+        budget: u32,
+        rng: &mut Rng,
+        c: &mut Counters,
+        shared: &mut Option<f32>,
+    ) -> Rgb {
         let Some(map) = &self.maps.maps[m] else {
             return Rgb::ZERO;
         };
-        SCRATCH.with(|s| match self.radius {
+        let (l, r) = SCRATCH.with(|s| match self.radius {
             Some(r) => {
                 let (flux, _) = map.flux_within(si, wo, r, budget, lobe.coat, &mut s.borrow_mut());
-                flux * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r * r)
+                (flux * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r * r), r)
             }
-            None => map.radiance(si, wo, lobe, self.gather[m], budget, &mut s.borrow_mut()),
-        })
+            None => map.radiance_and_radius(si, wo, lobe, self.gather[m], budget, &mut s.borrow_mut()),
+        });
+        if !self.edges || l == Rgb::ZERO {
+            return l;
+        }
+        // Progressive passes gather with a box kernel, the fixed map with its cone filter (if any).
+        let cone_k = if self.radius.is_some() { 0.0 } else { self.gather[m].cone_k };
+        let mut draw = || edge_factor(self.scene, self.tracer, si, wo, r, cone_k, rng, c);
+        let inv = match self.radius {
+            Some(_) => *shared.get_or_insert_with(draw),
+            None => draw(),
+        };
+        l * inv
     }
 
     /// Radiance leaving a diffuse point (or a plastic's base) by its diffuse lobe: direct + caustic +
@@ -391,8 +451,9 @@ impl<'a> PhotonMapper<'a> {
         let Some(lobe) = mat.diffuse_lobe(wo, si.ns) else {
             return Rgb::ZERO;
         };
+        let mut shared = None;
         if let Some(m) = self.only {
-            return self.map_radiance(m, si, wo, lobe, budget);
+            return self.map_radiance(m, si, wo, lobe, budget, rng, c, &mut shared);
         }
         // The cache holds direct light too: a gather ray that finds it traces no shadow ray. It was
         // filled for a gather ray's end one bounce into the path; past glass, where less depth is left,
@@ -408,17 +469,17 @@ impl<'a> PhotonMapper<'a> {
             }
         }
         let direct = if self.maps.direct_from_map(self.scene) {
-            self.map_radiance(DIRECT, si, wo, lobe, budget)
+            self.map_radiance(DIRECT, si, wo, lobe, budget, rng, c, &mut shared)
         } else {
             // Final-gather ends keep the light sample alone (a BSDF sample there is not worth its ray).
             let strategy = if in_gather { DirectStrategy::LightOnly } else { DirectStrategy::eye_pass(self.scene) };
             estimate_direct_with(self.scene, self.tracer, si, wo, &mat.base_only(), rng, c, strategy)
         };
-        let caustic = self.map_radiance(CAUSTIC, si, wo, lobe, budget);
+        let caustic = self.map_radiance(CAUSTIC, si, wo, lobe, budget, rng, c, &mut shared);
         if fg > 0 {
             return direct + caustic + self.final_gather(si, wo, mat, rng, c, fg, budget);
         }
-        direct + caustic + self.map_radiance(INDIRECT, si, wo, lobe, budget)
+        direct + caustic + self.map_radiance(INDIRECT, si, wo, lobe, budget, rng, c, &mut shared)
     }
 
     /// Indirect light by `n` rays sampled from the surface's BSDF (cosine about the shading normal, as

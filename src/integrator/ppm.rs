@@ -102,6 +102,7 @@ pub fn ppm_pass(
     let mut pm = PhotonMapper::new(scene, tracer, &maps, None);
     pm.specular_spp = plan.specular_spp;
     pm.radius = Some(r);
+    pm.edges = scene.render.progressive.edge_correction;
     let cam = &scene.camera;
     // Each pass is one eye sample per pixel with its own scramble (passes must stay independent).
     let (sampler, seed) = (scene.render.sampler, pass_seed(scene.render.seed, i));

@@ -18,6 +18,7 @@
 //! Every pixel updates only its own state, in parallel: no shared sums, the same bits on any thread
 //! count.
 use super::direct::{estimate_direct_with, DirectStrategy};
+use super::edges::{disc_coverage, EDGE_PROBES_KEY};
 use super::photon_map::build_maps;
 use super::ppm::{initial_radius, pass_request, PassRecord};
 use super::{specular_chain, ChainEnd, ChainLight, Counters};
@@ -35,12 +36,6 @@ use std::cell::RefCell;
 
 /// Photons a pixel's first radius is chosen to hold (in the densest map), when the scene sets none.
 const INITIAL_K: usize = 30;
-
-/// Points of each pixel's disc probed per iteration for the surface under them.
-const EDGE_PROBES: usize = 2;
-
-/// Keys the edge probes' random numbers apart from the camera samples'.
-const EDGE_PROBES_KEY: u64 = 0x4544_4745_5052_4F42;
 
 /// Keys the extra camera samples of pixels behind specular surfaces apart from the visible points'.
 const EXTRA_SAMPLES_KEY: u64 = 0x5350_504D_4558_5452;
@@ -251,44 +246,4 @@ impl<'a> Sppm<'a> {
         }
         img
     }
-}
-
-/// The fraction of the gather disc of radius `r` about `si` (in its tangent plane) under which a surface
-/// could hold the photons `flux_within` accepts there, from `EDGE_PROBES` points stratified by area (one
-/// per sector, a random rotation): for each, a ray down through the estimate's slab (±r/4 about the
-/// plane, as the photon filter) looks for a diffuse surface facing the same way within 53°, passing
-/// through anything else (glass, a ball's underside, the back of a wall). Returns it with the rays cast.
-pub fn disc_coverage(
-    scene: &Scene,
-    tracer: &dyn Tracer,
-    si: &crate::scene::SurfaceHit,
-    wo: glam::Vec3,
-    r: f32,
-    rng: &mut Rng,
-) -> (f64, u64) {
-    let n = crate::math::face_forward(si.ng, wo);
-    let frame = crate::math::Frame::from_normal(n);
-    let h = 0.25 * r;
-    let (turn, mut rays, mut covered) = (rng.next_f32(), 0u64, 0usize);
-    for j in 0..EDGE_PROBES {
-        let [u, v] = rng.next_2d();
-        let phi = 2.0 * std::f32::consts::PI * (turn + (j as f32 + u) / EDGE_PROBES as f32);
-        let rho = r * v.sqrt();
-        let q = si.p + frame.to_world(glam::Vec3::new(rho * phi.cos(), rho * phi.sin(), 0.0));
-        let mut ray = crate::math::Ray { o: q + n * h, d: -n, tmin: 0.0, tmax: 2.0 * h };
-        // A few surfaces at most stand in the slab: pass through the ones that cannot hold photons.
-        for _ in 0..4 {
-            rays += 1;
-            let Some(hit) = tracer.intersect(&ray) else {
-                break;
-            };
-            let s = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-            if s.ng.dot(n).abs() >= 0.6 && scene.any_bsdf_at(&s, n, |m| m.holds_photons()) {
-                covered += 1;
-                break;
-            }
-            ray.tmin = hit.t + 1e-4 * h;
-        }
-    }
-    (covered as f64 / EDGE_PROBES as f64, rays)
 }

@@ -67,12 +67,25 @@ impl PhotonMap {
         budget: u32,
         res: &mut KnnResult,
     ) -> Rgb {
+        self.radiance_and_radius(si, wo, lobe, g, budget, res).0
+    }
+
+    /// `radiance`, and the radius of the disc it gathered over (0 when it found nothing).
+    pub fn radiance_and_radius(
+        &self,
+        si: &SurfaceHit,
+        wo: Vec3,
+        lobe: DiffuseLobe,
+        g: Gather,
+        budget: u32,
+        res: &mut KnnResult,
+    ) -> (Rgb, f32) {
         if self.is_empty() || g.k == 0 {
-            return Rgb::ZERO;
+            return (Rgb::ZERO, 0.0);
         }
         let r2 = self.tree.knn(si.p.to_array(), g.k, g.max_r2, res);
         if r2.is_nan() || r2 <= 0.0 || !r2.is_finite() {
-            return Rgb::ZERO;
+            return (Rgb::ZERO, 0.0);
         }
         let r = r2.sqrt();
         let f = PhotonFilter::new(si, wo, r, budget, lobe.coat);
@@ -95,7 +108,7 @@ impl PhotonMap {
             sum += self.phi(i) * (w * cone_w);
         }
         let norm = if cone { 1.0 - 2.0 / (3.0 * g.cone_k) } else { 1.0 };
-        sum * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r2 * norm)
+        (sum * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r2 * norm), r)
     }
 
     /// Flux-weighted sum Σ w_p ΔΦ_p over the photons within radius `r` of `si` that pass the surface

@@ -852,10 +852,21 @@ pub struct GatherSettings {
     /// at every `cache_stride`-th indirect photon (Christensen 1999) instead of two k-NN gathers per
     /// ray; 0 turns the cache off.
     pub cache_stride: u32,
+    /// Multiply each gather's photons by an estimate of 1 / (the part of its disc that is surface), so
+    /// that a disc reaching past a wall or an edge does not read dark.
+    pub edge_correction: bool,
 }
 
 impl Default for GatherSettings {
     fn default() -> Self {
-        GatherSettings { direct: 50, indirect: 200, caustic: 100, cone_k: 1.1, max_radius: 0.05, cache_stride: 4 }
+        GatherSettings {
+            direct: 50,
+            indirect: 200,
+            caustic: 100,
+            cone_k: 1.1,
+            max_radius: 0.05,
+            cache_stride: 4,
+            edge_correction: true,
+        }
     }
 }
