@@ -759,7 +759,8 @@ enum MergePrimaryName {
 /// photons_per_pass = 100000
 /// alpha = 0.6667           # radius shrinkage: r_i² = r_1² Π (k + α)/(k + 1)
 /// radius = 0.0             # initial gather radius in scene units (0 = automatic)
-/// edge_correction = true   # sppm: divide each pixel's photons by the part of its disc that is surface
+/// edge_correction = true   # sppm: divide each pixel's photons by the part of its disc that is surface;
+///                          # ppm: multiply each gather's photons by an estimate of 1 / that part
 /// ```
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
@@ -771,7 +772,8 @@ pub struct ProgressiveSettings {
     pub alpha: f32,
     pub radius: f32,
     /// SPPM: probe how much of each pixel's gather disc lies on a surface that could hold its photons,
-    /// and divide by that area instead of the whole disc's (no dark band along walls and edges).
+    /// and divide by that area instead of the whole disc's (no dark band along walls and edges). PPM:
+    /// multiply each gather's photons by an unbiased estimate of 1 / that part (`edges`).
     pub edge_correction: bool,
 }
 
