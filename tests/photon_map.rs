@@ -66,23 +66,27 @@ fn no_light_leaks_through_a_thin_wall() {
         for j in 0..=20 {
             for k in 0..=20 {
                 let p = Vec3::new(0.0, -1.0 + j as f32 * 0.1, -1.0 + k as f32 * 0.1);
-                let b = map.radiance(
-                    &common::surface_at(p, Vec3::X),
-                    Vec3::X,
-                    DiffuseLobe::lambert(Rgb::splat(0.7)),
-                    g,
-                    u32::MAX,
-                    &mut res,
-                );
+                let b = map
+                    .radiance(
+                        &common::surface_at(p, Vec3::X),
+                        Vec3::X,
+                        DiffuseLobe::lambert(Rgb::splat(0.7)),
+                        g,
+                        u32::MAX,
+                        &mut res,
+                    )
+                    .0;
                 dark += (b.max_element() > 0.0) as usize;
-                let a = map.radiance(
-                    &common::surface_at(p, Vec3::X),
-                    -Vec3::X,
-                    DiffuseLobe::lambert(Rgb::splat(0.7)),
-                    g,
-                    u32::MAX,
-                    &mut res,
-                );
+                let a = map
+                    .radiance(
+                        &common::surface_at(p, Vec3::X),
+                        -Vec3::X,
+                        DiffuseLobe::lambert(Rgb::splat(0.7)),
+                        g,
+                        u32::MAX,
+                        &mut res,
+                    )
+                    .0;
                 bright += (a.max_element() > 0.0) as usize;
             }
         }
@@ -115,6 +119,7 @@ fn axis_caustic(depth: f32, n: f32, r: f32) -> f32 {
         u32::MAX,
         &mut res,
     )
+    .0
     .x
 }
 
@@ -462,6 +467,7 @@ fn uniform_photon_density_gives_the_lambertian_radiance_with_and_without_the_con
                     u32::MAX,
                     &mut res,
                 )
+                .0
                 .x as f64
                 / 40.0;
         }

@@ -79,42 +79,28 @@ fn edge_and_rest(img: &Image, near_edge: &[bool]) -> (f64, f64) {
 }
 
 #[test]
-fn sppm_reads_the_furnace_right_up_to_its_edges_and_corners() {
+fn progressive_modes_read_the_furnace_right_up_to_its_edges_and_corners() {
     // The furnace seen from close to one of its corners: every point of every wall reads
     // Le/(1 − a) = 2, the reflected half of it from photons (direct light too, so no shadow-ray noise).
     // A gather disc that reaches past an edge holds photons over only part of its area; divided by the
     // whole disc it reads 1 + c (c the part covered: about 1.5 at an edge, 1.25 in the corner). Checked
     // on the pixels that see within 0.03 of an edge (about one radius), with and without the edge
-    // correction (the same photons and visible points: only the divisor differs).
-    let (mut s, a, near_edge) = furnace_corner(Mode::Sppm);
-    let (edge, rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
-    s.render.progressive.edge_correction = false;
-    let (plain_edge, plain_rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
-    eprintln!(
-        "SPPM furnace corner: edge pixels corrected {edge:.4} (elsewhere {rest:.4}), \
-         plain {plain_edge:.4} (elsewhere {plain_rest:.4}); expected 2"
-    );
-    assert!((edge / 2.0 - 1.0).abs() < 0.015, "edge pixels read {edge} with the correction, expected 2");
-    assert!((rest / 2.0 - 1.0).abs() < 0.015, "other pixels read {rest} with the correction, expected 2");
-    assert!(plain_edge < 1.95, "without the correction the edge pixels should read dark, not {plain_edge}");
-}
-
-#[test]
-fn ppm_reads_the_furnace_right_up_to_its_edges_and_corners() {
-    // As SPPM's test, for probabilistic PPM: its passes share one radius, and each gather multiplies
-    // its photons by an unbiased estimate of 1 / (the part of its disc that is surface), so the edge
-    // pixels must read 2 like the rest. Without the correction they read 1 + c over 2 as well.
-    let (mut s, a, near_edge) = furnace_corner(Mode::Ppm);
-    let (edge, rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
-    s.render.progressive.edge_correction = false;
-    let (plain_edge, plain_rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
-    eprintln!(
-        "PPM furnace corner: edge pixels corrected {edge:.4} (elsewhere {rest:.4}), \
-         plain {plain_edge:.4} (elsewhere {plain_rest:.4}); expected 2"
-    );
-    assert!((edge / 2.0 - 1.0).abs() < 0.015, "edge pixels read {edge} with the correction, expected 2");
-    assert!((rest / 2.0 - 1.0).abs() < 0.015, "other pixels read {rest} with the correction, expected 2");
-    assert!(plain_edge < 1.95, "without the correction the edge pixels should read dark, not {plain_edge}");
+    // correction (the same photons and visible points: only the correction differs). SPPM divides by
+    // the covered area it accumulates; PPM's passes, which share one radius, multiply each gather by an
+    // unbiased estimate of 1 / (the part covered).
+    for mode in [Mode::Sppm, Mode::Ppm] {
+        let (mut s, a, near_edge) = furnace_corner(mode);
+        let (edge, rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
+        s.render.progressive.edge_correction = false;
+        let (plain_edge, plain_rest) = edge_and_rest(&run(&s, &a, &[]).output.image, &near_edge);
+        eprintln!(
+            "{mode:?} furnace corner: edge pixels corrected {edge:.4} (elsewhere {rest:.4}), \
+             plain {plain_edge:.4} (elsewhere {plain_rest:.4}); expected 2"
+        );
+        assert!((edge / 2.0 - 1.0).abs() < 0.015, "{mode:?}: edge pixels read {edge} with the correction");
+        assert!((rest / 2.0 - 1.0).abs() < 0.015, "{mode:?}: other pixels read {rest} with the correction");
+        assert!(plain_edge < 1.95, "{mode:?}: without the correction the edge pixels read {plain_edge}, not dark");
+    }
 }
 
 #[test]

@@ -100,6 +100,7 @@ fn direct_photon_map_matches_the_sphere_light_closed_form_within_its_blur() {
                         u32::MAX,
                         &mut res,
                     )
+                    .0
                     .x;
                 ratio += (l / closed_form(x, center, radius, radiance)) as f64 / 25.0;
             }

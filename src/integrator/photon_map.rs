@@ -288,9 +288,8 @@ impl RadianceCache {
                     for &m in which {
                         let Some(map) = &maps.maps[m] else { continue };
                         let unit = DiffuseLobe::lambert(Rgb::ONE);
-                        let (l, r) = SCRATCH.with(|res| {
-                            map.radiance_and_radius(&si, wo, unit, gather[m], budget, &mut res.borrow_mut())
-                        });
+                        let (l, r) =
+                            SCRATCH.with(|res| map.radiance(&si, wo, unit, gather[m], budget, &mut res.borrow_mut()));
                         if edges && l != Rgb::ZERO {
                             let mut c = Counters::default();
                             sum += l * edge_factor(scene, tracer, &si, wo, r, gather[m].cone_k, &mut edge_rng, &mut c);
@@ -415,7 +414,7 @@ impl<'a> PhotonMapper<'a> {
                 let (flux, _) = map.flux_within(si, wo, r, budget, lobe.coat, &mut s.borrow_mut());
                 (flux * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r * r), r)
             }
-            None => map.radiance_and_radius(si, wo, lobe, self.gather[m], budget, &mut s.borrow_mut()),
+            None => map.radiance(si, wo, lobe, self.gather[m], budget, &mut s.borrow_mut()),
         });
         if !self.edges || l == Rgb::ZERO {
             return l;

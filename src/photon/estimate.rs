@@ -57,21 +57,9 @@ impl PhotonMap {
     /// Reflected radiance towards `wo` at the surface point `si` by its diffuse `lobe` (a Lambertian
     /// reflectance, or a plastic's base under its coat), estimated from the k nearest photons (cone
     /// filter if `g.cone_k` ≥ 1), counting the photons whose paths fit in `budget` scattering events
-    /// (`within_depth`; `render.max_depth` less the eye side's bounces before `si`).
+    /// (`within_depth`; `render.max_depth` less the eye side's bounces before `si`). Returns it with the
+    /// radius of the disc it gathered over (0 when it found nothing).
     pub fn radiance(
-        &self,
-        si: &SurfaceHit,
-        wo: Vec3,
-        lobe: DiffuseLobe,
-        g: Gather,
-        budget: u32,
-        res: &mut KnnResult,
-    ) -> Rgb {
-        self.radiance_and_radius(si, wo, lobe, g, budget, res).0
-    }
-
-    /// `radiance`, and the radius of the disc it gathered over (0 when it found nothing).
-    pub fn radiance_and_radius(
         &self,
         si: &SurfaceHit,
         wo: Vec3,
