@@ -15,7 +15,7 @@ pub const EDGE_PROBES: usize = 2;
 
 /// Most probes `inverse_coverage` draws. Past them it returns this count, which is the inverse of a
 /// covered fraction of 1/32; a disc covered less than that (the estimate reads (1 − c)^32 low there,
-/// 1.2% at c = 1/8) holds almost no photons anyway.
+/// 1.4% at c = 1/8) holds almost no photons anyway.
 pub const MAX_TRIALS: u32 = 32;
 
 /// Keys the probes' random numbers apart from every other stream.
