@@ -562,6 +562,18 @@ pub fn render_progressive_share(
         }
         setup
     });
+    if !quiet && r1 > 0.0 {
+        if let Some(px) = pixels_across(scene, tracer, r1) {
+            // VCM's radius field is at most r1, smaller where the pilot found the light dense.
+            let local = vcm_setup.as_ref().is_some_and(|s| s.radius.spread().2 > 0);
+            println!(
+                "first {} {}{r1:.3e}: about {px:.1} pixel widths where the image's centre looks (shrinking \
+                 with passes; render.progressive.radius sets it)",
+                if mode == Mode::Vcm { "merge radius" } else { "gather radius" },
+                if local { "at most " } else { "" },
+            );
+        }
+    }
     let (mut seconds, mut emitted) = (t_setup.elapsed().as_secs_f64(), 0u64);
     for &i in &passes {
         let record = match (sppm.as_mut(), vcm_setup.as_ref()) {
@@ -622,6 +634,16 @@ pub fn render_progressive_share(
     Ok(Progressive { output: RenderOutput { image, counters, seconds }, sums, records, snapshots: shots, vcm_aim })
 }
 
+/// How many pixels a length `r` spans on the surface the camera's centre ray meets, seen face-on (its
+/// distance there times the film's width over the field of view); None when that ray meets nothing.
+fn pixels_across(scene: &Scene, tracer: &dyn Tracer, r: f32) -> Option<f32> {
+    let cam = &scene.camera;
+    let ray = cam.ray(0.5 * cam.width as f32, 0.5 * cam.height as f32);
+    let t = tracer.intersect(&ray)?.t;
+    let pixel = 2.0 * t * ray.d.dot(cam.forward) * cam.tan_half[0] / cam.width as f32;
+    (pixel > 0.0 && pixel.is_finite()).then(|| r / pixel)
+}
+
 /// The first pass's radius of a progressive mode: the gather radius of ppm/sppm, the merge radius of vcm
 /// (0 for bdpt, which does not merge).
 pub fn progressive_r1(scene: &Scene) -> f32 {
@@ -629,5 +651,31 @@ pub fn progressive_r1(scene: &Scene) -> f32 {
         Mode::Bdpt => 0.0,
         Mode::Vcm => crate::integrator::vcm::initial_radius(scene),
         _ => crate::integrator::ppm::initial_radius(scene),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A wall 2 in front of a pinhole with a 90° field over 100 pixels: a pixel there is 2 · 2 · tan 45° /
+    /// 100 = 0.04 wide, so a radius of 0.1 spans 2.5 of them; with nothing in front, no figure.
+    #[test]
+    fn a_radius_in_pixels_is_its_length_over_a_pixels_width_where_the_centre_looks() {
+        let text = |z: f32| {
+            format!(
+                "[camera]\norigin = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, -1.0]\nfov = 90\nfov_axis = \"x\"\n\
+                 resolution = [100, 60]\n[materials]\nwall = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
+                 [[shapes]]\ntype = \"quad\"\ncorner = [-5.0, -5.0, {z}]\nedge_u = [10.0, 0.0, 0.0]\n\
+                 edge_v = [0.0, 10.0, 0.0]\nmaterial = \"wall\"\nemission = [1.0, 1.0, 1.0]\n"
+            )
+        };
+        let scene = crate::scene::load::load_scene_str(&text(-2.0), "t.toml", std::path::Path::new("."), &[]).unwrap();
+        let accel = crate::accel::Accel::new(&scene).unwrap();
+        let px = pixels_across(&scene, &accel, 0.1).unwrap();
+        assert!((px - 2.5).abs() < 1e-3, "{px}");
+        let behind = crate::scene::load::load_scene_str(&text(2.0), "t.toml", std::path::Path::new("."), &[]).unwrap();
+        let accel = crate::accel::Accel::new(&behind).unwrap();
+        assert_eq!(pixels_across(&behind, &accel, 0.1), None);
     }
 }
