@@ -41,7 +41,10 @@ def main():
     mean_c, mean_m = c.mean(axis=(0, 1)), m.mean(axis=(0, 1))
     # Variance of each average from its two halves: (a - b)^2 / 4.
     var_mean = ((c1.mean(axis=(0, 1)) - c2.mean(axis=(0, 1))) ** 2 + (m1.mean(axis=(0, 1)) - m2.mean(axis=(0, 1))) ** 2) / 4
-    ratio = mean_c / np.maximum(mean_m, 1e-12)
+    # A channel black in both renderers' images agrees (a scene whose light neither renderer's path
+    # tracer can reach renders black in both).
+    both_black = (mean_c == 0) & (mean_m == 0)
+    ratio = np.where(both_black, 1.0, mean_c / np.maximum(mean_m, 1e-12))
     noise = np.sqrt(var_mean) / np.maximum(mean_m, 1e-12)
     var_b = (blocks(c1) - blocks(c2)) ** 2 / 4 + (blocks(m1) - blocks(m2)) ** 2 / 4
     z = (blocks(c) - blocks(m)) / np.sqrt(np.maximum(var_b, 1e-12) + var_b.mean(axis=(0, 1)) * 0.5)
@@ -51,8 +54,9 @@ def main():
     off = int(((np.abs(lum_ratio - 1) > 0.05) & (zmax > 5)).sum())
     mean_off = bool(((np.abs(ratio - 1) > 0.005) & (np.abs(ratio - 1) > 5 * noise)).any())
     verdict = "DIFFER" if mean_off or off else "agree"
+    black = " (both black)" if both_black.all() else ""
     print(
-        f"means {ratio[0]:.4f} {ratio[1]:.4f} {ratio[2]:.4f} (noise {noise.max():.4f}); worst block "
+        f"means{black} {ratio[0]:.4f} {ratio[1]:.4f} {ratio[2]:.4f} (noise {noise.max():.4f}); worst block "
         f"(row {worst[0]}, col {worst[1]}) {lum_ratio[worst]:.3f}, z {zmax[worst]:.1f}; "
         f"blocks differing {off}/{zmax.size}: {verdict}"
     )
