@@ -227,6 +227,30 @@ fn edge_factor(
     inv
 }
 
+/// `map`'s k-NN estimate at `si` (`PhotonMap::radiance`), times `edge_factor` at the radius it gathered
+/// over (with its cone filter) when `edges` is set and it found photons.
+#[allow(clippy::too_many_arguments)]
+fn knn_radiance(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    map: &PhotonMap,
+    si: &SurfaceHit,
+    wo: glam::Vec3,
+    lobe: DiffuseLobe,
+    g: Gather,
+    budget: u32,
+    edges: bool,
+    rng: &mut Rng,
+    c: &mut Counters,
+) -> Rgb {
+    let (l, r) = SCRATCH.with(|s| map.radiance(si, wo, lobe, g, budget, &mut s.borrow_mut()));
+    if edges && l != Rgb::ZERO {
+        l * edge_factor(scene, tracer, si, wo, r, g.cone_k, rng, c)
+    } else {
+        l
+    }
+}
+
 /// Radiance per unit albedo (indirect + caustic maps) precomputed at a point of a surface.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CachedRadiance {
@@ -284,20 +308,26 @@ impl RadianceCache {
                 // The edge correction's probes draw from a stream of their own.
                 let mut edge_rng = Rng::new(scene.render.seed ^ EDGE_PROBES_KEY, CACHE_STREAM, i as u64);
                 let mut from_maps = |which: &[usize]| {
-                    let mut sum = Rgb::ZERO;
-                    for &m in which {
-                        let Some(map) = &maps.maps[m] else { continue };
-                        let unit = DiffuseLobe::lambert(Rgb::ONE);
-                        let (l, r) =
-                            SCRATCH.with(|res| map.radiance(&si, wo, unit, gather[m], budget, &mut res.borrow_mut()));
-                        if edges && l != Rgb::ZERO {
-                            let mut c = Counters::default();
-                            sum += l * edge_factor(scene, tracer, &si, wo, r, gather[m].cone_k, &mut edge_rng, &mut c);
-                        } else {
-                            sum += l;
-                        }
-                    }
-                    sum
+                    let (unit, mut c) = (DiffuseLobe::lambert(Rgb::ONE), Counters::default());
+                    which
+                        .iter()
+                        .filter_map(|&m| Some((m, maps.maps[m].as_ref()?)))
+                        .map(|(m, map)| {
+                            knn_radiance(
+                                scene,
+                                tracer,
+                                map,
+                                &si,
+                                wo,
+                                unit,
+                                gather[m],
+                                budget,
+                                edges,
+                                &mut edge_rng,
+                                &mut c,
+                            )
+                        })
+                        .sum::<Rgb>()
                 };
                 let direct = if maps.direct_from_map(scene) {
                     from_maps(&[DIRECT])
@@ -409,24 +439,17 @@ impl<'a> PhotonMapper<'a> {
         let Some(map) = &self.maps.maps[m] else {
             return Rgb::ZERO;
         };
-        let (l, r) = SCRATCH.with(|s| match self.radius {
-            Some(r) => {
-                let (flux, _) = map.flux_within(si, wo, r, budget, lobe.coat, &mut s.borrow_mut());
-                (flux * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r * r), r)
-            }
-            None => map.radiance(si, wo, lobe, self.gather[m], budget, &mut s.borrow_mut()),
-        });
+        let Some(r) = self.radius else {
+            let (scene, tracer, g) = (self.scene, self.tracer, self.gather[m]);
+            return knn_radiance(scene, tracer, map, si, wo, lobe, g, budget, self.edges, rng, c);
+        };
+        let (flux, _) = SCRATCH.with(|s| map.flux_within(si, wo, r, budget, lobe.coat, &mut s.borrow_mut()));
+        let l = flux * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r * r);
         if !self.edges || l == Rgb::ZERO {
             return l;
         }
-        // Progressive passes gather with a box kernel, the fixed map with its cone filter (if any).
-        let cone_k = if self.radius.is_some() { 0.0 } else { self.gather[m].cone_k };
-        let mut draw = || edge_factor(self.scene, self.tracer, si, wo, r, cone_k, rng, c);
-        let inv = match self.radius {
-            Some(_) => *shared.get_or_insert_with(draw),
-            None => draw(),
-        };
-        l * inv
+        // Progressive passes gather with a box kernel.
+        l * *shared.get_or_insert_with(|| edge_factor(self.scene, self.tracer, si, wo, r, 0.0, rng, c))
     }
 
     /// Radiance leaving a diffuse point (or a plastic's base) by its diffuse lobe: direct + caustic +
