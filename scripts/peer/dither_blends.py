@@ -68,11 +68,11 @@ def main():
     src, dst = sys.argv[1:3]
     tree = ET.parse(src)
     out_dir = os.path.dirname(os.path.abspath(dst))
-    replaced = 0
+    replaced, uses_ball = 0, False
     for shape in tree.iter("shape"):
         here = replaced
-        on_ball = any(s.get("name") == "filename" and s.get("value") == "ball.ply" for s in shape.findall("string"))
-        if on_ball and shape.find(".//texture") is not None:
+        ball = next((s for s in shape.findall("string") if s.get("name") == "filename" and s.get("value") == "ball.ply"), None)
+        if ball is not None and shape.find(".//texture") is not None:
             # Texture coordinates would change how its own texture reads (the generator's label.png
             # reads (0, 0) on ball.ply, in both renderers): left as it is.
             continue
@@ -95,11 +95,11 @@ def main():
                 parent.insert(i, tex)
                 replaced += 1
         # Only the shapes dithered here read the ball with texture coordinates.
-        for s in shape.findall("string"):
-            if replaced > here and s.get("name") == "filename" and s.get("value") == "ball.ply":
-                s.set("value", "ball-uv.ply")
-                ball = os.path.join(os.path.dirname(os.path.abspath(src)), "ball.ply")
-                ball_with_uv(ball, os.path.join(out_dir, "ball-uv.ply"))
+        if ball is not None and replaced > here:
+            ball.set("value", "ball-uv.ply")
+            uses_ball = True
+    if uses_ball:
+        ball_with_uv(os.path.join(os.path.dirname(os.path.abspath(src)), "ball.ply"), os.path.join(out_dir, "ball-uv.ply"))
     tree.write(dst)
     print(replaced)
 
