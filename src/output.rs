@@ -118,6 +118,7 @@ pub fn encode_exr(file: &Path, img: &Image) -> Result<()> {
 }
 
 pub fn read_exr(path: &Path) -> Result<Image> {
+    crate::scene::regular_file(path).map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
     let img = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |res, _| Image::new(res.width() as u32, res.height() as u32),

@@ -165,6 +165,7 @@ fn check_header(shown: &str, head: &[u8], file_len: u64) -> Result<(PartHeader, 
 pub fn read_header(path: &Path) -> Result<PartHeader> {
     use std::io::Read;
     let shown = path.display().to_string();
+    crate::scene::regular_file(path).map_err(|e| anyhow!("{shown}: cannot read: {e}"))?;
     let mut f = std::fs::File::open(path).map_err(|e| anyhow!("{shown}: cannot read: {e}"))?;
     let len = f.metadata().map_err(|e| anyhow!("{shown}: cannot read: {e}"))?.len();
     let mut head = vec![0u8; 16];
@@ -182,6 +183,7 @@ pub fn read_header(path: &Path) -> Result<PartHeader> {
 /// Reads and checks a whole part file: magic, header, part index, size, length and checksum.
 pub fn read_partial(path: &Path) -> Result<Partial> {
     let shown = path.display().to_string();
+    crate::scene::regular_file(path).map_err(|e| anyhow!("{shown}: cannot read: {e}"))?;
     let bytes = std::fs::read(path).map_err(|e| anyhow!("{shown}: cannot read: {e}"))?;
     let (header, head_end) = check_header(&shown, &bytes, bytes.len() as u64)?;
     let pixels = header.width as u64 * header.height as u64;

@@ -146,6 +146,7 @@ pub fn load_mesh_file(
     if !path.exists() {
         return Err(SceneError::MissingFile { file: shown.into() });
     }
+    crate::scene::regular_file(path).map_err(err)?;
     let serialized = name.ends_with(".serialized");
     if shape_index.is_some() && !serialized {
         return Err(err("shape_index is for a Mitsuba `.serialized` file, which holds several meshes".into()));

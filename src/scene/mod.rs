@@ -22,6 +22,18 @@ pub use material::{Blend, BlendWeight, Material, SurfaceMaterial, TransportMode}
 pub use mesh::TriMesh;
 pub use texture::Texture;
 
+/// Refuses what is not a regular file before it is read: a scene reads each file it names whole, and a
+/// device (`/dev/zero` never ends) or a named pipe (it blocks until written to) would take the memory
+/// or wait forever. `Err` says why, for a message that names the file.
+pub fn regular_file(path: &std::path::Path) -> Result<(), String> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => Ok(()),
+        Ok(m) if m.is_dir() => Err("not a regular file (a folder)".into()),
+        Ok(_) => Err("not a regular file (a device or a pipe; caustica reads only files)".into()),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
 /// Everything that can be wrong with a scene; each names the file and, where it applies, the key.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {

@@ -111,6 +111,7 @@ pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String
     if !path.exists() {
         return Err("file not found".into());
     }
+    crate::scene::regular_file(path)?;
     if name.ends_with(".exr") {
         let img = exr::prelude::read_first_rgba_layer_from_file(
             path,
