@@ -571,3 +571,100 @@ fn a_closed_pipe_ends_a_command_quietly() {
         assert!(!err.contains("panicked") && !err.contains("Broken pipe"), "{args:?}: {err}");
     }
 }
+
+/// Runs `caustica render PATH` for at most 30 s (killed after that) in 8 GB of address space; its exit
+/// code (None: killed) and stderr.
+fn run_for_at_most_30s(scene_path: &Path) -> (Option<i32>, String) {
+    use std::io::Read;
+    let out = dir().join("out/endless");
+    // At most 8 GB of address space: reading an endless file must not take the machine's memory.
+    let mut child = Command::new("sh")
+        .args(["-c", "ulimit -v 8000000; exec \"$@\"", "sh", env!("CARGO_BIN_EXE_caustica")])
+        .args(["render", scene_path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    let code = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status.code();
+        }
+        if start.elapsed().as_secs() >= 30 {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (code, err)
+}
+
+/// A file a scene names that never ends (`/dev/zero`) or blocks until someone writes to it (a named
+/// pipe) is refused at once, named, as not a regular file: the scene itself, a mesh, a texture, a sky,
+/// an XML `<include>` and a spectrum file. Before, each read until memory ran out or waited forever.
+#[test]
+fn endless_and_blocking_files_are_refused_not_read() {
+    let d = dir().join("endless");
+    std::fs::create_dir_all(&d).unwrap();
+    let fifo = d.join("pipe.png");
+    let _ = std::fs::remove_file(&fifo);
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let sky_fifo = d.join("sky.exr");
+    let _ = std::fs::remove_file(&sky_fifo);
+    assert!(Command::new("mkfifo").arg(&sky_fifo).status().unwrap().success());
+    let zero_ply = d.join("zero.ply");
+    let _ = std::fs::remove_file(&zero_ply);
+    std::os::unix::fs::symlink("/dev/zero", &zero_ply).unwrap();
+    let toml = |name: &str, text: String| {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let xml = |name: &str, inner: &str| {
+        let p = d.join(name);
+        std::fs::write(
+            &p,
+            format!(
+                r#"<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film></sensor>{inner}</scene>"#
+            ),
+        )
+        .unwrap();
+        p
+    };
+    let cases: Vec<(PathBuf, &str)> = vec![
+        (PathBuf::from("/dev/zero"), "/dev/zero"),
+        (toml("mesh.toml", with_shape("type = \"mesh\"\nfile = \"zero.ply\"")), "zero.ply"),
+        (
+            toml(
+                "texture.toml",
+                with_white(
+                    "white = { type = \"diffuse\", reflectance = \"pipe\" }\n\n[textures]\npipe = { type = \"bitmap\", file = \"pipe.png\" }",
+                ),
+            ),
+            "pipe.png",
+        ),
+        (
+            toml("sky.toml", format!("{GOOD}\n[[lights]]\ntype = \"envmap\"\nfile = \"sky.exr\"\n")),
+            "sky.exr",
+        ),
+        (xml("include.xml", r#"<include filename="/dev/zero"/>"#), "/dev/zero"),
+        (
+            xml(
+                "spd.xml",
+                r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" filename="/dev/zero"/></bsdf></shape>"#,
+            ),
+            "/dev/zero",
+        ),
+    ];
+    for (path, named) in cases {
+        let (code, err) = run_for_at_most_30s(&path);
+        let shown = path.display().to_string();
+        assert!(code.is_some(), "{shown}: still reading after 30 s (killed)");
+        assert_ne!(code, Some(0), "{shown}: rendered");
+        assert!(!err.contains("panicked"), "{shown}: panicked: {err}");
+        assert!(err.contains(named) && err.contains("not a regular file"), "{shown}: {err}");
+    }
+}

@@ -78,6 +78,13 @@ fn cornell_box_xml_matches_mitsuba() {
     matches_mitsuba("cornell", 1024, 0.003);
 }
 
+/// Spectra (`spectra.xml`): pairs, `.spd` files and constants on reflectances, a light, a point
+/// light, a conductor's eta and k, a checkerboard's colours, a saturated green and a `d65` sky.
+#[test]
+fn spectra_xml_matches_mitsuba() {
+    matches_mitsuba("spectra", 1024, 0.003);
+}
+
 #[test]
 fn showcase_xml_matches_mitsuba() {
     matches_mitsuba("showcase", 1024, 0.003);
@@ -559,6 +566,44 @@ fn one_sided_bsdfs_are_black_from_behind_unless_twosided() {
     let _ = std::fs::remove_dir_all(d);
 }
 
+/// Spectra as Mitsuba 3's RGB variants read them, seen straight on: a panel light filling the view
+/// shows its radiance in every pixel (box filter). A constant `<spectrum>` inside an emitter is a flat
+/// spectrum, c·(1.204794, 0.948291, 0.908916) in sRGB (the rows of Mitsuba's XYZ → sRGB matrix, summed;
+/// `mi.traverse` of Mitsuba 3.9.1 gives the same), not the grey an `<rgb>` of c is; the Cornell box's
+/// light as `wavelength:value` pairs is (20.7108, 10.8546, 2.77115) (Mitsuba 3.9.1, `scalar_rgb`).
+#[test]
+fn emitter_spectra_read_as_mitsuba_reads_them() {
+    let d = tmp("spectra");
+    let scene = |radiance: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+  <sensor type="perspective"><float name="fov" value="30"/>
+    <transform name="to_world"><lookat origin="0, 0, 2" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/><rfilter type="box"/></film>
+  </sensor>
+  <shape type="rectangle"><emitter type="area">{radiance}</emitter></shape>
+</scene>"#
+        )
+    };
+    let cases: [(&str, [f32; 3]); 4] = [
+        (r#"<spectrum name="radiance" value="2"/>"#, [2.409588, 1.896582, 1.817832]),
+        (r#"<rgb name="radiance" value="2"/>"#, [2.0; 3]),
+        (r#"<float name="radiance" value="2"/>"#, [2.0; 3]),
+        (r#"<spectrum name="radiance" value="400:0, 500:8, 600:15.6, 700:18.4"/>"#, [20.7108, 10.8546, 2.77115]),
+    ];
+    for (i, (radiance, want)) in cases.iter().enumerate() {
+        let img = render(&write(&d, &format!("{i}.xml"), &scene(radiance)), 1);
+        for p in &img.pixels {
+            let got = p.to_array();
+            assert!(
+                got.iter().zip(want).all(|(g, w)| (g / w - 1.0).abs() < 1e-4),
+                "{radiance}: pixel {got:?}, Mitsuba {want:?}"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(d);
+}
+
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
@@ -698,9 +743,39 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &["Unobtainium", "Au"],
         ),
         (
-            "spectrum",
-            r#"<bsdf type="diffuse"><spectrum name="reflectance" value="400:0.1, 700:0.5"/></bsdf>"#,
-            &["sampled spectra"],
+            "spectrum-order",
+            r#"<bsdf type="diffuse"><spectrum name="reflectance" value="700:0.1, 400:0.5"/></bsdf>"#,
+            &["line 8", "wavelengths must increase (400 nm after 700 nm)"],
+        ),
+        (
+            "spectrum-one-pair",
+            r#"<bsdf type="diffuse"><spectrum name="reflectance" value="500:0.5"/></bsdf>"#,
+            &["line 8", "at least two wavelength:value pairs"],
+        ),
+        (
+            "spectrum-token",
+            r#"<bsdf type="diffuse"><spectrum name="reflectance" value="400:0.1, 0.5"/></bsdf>"#,
+            &["line 8", "`0.5`: expected one value or wavelength:value pairs"],
+        ),
+        (
+            "spectrum-nan",
+            r#"<bsdf type="diffuse"><spectrum name="reflectance" value="400:nan, 700:0.5"/></bsdf>"#,
+            &["line 8", "`nan` is not a finite number"],
+        ),
+        (
+            "spectrum-file",
+            r#"<bsdf type="conductor"><spectrum name="eta" filename="no-such.spd"/><rgb name="k" value="3"/></bsdf>"#,
+            &["line 8", "cannot read spectrum file", "no-such.spd"],
+        ),
+        (
+            "spectrum-both",
+            r#"<bsdf type="diffuse"><spectrum name="reflectance" value="0.5" filename="a.spd"/></bsdf>"#,
+            &["line 8", "needs one of `value` and `filename`"],
+        ),
+        (
+            "blackbody",
+            r#"<bsdf type="diffuse"><spectrum name="reflectance" type="blackbody"><float name="temperature" value="3000"/></spectrum></bsdf>"#,
+            &["line 8", "blackbody", "spectral variants"],
         ),
         (
             "dollar",

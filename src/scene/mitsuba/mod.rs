@@ -6,6 +6,7 @@
 //! `caustica render scene.xml` reads it directly; `caustica convert scene.xml -o scene.toml` writes the
 //! TOML equivalent.
 mod props;
+mod spectrum;
 pub mod xml;
 
 use crate::scene::file::*;

@@ -1,9 +1,11 @@
 //! Typed reading of a Mitsuba element's properties (`<float name=…>`, `<rgb>`, `<transform>` …), with
 //! every child that no reader asked for reported as unsupported, so nothing is silently ignored.
+use super::spectrum;
 use super::xml::Node;
 use crate::scene::SceneError;
 use glam::{Mat4, Vec3};
 use std::cell::RefCell;
+use std::path::Path;
 
 /// A colour-valued property: a constant, an inline `<texture>`, or `<ref id>` to one.
 pub enum ColourProp<'a> {
@@ -126,18 +128,57 @@ impl<'a> Props<'a> {
         };
         Ok(Some(match n.tag.as_str() {
             "rgb" | "float" => ColourProp::Rgb(rgb(Self::numbers(n, Self::value(n)?)?)?),
-            "spectrum" => {
-                let v = Self::value(n)?;
-                if v.contains(':') || n.attr("filename").is_some() {
-                    return Err(n.error("sampled spectra are not read (give <rgb> or a single value)"));
-                }
-                ColourProp::Rgb(rgb(Self::numbers(n, v)?)?)
-            }
+            "spectrum" => ColourProp::Rgb(self.spectrum(n, name)?),
             "srgb" => ColourProp::Rgb(srgb(n, Self::value(n)?)?),
             "texture" => ColourProp::Texture(n),
             "ref" => ColourProp::Ref(n, n.attr("id").ok_or_else(|| n.error("needs an `id`"))?.to_string()),
             _ => return Err(n.error(format!("`{name}` must be <rgb>, <spectrum>, <float> or a <texture>"))),
         }))
+    }
+
+    /// A `<spectrum>` as the colour Mitsuba 3's RGB variants give it (see `spectrum`): one value,
+    /// `wavelength:value` pairs, a `.spd` file of them (`filename`), or the plugins `d65` (its `color`
+    /// or `value`, times `scale`) and `uniform` (`value`).
+    fn spectrum(&self, n: &Node, name: &str) -> Result<[f32; 3], SceneError> {
+        let in_emitter = self.node.tag == "emitter";
+        if let Some(kind) = n.attr("type") {
+            return spectrum_plugin(n, kind);
+        }
+        let (pairs, from) = match (n.attr("value"), n.attr("filename")) {
+            (Some(v), None) => {
+                let tokens: Vec<&str> =
+                    v.split(|c: char| c == ',' || c.is_whitespace()).filter(|t| !t.is_empty()).collect();
+                if let [one] = tokens[..] {
+                    if !one.contains(':') {
+                        return Ok(spectrum::constant(Self::numbers(n, one)?[0], name, in_emitter));
+                    }
+                }
+                let pairs = tokens
+                    .iter()
+                    .map(|t| match t.split_once(':') {
+                        Some((w, x)) => Ok((Self::numbers(n, w)?, Self::numbers(n, x)?)),
+                        None => Err(n.error(format!("`{t}`: expected one value or wavelength:value pairs"))),
+                    })
+                    .map(|r| match r? {
+                        (w, x) if w.len() == 1 && x.len() == 1 => Ok((w[0], x[0])),
+                        _ => Err(n.error("expected one value or wavelength:value pairs")),
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                (pairs, String::new())
+            }
+            (None, Some(f)) => {
+                let path = n.dir().join(f);
+                (read_spd(n, &path)?, format!(" in {}", path.display()))
+            }
+            _ => return Err(n.error("needs one of `value` and `filename`")),
+        };
+        if pairs.len() < 2 {
+            return Err(n.error(format!("a sampled spectrum needs at least two wavelength:value pairs{from}")));
+        }
+        if let Some(w) = pairs.windows(2).find(|w| w[1].0 <= w[0].0) {
+            return Err(n.error(format!("wavelengths must increase ({} nm after {} nm{from})", w[1].0, w[0].0)));
+        }
+        Ok(spectrum::sampled(&pairs, name, in_emitter).0)
     }
 
     /// A constant colour: as `colour`, but a texture here is refused (parameters that take one use `colour`).
@@ -181,6 +222,66 @@ impl<'a> Props<'a> {
             ))),
         }
     }
+}
+
+/// `<spectrum type="…">`: the plugins that have a colour in Mitsuba 3's RGB variants.
+fn spectrum_plugin(n: &Node, kind: &str) -> Result<[f32; 3], SceneError> {
+    let p = Props::new(n);
+    let c = match kind {
+        "uniform" => [p.float("value")?.unwrap_or(1.0); 3],
+        "d65" | "srgb" => {
+            let c = match (p.rgb("color")?, p.float("value")?) {
+                (Some(c), None) => c,
+                (None, Some(v)) if kind == "d65" => [v; 3],
+                (None, None) if kind == "d65" => [1.0; 3],
+                _ => return Err(n.error(format!("<spectrum type=\"{kind}\"> needs a `color`"))),
+            };
+            let scale = if kind == "d65" { p.float("scale")?.unwrap_or(1.0) } else { 1.0 };
+            c.map(|v| v * scale)
+        }
+        "blackbody" => {
+            return Err(n.error("a blackbody spectrum is not read (Mitsuba 3 reads it only in its spectral variants)"))
+        }
+        _ => return Err(n.error(format!("spectrum type `{kind}` is not read (read: d65, srgb, uniform)"))),
+    };
+    p.finish(if kind == "uniform" {
+        "value"
+    } else if kind == "d65" {
+        "color or value, scale"
+    } else {
+        "color"
+    })?;
+    if c.iter().any(|v| *v < 0.0) {
+        return Err(n.error("is negative"));
+    }
+    Ok(c)
+}
+
+/// A `.spd` file: one `wavelength value` pair a line, `#` comments; named relative to the element's file.
+fn read_spd(n: &Node, path: &Path) -> Result<Vec<(f32, f32)>, SceneError> {
+    let text = crate::scene::regular_file(path)
+        .and_then(|()| std::fs::read_to_string(path).map_err(|e| e.to_string()))
+        .map_err(|e| n.error(format!("cannot read spectrum file {}: {e}", path.display())))?;
+    let mut pairs = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or_default();
+        let at = |msg: &str| n.error(format!("{}: line {}: {msg}", path.display(), i + 1));
+        let nums: Vec<f32> = line
+            .split_whitespace()
+            .map(|t| {
+                t.parse::<f32>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| at(&format!("`{t}` is not a finite number")))
+            })
+            .collect::<Result<_, _>>()?;
+        match nums[..] {
+            [] => {}
+            [w, v] => pairs.push((w, v)),
+            _ => return Err(at("expected `wavelength value`")),
+        }
+    }
+    Ok(pairs)
 }
 
 fn srgb(n: &Node, v: &str) -> Result<[f32; 3], SceneError> {
