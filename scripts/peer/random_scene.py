@@ -20,8 +20,9 @@ a second random stream so that the rest of the scene is the one the same SEED gi
 emitter on a cube, disk, cylinder (round: Mitsuba samples no other), the PLY ball or the OBJ tile
 (non-uniform scale, turned), an object
 whose BSDF reads the bitmap label.png (a diffuse or plastic colour, a principled base colour, a rough
-conductor's alpha as raw data), a named interior IOR, a thin-lens camera, another fov_axis and a
-Mitchell, Lanczos or Catmull-Rom filter.
+conductor's alpha as raw data), a named interior IOR, a thin-lens camera, another fov_axis, a
+Mitchell, Lanczos or Catmull-Rom filter, and spectra for about a third of the colours (a constant, or
+wavelength:value pairs inline or in a .spd file written beside OUT).
 """
 import argparse
 import random
@@ -275,6 +276,35 @@ if args.more:
         text = text.replace('<sensor type="perspective">', '<sensor type="thinlens">'
                             f'<float name="aperture_radius" value="{f(M.uniform(0.01, 0.08))}"/>'
                             f'<float name="focus_distance" value="{f(M.uniform(3, 5))}"/>', 1)
+if args.more:
+    # Spectra for some colours, from a third stream (the rest of the scene stays the seed's): a
+    # constant (inside an emitter a flat spectrum: slightly purple in sRGB) or wavelength:value pairs,
+    # inline or in a .spd file beside OUT.
+    S = random.Random(args.seed * 104729 + 3)
+    spd_files = []
+
+    def as_spectrum(m):
+        name, values = m.group(1), [float(v) for v in m.group(2).split(",")]
+        if S.random() > 0.35 or len(values) != 3:
+            return m.group(0)
+        mean = sum(values) / 3
+        if S.random() < 0.4 or name == "specular_reflectance":
+            return f'<spectrum name="{name}" value="{f(mean)}"/>'
+        waves = sorted(S.sample(range(360, 831, 5), S.randint(2, 6)))
+        top = 1.0 if name not in ("eta", "k", "radiance", "intensity", "irradiance") else float("inf")
+        pairs = [(w, min(top, mean * S.uniform(0.2, 1.8))) for w in waves]
+        if S.random() < 0.3:
+            spd = f"spectrum-{args.seed}-{len(spd_files)}.spd"
+            spd_files.append((spd, "".join(f"{w} {f(v)}\n" for w, v in pairs)))
+            return f'<spectrum name="{name}" filename="{spd}"/>'
+        return f'<spectrum name="{name}" value="{", ".join(f"{w}:{f(v)}" for w, v in pairs)}"/>'
+
+    import os
+    import re
+    text = re.sub(r'<rgb name="(\w+)" value="([^"]*)"/>', as_spectrum, text)
+    for spd, body in spd_files:
+        with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
+            fh.write("# wavelength (nm) value\n" + body)
 # Mitsuba's path integrator stops shadow rays at a mask's holes and a thin pane, and counts crossing
 # them as a bounce; its volpath (the same without media) lets light straight through them by their
 # transmittance, as no bounce, as caustica does: the reference for such scenes.
