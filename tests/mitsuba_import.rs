@@ -85,6 +85,17 @@ fn spectra_xml_matches_mitsuba() {
     matches_mitsuba("spectra", 1024, 0.003);
 }
 
+/// A spectrum clipped into sRGB's gamut is read as Mitsuba reads it, and said: `spectra.xml`'s narrow
+/// green band (line 118) gets one warning naming the line and the colour; nothing else in it is clipped.
+#[test]
+fn a_spectrum_clipped_into_gamut_is_warned_of() {
+    let converted = caustica::scene::mitsuba::convert(&dir().join("spectra.xml")).unwrap();
+    let clipped: Vec<&String> = converted.warnings.iter().filter(|w| w.contains("gamut")).collect();
+    assert_eq!(clipped.len(), 1, "{:?}", converted.warnings);
+    assert!(clipped[0].contains("spectra.xml: line 118: <spectrum name=\"reflectance\">"), "{}", clipped[0]);
+    assert!(clipped[0].contains("clipped to (0, 0.2956"), "{}", clipped[0]);
+}
+
 #[test]
 fn showcase_xml_matches_mitsuba() {
     matches_mitsuba("showcase", 1024, 0.003);

@@ -41,6 +41,7 @@ const UNLIMITED_DEPTH: u32 = 1000;
 /// Reads a Mitsuba XML scene. File names in the result (meshes, images) are as Mitsuba resolves them,
 /// relative to the scene file's folder when they lie inside it, absolute otherwise.
 pub fn convert(path: &Path) -> Result<Converted, SceneError> {
+    props::take_notes();
     let root = xml::read_scene(path)?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut cx = Cx {
@@ -80,6 +81,7 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
     }
     let sensor = sensor.ok_or_else(|| root.error("has no <sensor> (perspective or thinlens)"))?;
     cx.sensor(sensor)?;
+    cx.warnings.extend(props::take_notes());
     Ok(Converted { file: cx.file, warnings: cx.warnings })
 }
 

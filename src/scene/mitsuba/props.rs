@@ -7,6 +7,16 @@ use glam::{Mat4, Vec3};
 use std::cell::RefCell;
 use std::path::Path;
 
+thread_local! {
+    /// What reading this thread's scene found worth a warning (spectra clipped into sRGB's gamut).
+    static NOTES: RefCell<Vec<String>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Takes the warnings gathered since the last call (see `NOTES`).
+pub fn take_notes() -> Vec<String> {
+    NOTES.with(|w| std::mem::take(&mut *w.borrow_mut()))
+}
+
 /// A colour-valued property: a constant, an inline `<texture>`, or `<ref id>` to one.
 pub enum ColourProp<'a> {
     Rgb([f32; 3]),
@@ -178,7 +188,12 @@ impl<'a> Props<'a> {
         if let Some(w) = pairs.windows(2).find(|w| w[1].0 <= w[0].0) {
             return Err(n.error(format!("wavelengths must increase ({} nm after {} nm{from})", w[1].0, w[0].0)));
         }
-        Ok(spectrum::sampled(&pairs, name, in_emitter).0)
+        let (c, clipped) = spectrum::sampled(&pairs, name, in_emitter);
+        if clipped {
+            let msg = format!("out of sRGB's gamut, clipped to ({}, {}, {}) as Mitsuba clips it", c[0], c[1], c[2]);
+            NOTES.with(|w| w.borrow_mut().push(n.error(msg).to_string()));
+        }
+        Ok(c)
     }
 
     /// A constant colour: as `colour`, but a texture here is refused (parameters that take one use `colour`).
