@@ -41,9 +41,9 @@ const UNLIMITED_DEPTH: u32 = 1000;
 /// Reads a Mitsuba XML scene. File names in the result (meshes, images) are as Mitsuba resolves them,
 /// relative to the scene file's folder when they lie inside it, absolute otherwise.
 pub fn convert(path: &Path) -> Result<Converted, SceneError> {
-    props::take_notes();
-    let root = xml::read_scene(path)?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    props::begin(&base);
+    let root = xml::read_scene(path)?;
     let mut cx = Cx {
         base,
         warnings: Vec::new(),

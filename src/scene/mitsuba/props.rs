@@ -5,14 +5,23 @@ use super::xml::Node;
 use crate::scene::SceneError;
 use glam::{Mat4, Vec3};
 use std::cell::RefCell;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 thread_local! {
     /// What reading this thread's scene found worth a warning (spectra clipped into sRGB's gamut).
     static NOTES: RefCell<Vec<String>> = const { RefCell::new(Vec::new()) };
+    /// The folder of the scene this thread is reading, where a file name not found beside the file that
+    /// names it is looked for (as Mitsuba's file resolver does).
+    static BASE: RefCell<PathBuf> = const { RefCell::new(PathBuf::new()) };
 }
 
-/// Takes the warnings gathered since the last call (see `NOTES`).
+/// Starts reading a scene in `base`: clears the warnings of any earlier one.
+pub fn begin(base: &Path) {
+    BASE.with(|b| *b.borrow_mut() = base.to_path_buf());
+    take_notes();
+}
+
+/// Takes the warnings gathered since `begin` or the last call (see `NOTES`).
 pub fn take_notes() -> Vec<String> {
     NOTES.with(|w| std::mem::take(&mut *w.borrow_mut()))
 }
@@ -147,8 +156,9 @@ impl<'a> Props<'a> {
     }
 
     /// A `<spectrum>` as the colour Mitsuba 3's RGB variants give it (see `spectrum`): one value,
-    /// `wavelength:value` pairs, a `.spd` file of them (`filename`), or the plugins `d65` (its `color`
-    /// or `value`, times `scale`) and `uniform` (`value`).
+    /// `wavelength:value` pairs, a `.spd` file of them (`filename`, beside the file that names it or
+    /// else the scene), or the plugins `d65` (its `color`, times `scale`), `srgb` (`color`) and
+    /// `uniform` (`value`).
     fn spectrum(&self, n: &Node, name: &str) -> Result<[f32; 3], SceneError> {
         let in_emitter = self.node.tag == "emitter";
         if let Some(kind) = n.attr("type") {
@@ -177,7 +187,8 @@ impl<'a> Props<'a> {
                 (pairs, String::new())
             }
             (None, Some(f)) => {
-                let path = n.dir().join(f);
+                let own = n.dir().join(f);
+                let path = if own.exists() { own } else { BASE.with(|b| b.borrow().join(f)) };
                 (read_spd(n, &path)?, format!(" in {}", path.display()))
             }
             _ => return Err(n.error("needs one of `value` and `filename`")),
@@ -245,11 +256,10 @@ fn spectrum_plugin(n: &Node, kind: &str) -> Result<[f32; 3], SceneError> {
     let c = match kind {
         "uniform" => [p.float("value")?.unwrap_or(1.0); 3],
         "d65" | "srgb" => {
-            let c = match (p.rgb("color")?, p.float("value")?) {
-                (Some(c), None) => c,
-                (None, Some(v)) if kind == "d65" => [v; 3],
-                (None, None) if kind == "d65" => [1.0; 3],
-                _ => return Err(n.error(format!("<spectrum type=\"{kind}\"> needs a `color`"))),
+            let c = match p.rgb("color")? {
+                Some(c) => c,
+                None if kind == "d65" => [1.0; 3],
+                None => return Err(n.error("<spectrum type=\"srgb\"> needs a `color`")),
             };
             let scale = if kind == "d65" { p.float("scale")?.unwrap_or(1.0) } else { 1.0 };
             c.map(|v| v * scale)
@@ -262,7 +272,7 @@ fn spectrum_plugin(n: &Node, kind: &str) -> Result<[f32; 3], SceneError> {
     p.finish(if kind == "uniform" {
         "value"
     } else if kind == "d65" {
-        "color or value, scale"
+        "color, scale"
     } else {
         "color"
     })?;
