@@ -604,7 +604,8 @@ fn run_for_at_most_30s(scene_path: &Path) -> (Option<i32>, String) {
 
 /// A file a scene names that never ends (`/dev/zero`) or blocks until someone writes to it (a named
 /// pipe) is refused at once, named, as not a regular file: the scene itself, a mesh, a texture, a sky,
-/// an XML `<include>` and a spectrum file. Before, each read until memory ran out or waited forever.
+/// an XML `<include>` and a spectrum file (an OBJ's optional MTL is left out, with a warning). Before,
+/// each read until memory ran out, aborted or waited forever.
 #[test]
 fn endless_and_blocking_files_are_refused_not_read() {
     let d = dir().join("endless");
@@ -659,6 +660,27 @@ fn endless_and_blocking_files_are_refused_not_read() {
             "/dev/zero",
         ),
     ];
+    // An OBJ's `mtllib` is optional where the scene gives the material: one that is `/dev/zero` or a
+    // pipe is left out and the mesh renders; where the scene gives none, the error about the missing
+    // material names the MTL as not a regular file. Before, the first aborted the process ("memory
+    // allocation of 8589934592 bytes failed") and the second blocked forever.
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    std::fs::write(d.join("zero-mtl.obj"), format!("mtllib /dev/zero\n{tri}")).unwrap();
+    std::fs::write(d.join("pipe-mtl.obj"), format!("mtllib pipe.png\n{tri}")).unwrap();
+    for obj in ["zero-mtl.obj", "pipe-mtl.obj"] {
+        let path = toml(&format!("{obj}.toml"), with_shape(&format!("type = \"mesh\"\nfile = \"{obj}\"")));
+        let (code, err) = run_for_at_most_30s(&path);
+        assert_eq!(code, Some(0), "{obj}: {err}");
+        let bare = toml(&format!("{obj}-bare.toml"), with_shape(&format!("type = \"mesh\"\nfile = \"{obj}\"")))
+            .to_string_lossy()
+            .to_string();
+        let text = std::fs::read_to_string(&bare).unwrap().replace("material = \"white\"\n", "");
+        std::fs::write(&bare, text).unwrap();
+        let (code, err) = run_for_at_most_30s(Path::new(&bare));
+        assert_eq!(code, Some(1), "{obj} without a material: {err}");
+        let mtl = if obj == "zero-mtl.obj" { "/dev/zero" } else { "pipe.png" };
+        assert!(err.contains(mtl) && err.contains("not a regular file"), "{obj}: {err}");
+    }
     for (path, named) in cases {
         let (code, err) = run_for_at_most_30s(&path);
         let shown = path.display().to_string();

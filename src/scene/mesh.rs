@@ -176,11 +176,24 @@ pub fn load_mesh_file(
 
 fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> {
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-    let (models, mtls) = tobj::load_obj(path, &opts).map_err(|e| format!("OBJ: {e}"))?;
+    let file = std::fs::File::open(path).map_err(|e| format!("OBJ: {e}"))?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    // An MTL that is a device or a pipe is not read (`regular_file`): it would never end or block.
+    let not_regular = std::cell::RefCell::new(None);
+    let (models, mtls) = tobj::load_obj_buf(&mut BufReader::new(file), &opts, |mtl| {
+        let full = dir.join(mtl);
+        if let Err(e) = crate::scene::regular_file(&full) {
+            *not_regular.borrow_mut() = Some(format!("{}: {e}", mtl.display()));
+            return Err(tobj::LoadError::OpenFileFailed);
+        }
+        tobj::load_mtl(full)
+    })
+    .map_err(|e| format!("OBJ: {e}"))?;
     // A missing or broken MTL is not fatal (the scene may give the material), but it is remembered.
-    let (mtls, mtl_error) = match mtls {
-        Ok(m) => (m, None),
-        Err(e) => {
+    let (mtls, mtl_error) = match (mtls, not_regular.into_inner()) {
+        (_, Some(why)) => (Vec::new(), Some(why)),
+        (Ok(m), None) => (m, None),
+        (Err(e), None) => {
             // tobj's error does not say which file: name the `mtllib` lines.
             let text = std::fs::read_to_string(path).unwrap_or_default();
             let libs: Vec<&str> =
