@@ -438,7 +438,7 @@ fn draw_chart<DB: plotters::prelude::DrawingBackend>(
 
 /// Reads a CSV that `run` wrote (`CSV_HEADER` first) and draws its chart again as OUT.svg and OUT.png.
 pub fn redraw(csv: &Path, out: &Path, title: &str) -> Result<()> {
-    let text = std::fs::read_to_string(csv).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", csv.display()))?;
+    let text = crate::scene::read_text(csv).map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", csv.display()))?;
     let mut lines = text.lines();
     if lines.next().map(str::trim) != Some(CSV_HEADER) {
         anyhow::bail!("{}: line 1: not a time-vs-error CSV (expected the header `{CSV_HEADER}`)", csv.display());

@@ -575,12 +575,17 @@ fn a_closed_pipe_ends_a_command_quietly() {
 /// Runs `caustica render PATH` for at most 30 s (killed after that) in 8 GB of address space; its exit
 /// code (None: killed) and stderr.
 fn run_for_at_most_30s(scene_path: &Path) -> (Option<i32>, String) {
-    use std::io::Read;
     let out = dir().join("out/endless");
+    run_args_for_at_most_30s(&["render", scene_path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()])
+}
+
+/// `caustica ARGS` for at most 30 s in 8 GB of address space: its exit code (None: killed) and stderr.
+fn run_args_for_at_most_30s(args: &[&str]) -> (Option<i32>, String) {
+    use std::io::Read;
     // At most 8 GB of address space: reading an endless file must not take the machine's memory.
     let mut child = Command::new("sh")
         .args(["-c", "ulimit -v 8000000; exec \"$@\"", "sh", env!("CARGO_BIN_EXE_caustica")])
-        .args(["render", scene_path.to_str().unwrap(), "-q", "-o", out.to_str().unwrap()])
+        .args(args)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -680,6 +685,13 @@ fn endless_and_blocking_files_are_refused_not_read() {
         assert_eq!(code, Some(1), "{obj} without a material: {err}");
         let mtl = if obj == "zero-mtl.obj" { "/dev/zero" } else { "pipe.png" };
         assert!(err.contains(mtl) && err.contains("not a regular file"), "{obj}: {err}");
+    }
+    // The command line's own files too: a chart's CSV, images to compare.
+    let pipe = fifo.to_str().unwrap();
+    for args in [vec!["bench", "chart", pipe], vec!["compare", pipe, "/dev/zero"]] {
+        let (code, err) = run_args_for_at_most_30s(&args);
+        assert_eq!(code, Some(1), "{args:?}: {err}");
+        assert!(err.contains(pipe) && err.contains("not a regular file"), "{args:?}: {err}");
     }
     for (path, named) in cases {
         let (code, err) = run_for_at_most_30s(&path);

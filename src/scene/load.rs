@@ -35,9 +35,7 @@ pub fn load_scene_with(path: &Path, overrides: &[String]) -> Result<Scene, Scene
         }
         scene_file_toml(&converted.file, &shown)?
     } else {
-        crate::scene::regular_file(path)
-            .and_then(|()| std::fs::read_to_string(path).map_err(|e| e.to_string()))
-            .map_err(|msg| SceneError::Io { file: shown.clone(), msg })?
+        crate::scene::read_text(path).map_err(|msg| SceneError::Io { file: shown.clone(), msg })?
     };
     let file = parse_scene_text(&text, &shown, overrides)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();

@@ -34,6 +34,11 @@ pub fn regular_file(path: &std::path::Path) -> Result<(), String> {
     }
 }
 
+/// A text file read whole, once `regular_file` allows it; `Err` says why (for a message naming it).
+pub fn read_text(path: &std::path::Path) -> Result<String, String> {
+    regular_file(path).and_then(|()| std::fs::read_to_string(path).map_err(|e| e.to_string()))
+}
+
 /// Everything that can be wrong with a scene; each names the file and, where it applies, the key.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {

@@ -284,8 +284,7 @@ fn spectrum_plugin(n: &Node, kind: &str) -> Result<[f32; 3], SceneError> {
 
 /// A `.spd` file: one `wavelength value` pair a line, `#` comments; named relative to the element's file.
 fn read_spd(n: &Node, path: &Path) -> Result<Vec<(f32, f32)>, SceneError> {
-    let text = crate::scene::regular_file(path)
-        .and_then(|()| std::fs::read_to_string(path).map_err(|e| e.to_string()))
+    let text = crate::scene::read_text(path)
         .map_err(|e| n.error(format!("cannot read spectrum file {}: {e}", path.display())))?;
     let mut pairs = Vec::new();
     for (i, line) in text.lines().enumerate() {

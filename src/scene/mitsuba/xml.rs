@@ -66,9 +66,7 @@ pub fn read_scene(path: &Path) -> Result<Node, SceneError> {
 
 fn read_file(path: &Path, depth: usize, includes: &mut usize) -> Result<Node, SceneError> {
     let shown = path.display().to_string();
-    let text = crate::scene::regular_file(path)
-        .and_then(|()| std::fs::read_to_string(path).map_err(|e| e.to_string()))
-        .map_err(|msg| SceneError::Io { file: shown.clone(), msg })?;
+    let text = crate::scene::read_text(path).map_err(|msg| SceneError::Io { file: shown.clone(), msg })?;
     let doc = roxmltree::Document::parse(&text)
         .map_err(|e| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") })?;
     let root = doc.root_element();
