@@ -593,18 +593,26 @@ fn panel_with(from: &str, to: &str) -> String {
     panel_scene("").replace(from, to)
 }
 
+/// A camera at z = 2 looking at the origin (fov 30°), `res`² pixels, box filter.
+fn sensor_at_z2(res: u32) -> String {
+    format!(
+        r#"<sensor type="perspective"><float name="fov" value="30"/>
+    <transform name="to_world"><lookat origin="0, 0, 2" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/><rfilter type="box"/></film>
+  </sensor>"#
+    )
+}
+
 /// A camera at z = 2 looking at a 1×1 panel at the origin whose front faces away (−z), with a point
 /// light on the camera's side: only a two-sided panel reflects it.
 fn panel_scene(bsdf: &str) -> String {
     format!(
         r#"<scene version="3.0.0">
-  <sensor type="perspective"><float name="fov" value="30"/>
-    <transform name="to_world"><lookat origin="0, 0, 2" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/><rfilter type="box"/></film>
-  </sensor>
+  {}
   <shape type="rectangle"><transform name="to_world"><rotate y="1" angle="180"/></transform>{bsdf}</shape>
   <emitter type="point"><point name="position" x="0" y="0" z="1"/><rgb name="intensity" value="1"/></emitter>
-</scene>"#
+</scene>"#,
+        sensor_at_z2(8)
     )
 }
 
@@ -634,12 +642,10 @@ fn emitter_spectra_read_as_mitsuba_reads_them() {
     let scene = |radiance: &str| {
         format!(
             r#"<scene version="3.0.0">
-  <sensor type="perspective"><float name="fov" value="30"/>
-    <transform name="to_world"><lookat origin="0, 0, 2" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/><rfilter type="box"/></film>
-  </sensor>
+  {}
   <shape type="rectangle"><emitter type="area">{radiance}</emitter></shape>
-</scene>"#
+</scene>"#,
+            sensor_at_z2(4)
         )
     };
     let cases: [(&str, [f32; 3]); 4] = [

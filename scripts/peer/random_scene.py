@@ -25,7 +25,9 @@ Mitchell, Lanczos or Catmull-Rom filter, and spectra for about a third of the co
 wavelength:value pairs inline or in a .spd file written beside OUT).
 """
 import argparse
+import os
 import random
+import re
 
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("seed", type=int)
@@ -276,7 +278,6 @@ if args.more:
         text = text.replace('<sensor type="perspective">', '<sensor type="thinlens">'
                             f'<float name="aperture_radius" value="{f(M.uniform(0.01, 0.08))}"/>'
                             f'<float name="focus_distance" value="{f(M.uniform(3, 5))}"/>', 1)
-if args.more:
     # Spectra for some colours, from a third stream (the rest of the scene stays the seed's): a
     # constant (inside an emitter a flat spectrum: slightly purple in sRGB) or wavelength:value pairs,
     # inline or in a .spd file beside OUT.
@@ -299,8 +300,6 @@ if args.more:
             return f'<spectrum name="{name}" filename="{spd}"/>'
         return f'<spectrum name="{name}" value="{", ".join(f"{w}:{f(v)}" for w, v in pairs)}"/>'
 
-    import os
-    import re
     text = re.sub(r'<rgb name="(\w+)" value="([^"]*)"/>', as_spectrum, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
