@@ -4,11 +4,18 @@
 //! every mode (the pick, the photons stored whatever a photon's own pick, the merges of VCM).
 use caustica::accel::Accel;
 use caustica::pipeline::{plan_for, render_layers};
+use caustica::scene::SurfaceHit;
 use caustica::scene::{load_scene_str, load_scene_with};
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use std::path::PathBuf;
 
 const BOX: &str = include_str!("../scenes/cornell-box.toml");
+
+/// A hit on `shape` at `uv` with its normal along +z, and a direction in front of it.
+fn hit(shape: u32, uv: Vec2) -> (SurfaceHit, Vec3) {
+    let si = SurfaceHit { p: Vec3::ZERO, ng: Vec3::Z, ns: Vec3::Z, shape, prim: 0, scale: 1.0, uv };
+    (si, Vec3::new(0.3, 0.0, 0.9).normalize())
+}
 
 /// The Cornell box with its white material replaced by `white` (TOML lines for `[materials]`).
 fn cornell_with(white: &str) -> String {
@@ -57,7 +64,8 @@ power = [10.0, 10.0, 10.0]
     let mut counts = [0usize; 3];
     for i in 0..n {
         let u = (i as f32 + 0.5) / n as f32;
-        let m = scene.pick_material(0, Vec2::ZERO, || u);
+        let (si, wo) = hit(0, Vec2::ZERO);
+        let m = scene.pick_material(&si, wo, || u);
         let leaf = [a, b, c].iter().position(|&l| std::ptr::eq(m, &scene.materials[l])).expect("a leaf");
         counts[leaf] += 1;
     }
@@ -67,7 +75,10 @@ power = [10.0, 10.0, 10.0]
         assert!((got - want).abs() <= 1.0 / n as f64, "{shares:?}");
     }
     // A texture weight picks by place: the checkerboard's 0 squares are `a`, its 1 squares `c`.
-    let at = |uv: Vec2| scene.pick_material(1, uv, || 0.5) as *const _;
+    let at = |uv: Vec2| {
+        let (si, wo) = hit(1, uv);
+        scene.pick_material(&si, wo, || 0.5) as *const _
+    };
     assert_eq!(at(Vec2::new(0.25, 0.25)), &scene.materials[a] as *const _);
     assert_eq!(at(Vec2::new(0.75, 0.25)), &scene.materials[c] as *const _);
     // A plain material draws no number.
@@ -78,11 +89,17 @@ power = [10.0, 10.0, 10.0]
         &[],
     )
     .unwrap();
-    plain.pick_material(0, Vec2::ZERO, || panic!("a number drawn for a plain material"));
+    let (si, wo) = hit(0, Vec2::ZERO);
+    plain.pick_material(&si, wo, || panic!("a number drawn for a plain material"));
 }
 
-/// Mean of the image `mode` renders of `toml` (written to a file, rendered with `sets`).
+/// Mean of the image `mode` renders of `toml` (written to a file, rendered with `sets`): r + g + b.
 fn mean_in_mode(toml: &str, name: &str, mode: &str, sets: &[&str]) -> f64 {
+    channel_means_in_mode(toml, name, mode, sets).iter().sum()
+}
+
+/// Per-channel means of the image `mode` renders of `toml`.
+fn channel_means_in_mode(toml: &str, name: &str, mode: &str, sets: &[&str]) -> [f64; 3] {
     let dir: PathBuf = std::env::temp_dir().join(format!("caustica-blend-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(format!("{name}.toml"));
@@ -94,7 +111,8 @@ fn mean_in_mode(toml: &str, name: &str, mode: &str, sets: &[&str]) -> f64 {
     let plan = plan_for(&scene, &accel);
     let layers = render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true).unwrap();
     let img = layers[0].sums.image();
-    img.pixels.iter().map(|p| (p.x + p.y + p.z) as f64).sum::<f64>() / img.pixels.len() as f64
+    let n = img.pixels.len() as f64;
+    [0, 1, 2].map(|k| img.pixels.iter().map(|p| p[k] as f64).sum::<f64>() / n)
 }
 
 /// A blend that is a black mirror 40% of the time reflects 60% of what its diffuse side does:
@@ -123,5 +141,107 @@ void = { type = "mirror", specular = [0.0, 0.0, 0.0] }"#,
         let rel = m_blend / m_plain - 1.0;
         println!("{mode}: blend {m_blend:.5}, diffuse {m_plain:.5} ({:+.2}%)", rel * 100.0);
         assert!(rel.abs() < tol, "{mode}: the blend's mean {m_blend} against the diffuse surface's {m_plain}");
+    }
+}
+
+/// A side blend (`type = "sides"`, Mitsuba's `twosided` with two BSDFs) is its front where a path
+/// arrives in front of the geometric normal and its back behind it, and draws no number for it.
+#[test]
+fn a_side_blend_is_its_front_in_front_and_its_back_behind() {
+    let toml = |back: &str| {
+        format!(
+            r#"
+[camera]
+origin = [0.0, 0.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+resolution = [8, 8]
+[materials]
+f = {{ type = "diffuse", reflectance = [0.1, 0.2, 0.3] }}
+one_sided = {{ type = "diffuse", reflectance = [0.3, 0.2, 0.1], two_sided = false }}
+glass = {{ type = "dielectric", ior = 1.5 }}
+b = {{ type = "mirror" }}
+inner = {{ type = "blend", weight = 0.5, first = "b", second = "f" }}
+card = {{ type = "sides", front = "f", back = "{back}" }}
+[[shapes]]
+type = "quad"
+corner = [-1.0, -1.0, 0.0]
+edge_u = [2.0, 0.0, 0.0]
+edge_v = [0.0, 2.0, 0.0]
+material = "card"
+[[lights]]
+type = "point"
+position = [0.0, 3.0, 3.0]
+power = [10.0, 10.0, 10.0]
+"#
+        )
+    };
+    let scene =
+        load_scene_str(&toml("b"), "sides.toml", std::path::Path::new("."), &[]).unwrap_or_else(|e| panic!("{e}"));
+    let index = |name: &str| scene.material_names.iter().position(|n| n == name).unwrap();
+    let (si, wo) = hit(0, Vec2::ZERO);
+    let no_draw = || -> f32 { panic!("a number drawn for a side blend") };
+    assert!(std::ptr::eq(scene.pick_material(&si, wo, no_draw), &scene.materials[index("f")]));
+    assert!(std::ptr::eq(scene.pick_material(&si, -wo, no_draw), &scene.materials[index("b")]));
+    // Seen from behind, the back is its material seen from its own front: a perfect mirror.
+    let back = scene.bsdf(&si, -wo, no_draw);
+    assert!(back.is_delta(), "{back:?}");
+    // Photons are kept by the side they arrive on: the front holds them, the mirror behind does not.
+    assert!(scene.any_bsdf_at(&si, wo, |m| m.holds_photons()));
+    assert!(!scene.any_bsdf_at(&si, -wo, |m| m.holds_photons()));
+    // A back that would be black from behind, or a side that lets light through, is refused by key.
+    for (back, key, words) in [
+        ("one_sided", "materials.card.back", "`one_sided` is one-sided"),
+        ("glass", "materials.card.back", "`glass` lets light through"),
+        ("inner", "", ""),
+    ] {
+        let got = load_scene_str(&toml(back), "sides.toml", std::path::Path::new("."), &[]);
+        match (got, key) {
+            (Ok(_), "") => {}
+            (Err(e), key) if !key.is_empty() => {
+                let msg = e.to_string();
+                assert!(msg.contains(key) && msg.contains(words), "{msg}");
+            }
+            (got, _) => panic!("back `{back}`: {:?}", got.err()),
+        }
+    }
+}
+
+/// A panel in the Cornell box with blue diffuse on one side and a mirror on the other renders the same
+/// in every mode as the panel turned over (its normal the other way) with its sides swapped: each
+/// side's material is found by the side a path or photon arrives on, wherever the light comes from.
+/// The light falls mostly on the mirror side (its caustic lands on the back wall), the camera sees the
+/// blue side (a surface always its back moves the red channel's mean by 5%).
+#[test]
+fn a_panel_turned_over_with_its_sides_swapped_renders_the_same_in_every_mode() {
+    let panel = |u: &str, v: &str, sides: &str| {
+        let materials = format!(
+            r#"white = {{ type = "diffuse", reflectance = [0.73, 0.73, 0.73] }}
+blue = {{ type = "diffuse", reflectance = [0.05, 0.1, 0.7] }}
+shiny = {{ type = "mirror", specular = [0.9, 0.9, 0.9] }}
+panel = {{ type = "sides", {sides} }}"#
+        );
+        let shape = format!("\n[[shapes]]\ntype = \"quad\"\ncorner = [-0.8, 0.0, 0.5]\nedge_u = {u}\nedge_v = {v}\nmaterial = \"panel\"\n");
+        cornell_with(&materials) + &shape
+    };
+    let (u, v) = ("[0.6, 0.0, 0.3]", "[0.0, 1.0, 0.0]");
+    let a = panel(u, v, r#"front = "blue", back = "shiny""#);
+    let b = panel(v, u, r#"front = "shiny", back = "blue""#);
+    let cases: [(&str, &[&str], f64); 6] = [
+        ("path", &["render.spp=256"], 0.01),
+        ("bdpt", &["render.progressive.passes=64"], 0.01),
+        ("vcm", &["render.progressive.passes=64"], 0.01),
+        ("sppm", &["render.progressive.passes=64"], 0.01),
+        ("ppm", &["render.progressive.passes=64"], 0.01),
+        ("photon_map", &["render.pm_spp=16"], 0.01),
+    ];
+    for (mode, sets, tol) in cases {
+        let (ma, mb) =
+            (channel_means_in_mode(&a, "panel-a", mode, sets), channel_means_in_mode(&b, "panel-b", mode, sets));
+        println!("{mode}: panel {ma:.5?}, turned over {mb:.5?}");
+        for k in 0..3 {
+            let rel = ma[k] / mb[k] - 1.0;
+            assert!(rel.abs() < tol, "{mode}: channel {k}: {} against {} ({:+.2}%)", ma[k], mb[k], rel * 100.0);
+        }
     }
 }

@@ -167,6 +167,13 @@ fn rough_glass_xml_matches_mitsuba() {
     matches_mitsuba("roughglass", 1024, 0.003);
 }
 
+/// `twosided` with two BSDFs (`sides.xml`): each surface its first BSDF in front and its second behind
+/// (a card with a gold mirror behind, a card seen from behind, a tube's inside, a ball's unseen inside).
+#[test]
+fn twosided_with_two_bsdfs_xml_matches_mitsuba() {
+    matches_mitsuba("sides", 1024, 0.003);
+}
+
 #[test]
 fn cylinders_xml_match_mitsuba() {
     matches_mitsuba("cylinder", 1024, 0.003);
@@ -670,11 +677,12 @@ fn emitter_spectra_read_as_mitsuba_reads_them() {
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let cases: [(&str, &[&str]); 6] = [
+    let cases: [(&str, &[&str]); 7] = [
         ("showcase", &["two_sided = false", "type = \"thin_dielectric\""]),
         ("uv", &["type = \"box\"", "type = \"disk\"", "type = \"sphere\""]),
         ("thinlens", &["aperture_radius = 0.2", "focus_distance = 4.0"]),
         ("blend", &["type = \"blend\"", "type = \"null\"", "weight = \"label\""]),
+        ("sides", &["type = \"sides\"", "front = ", "back = "]),
         ("textured", &["roughness = \"label\"", "specular = \"label\"", "roughness = \"rough-squares-as-weight\""]),
         (
             "principled",
@@ -846,6 +854,26 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &["$albedo", "<default"],
         ),
         ("twosided-glass", r#"<bsdf type="twosided"><bsdf type="dielectric"/></bsdf>"#, &["twosided"]),
+        (
+            "twosided-three",
+            r#"<bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "one or two nested BSDFs (found 3)"],
+        ),
+        (
+            "twosided-back-glass",
+            r#"<bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="roughdielectric"/></bsdf>"#,
+            &["line 8", "two-sided already"],
+        ),
+        (
+            "twosided-mask",
+            r#"<bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="mask"><bsdf type="diffuse"/></bsdf></bsdf>"#,
+            &["line 8", "lets light through"],
+        ),
+        (
+            "twosided-front-transmitter",
+            r#"<bsdf type="twosided"><bsdf type="principled"><float name="spec_trans" value="0.5"/></bsdf><bsdf type="diffuse"/></bsdf>"#,
+            &["lets light through"],
+        ),
         (
             "blend-one",
             r#"<bsdf type="blendbsdf"><bsdf type="diffuse"/></bsdf>"#,

@@ -22,7 +22,8 @@ emitter on a cube, disk, cylinder (round: Mitsuba samples no other), the PLY bal
 whose BSDF reads the bitmap label.png (a diffuse or plastic colour, a principled base colour, a rough
 conductor's alpha as raw data), a named interior IOR, a thin-lens camera, another fov_axis, a
 Mitchell, Lanczos or Catmull-Rom filter, and spectra for about a third of the colours (a constant, or
-wavelength:value pairs inline or in a .spd file written beside OUT).
+wavelength:value pairs inline or in a .spd file written beside OUT), and a second BSDF, the front, for
+half the twosided ones (the one they had is then their back).
 """
 import argparse
 import os
@@ -301,6 +302,20 @@ if args.more:
         return f'<spectrum name="{name}" value="{", ".join(f"{w}:{f(v)}" for w, v in pairs)}"/>'
 
     text = re.sub(r'<rgb name="(\w+)" value="([^"]*)"/>', as_spectrum, text)
+    # Half the twosided BSDFs get a second, opaque BSDF for their front (the one there becomes their
+    # back), drawn from a fourth stream, after the spectra, so the rest stays what the seed made.
+    T = random.Random(args.seed * 7919 + 5)
+
+    def two_faced(m):
+        global R
+        if T.random() >= 0.5:
+            return m.group(0)
+        R, kept = T, R
+        front = bsdf(1, False)
+        R = kept
+        return m.group(0) + front
+
+    text = re.sub(r'<bsdf type="twosided">', two_faced, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

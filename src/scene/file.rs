@@ -201,6 +201,10 @@ pub enum MaterialSpec {
         first: String,
         second: String,
     },
+    /// A surface that is one of the other `[materials]` in front (the side its geometric normal faces)
+    /// and another behind (Mitsuba's `twosided` with two BSDFs): `back` is seen from behind as it would
+    /// be from its own front, so it must be two-sided, and neither side may let light through.
+    Sides { front: String, back: String },
     /// Mitsuba's `principled` BSDF (Burley's "Disney" model as Mitsuba 3 writes it): `base_color` (a
     /// colour or a texture, default ½) and `roughness` (a number or a texture read by luminance,
     /// default ½) and, each a number in [0, 1] defaulting to 0: `metallic`, `spec_trans`
@@ -257,7 +261,7 @@ impl MaterialSpec {
             MaterialSpec::ThinDielectric { tint, .. } => t(tint),
             MaterialSpec::Principled { base_color, roughness, .. } => t(base_color) || w(roughness),
             MaterialSpec::Blend { weight, .. } => w(weight),
-            MaterialSpec::Null => false,
+            MaterialSpec::Sides { .. } | MaterialSpec::Null => false,
         }
     }
 }

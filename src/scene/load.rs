@@ -190,6 +190,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         names.push(name.clone());
     }
     refuse_blend_cycles(&cx, &materials, &names)?;
+    check_sides(&cx, &materials, &names)?;
     let mut shapes = Vec::new();
     let mut out = Built { materials: &mut materials, names: &mut names, shapes: &mut shapes, textures: &mut textures };
     for (i, spec) in file.shapes.iter().enumerate() {
@@ -509,6 +510,13 @@ fn build_material(
     index: &HashMap<String, u32>,
 ) -> Result<SurfaceMaterial, SceneError> {
     // A number field that must lie in [0, 1] (a roughness, a weight).
+    // Another material, by name.
+    let named = |field: &str, name: &str| {
+        index.get(name).copied().ok_or_else(|| {
+            let known: Vec<&String> = index.keys().collect();
+            cx.err(&format!("{key}.{field}"), format!("unknown material `{name}` (defined: {known:?})"))
+        })
+    };
     let unit = |field: &str, x: f32| -> Result<f32, SceneError> {
         if (0.0..=1.0).contains(&x) {
             Ok(x)
@@ -699,15 +707,47 @@ fn build_material(
                     BlendWeight::Texture(texture_index(cx, &format!("{key}.weight"), name, textures, "a weight")?)
                 }
             };
-            let named = |field: &str, name: &str| {
-                index.get(name).copied().ok_or_else(|| {
-                    let known: Vec<&String> = index.keys().collect();
-                    cx.err(&format!("{key}.{field}"), format!("unknown material `{name}` (defined: {known:?})"))
-                })
-            };
             SurfaceMaterial::blend(weight, named("first", first)?, named("second", second)?)
         }
+        MaterialSpec::Sides { front, back } => {
+            SurfaceMaterial::blend(BlendWeight::Side, named("front", front)?, named("back", back)?)
+        }
     })
+}
+
+/// A side blend's back is seen from behind as from its own front, so each material it can be must be
+/// two-sided (a one-sided one would be black there); and neither side may let light through (a path
+/// through the surface would meet the other side's material: Mitsuba's `twosided` refuses it too).
+fn check_sides(cx: &Ctx, materials: &[SurfaceMaterial], names: &[String]) -> Result<(), SceneError> {
+    // Every leaf under `m` (cycles were refused before), and whether `f` holds for one of them.
+    fn find(m: u32, materials: &[SurfaceMaterial], f: &dyn Fn(&SurfaceMaterial) -> bool) -> Option<u32> {
+        match materials[m as usize].blend {
+            Some(b) => find(b.first, materials, f).or_else(|| find(b.second, materials, f)),
+            None => f(&materials[m as usize]).then_some(m),
+        }
+    }
+    for (i, m) in materials.iter().enumerate() {
+        let Some(b) = m.blend.filter(|b| b.weight == BlendWeight::Side) else { continue };
+        let key = format!("materials.{}", names[i]);
+        let one_sided = |l: &SurfaceMaterial| !l.two_sided || matches!(l.bsdf, Material::Principled(p) if !p.two_sided);
+        if let Some(l) = find(b.second, materials, &one_sided) {
+            let msg = format!(
+                "`{}` is one-sided: seen from behind it would be black (make it two_sided = true)",
+                names[l as usize]
+            );
+            return Err(cx.err(&format!("{key}.back"), msg));
+        }
+        for (field, side) in [("front", b.first), ("back", b.second)] {
+            if let Some(l) = find(side, materials, &|l: &SurfaceMaterial| l.bsdf.transmits()) {
+                let msg = format!(
+                    "`{}` lets light through; a surface with a material on each side cannot",
+                    names[l as usize]
+                );
+                return Err(cx.err(&format!("{key}.{field}"), msg));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// An interface's index inside over outside, both checked to lie in [0.25, 4]: only the ratio matters

@@ -117,7 +117,8 @@ impl SurfaceMaterial {
 /// otherwise. Each path picks one at each hit and carries on with it alone, so the surface's BSDF is
 /// (1 − w)·f₁ + w·f₂ in expectation, in every mode: the pick is part of the sampled path, made with the
 /// same probability by every strategy that could make the path, so MIS weights computed with the
-/// picked BSDF still add up to one.
+/// picked BSDF still add up to one. A weight of 0 or 1 there (`BlendWeight::Side` is always one of
+/// them) picks without drawing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Blend {
     pub weight: BlendWeight,
@@ -130,6 +131,10 @@ pub enum BlendWeight {
     Value(f32),
     /// Index into `Scene::textures`, read as Mitsuba's `eval_1` reads a colour texture: its luminance.
     Texture(u32),
+    /// 1 where the path arrives from behind the geometric normal, 0 in front: `first` is the front,
+    /// `second` the back (Mitsuba's `twosided` with two BSDFs). No number is drawn for it; the back's
+    /// materials are two-sided (the loader sees to it), so each is seen as from its own front.
+    Side,
 }
 
 /// Luminance with Mitsuba's coefficients (its `eval_1` of a colour texture: a blend weight, an opacity).

@@ -411,7 +411,7 @@ impl Scene {
         let m = &self.materials[material as usize];
         match m.blend {
             Some(b) => {
-                let w = self.blend_weight(&b, si.uv);
+                let w = self.blend_weight(&b, si, wo);
                 let first = if w < 1.0 { self.leaf_transmittance(b.first, si, wo) * (1.0 - w) } else { Rgb::ZERO };
                 let second = if w > 0.0 { self.leaf_transmittance(b.second, si, wo) * w } else { Rgb::ZERO };
                 first + second
@@ -479,8 +479,29 @@ impl Scene {
     /// Whether `f` holds for the BSDF at `si` seen from `wo` of any material the surface can be there.
     /// Photons are stored (and light vertices kept for merging) by what the surface can be, whatever a
     /// blend picks for the photon's own next bounce: a path gathering there makes its own pick.
+    /// A side blend offers only the side `wo` arrives on.
     pub fn any_bsdf_at(&self, si: &SurfaceHit, wo: Vec3, mut f: impl FnMut(&Material) -> bool) -> bool {
-        self.any_leaf(self.shapes[si.shape as usize].material, &mut |m| f(&self.leaf_bsdf(m, si, wo)))
+        self.any_leaf_at(self.shapes[si.shape as usize].material, si, wo, &mut |m| f(&self.leaf_bsdf(m, si, wo)))
+    }
+
+    /// `any_leaf` of the materials a hit at `si` arrived at along `wo` can be: a side blend's side there
+    /// alone, either material of another blend.
+    fn any_leaf_at<F: FnMut(&SurfaceMaterial) -> bool>(
+        &self,
+        material: u32,
+        si: &SurfaceHit,
+        wo: Vec3,
+        f: &mut F,
+    ) -> bool {
+        let m = &self.materials[material as usize];
+        match m.blend {
+            Some(b) if b.weight == material::BlendWeight::Side => {
+                let side = if self.blend_weight(&b, si, wo) > 0.0 { b.second } else { b.first };
+                self.any_leaf_at(side, si, wo, f)
+            }
+            Some(b) => self.any_leaf_at(b.first, si, wo, f) || self.any_leaf_at(b.second, si, wo, f),
+            None => f(m),
+        }
     }
 
     /// On a blend, whether `f` holds for the BSDF at `si` of any material it can be there (the one picked
@@ -520,20 +541,32 @@ impl Scene {
         }
     }
 
-    /// The material a hit at `uv` on `shape` is. A blend is resolved to one of its two by its weight
-    /// there: the number `u` draws (only when the shape's material is a blend, so other scenes' random
-    /// sequences are unchanged) picks the second below the weight, and is rescaled to pick again in
-    /// a nested blend.
-    pub fn pick_material(&self, shape: u32, uv: glam::Vec2, u: impl FnOnce() -> f32) -> &SurfaceMaterial {
-        let mut m = self.material_of(shape);
+    /// The material a hit at `si`, arrived at along `wo`, is. A blend is resolved to one of its two by
+    /// its weight there: the number `u` draws (only when a blend's weight there is strictly between 0
+    /// and 1, so other scenes' random sequences are unchanged) picks the second below the weight, and
+    /// is rescaled to pick again in a nested blend. A weight of 0 or 1 (a side blend's always) picks
+    /// without it.
+    pub fn pick_material(&self, si: &SurfaceHit, wo: Vec3, u: impl FnOnce() -> f32) -> &SurfaceMaterial {
+        let mut m = self.material_of(si.shape);
         let Some(mut b) = m.blend else {
             return m;
         };
-        let mut x = u();
+        let mut u = Some(u);
+        let mut x = 0.0;
         loop {
-            let w = self.blend_weight(&b, uv);
-            let (next, rescaled) = if x < w { (b.second, x / w) } else { (b.first, (x - w) / (1.0 - w)) };
-            x = rescaled.min(f32::from_bits(0x3f7f_ffff)); // below 1, as a drawn number is
+            let w = self.blend_weight(&b, si, wo);
+            let next = if w <= 0.0 {
+                b.first
+            } else if w >= 1.0 {
+                b.second
+            } else {
+                if let Some(u) = u.take() {
+                    x = u();
+                }
+                let (next, rescaled) = if x < w { (b.second, x / w) } else { (b.first, (x - w) / (1.0 - w)) };
+                x = rescaled.min(f32::from_bits(0x3f7f_ffff)); // below 1, as a drawn number is
+                next
+            };
             m = &self.materials[next as usize];
             match m.blend {
                 Some(n) => b = n,
@@ -542,11 +575,13 @@ impl Scene {
         }
     }
 
-    /// A blend's weight at `uv`: the chance it is its second material there, in [0, 1] (NaN reads 0).
-    fn blend_weight(&self, b: &material::Blend, uv: glam::Vec2) -> f32 {
+    /// A blend's weight at `si` for a path arriving along `wo`: the chance it is its second material
+    /// there, in [0, 1] (NaN reads 0). A side blend's is 1 behind the geometric normal, 0 in front.
+    fn blend_weight(&self, b: &material::Blend, si: &SurfaceHit, wo: Vec3) -> f32 {
         let w = match b.weight {
             material::BlendWeight::Value(w) => w,
-            material::BlendWeight::Texture(t) => material::mitsuba_luminance(self.textures[t as usize].eval(uv)),
+            material::BlendWeight::Texture(t) => material::mitsuba_luminance(self.textures[t as usize].eval(si.uv)),
+            material::BlendWeight::Side => return if wo.dot(si.ng) <= 0.0 { 1.0 } else { 0.0 },
         };
         if w.is_nan() {
             0.0
@@ -559,7 +594,7 @@ impl Scene {
     /// diffuse reflectance there). On a blend, `u` draws the number that picks one of its materials
     /// (`pick_material`).
     pub fn bsdf(&self, si: &SurfaceHit, wo: Vec3, u: impl FnOnce() -> f32) -> Material {
-        self.leaf_bsdf(self.pick_material(si.shape, si.uv, u), si, wo)
+        self.leaf_bsdf(self.pick_material(si, wo, u), si, wo)
     }
 
     fn leaf_bsdf(&self, m: &SurfaceMaterial, si: &SurfaceHit, wo: Vec3) -> Material {

@@ -516,11 +516,28 @@ impl<'a> Cx<'a> {
                 for r in p.objects("ref") {
                     inner.push(self.lookup(r, r.attr("id").unwrap_or(""))?);
                 }
-                let [one] = inner[..] else { return Err(b.error("needs exactly one nested BSDF")) };
-                if matches!(one.attr("type"), Some("dielectric" | "roughdielectric" | "thindielectric" | "twosided")) {
-                    return Err(one.error("cannot be wrapped in twosided (it is two-sided already)"));
+                for one in &inner {
+                    if matches!(
+                        one.attr("type"),
+                        Some("dielectric" | "roughdielectric" | "thindielectric" | "twosided")
+                    ) {
+                        return Err(one.error("cannot be wrapped in twosided (it is two-sided already)"));
+                    }
+                    if matches!(one.attr("type"), Some("null" | "mask")) {
+                        return Err(
+                            one.error("cannot be wrapped in twosided (it lets light through; Mitsuba refuses it too)")
+                        );
+                    }
                 }
-                self.bsdf(one, true, name)?
+                match inner[..] {
+                    [one] => self.bsdf(one, true, name)?,
+                    // The first on the front, the second on the back, seen as from its own front.
+                    [front, back] => MaterialSpec::Sides {
+                        front: self.nested_material(front, false, &format!("{name}-front"))?,
+                        back: self.nested_material(back, true, &format!("{name}-back"))?,
+                    },
+                    _ => return Err(b.error(format!("needs one or two nested BSDFs (found {})", inner.len()))),
+                }
             }
             "diffuse" => MaterialSpec::Diffuse { reflectance: self.reflectance(&p, "reflectance", name)?, two_sided },
             "plastic" | "roughplastic" => {
@@ -1047,7 +1064,9 @@ fn reads_texture(materials: &BTreeMap<String, MaterialSpec>, name: &str, depth: 
     match materials.get(name) {
         Some(m) if m.names_texture() => true,
         // The converter writes no cycle; the depth bound only keeps this safe on any input.
-        Some(MaterialSpec::Blend { first, second, .. }) if depth < 64 => {
+        Some(MaterialSpec::Blend { first, second, .. } | MaterialSpec::Sides { front: first, back: second })
+            if depth < 64 =>
+        {
             reads_texture(materials, first, depth + 1) || reads_texture(materials, second, depth + 1)
         }
         _ => false,
