@@ -24,6 +24,7 @@ fn random_scene(seed: u64, tris: usize, spheres: usize) -> caustica::scene::Scen
             geometry: Geometry::Mesh(m),
             material: 0,
             emission: Vec3::ZERO,
+            emission_texture: None,
         });
     }
     for i in 0..spheres {
@@ -34,6 +35,7 @@ fn random_scene(seed: u64, tris: usize, spheres: usize) -> caustica::scene::Scen
             geometry: Geometry::Sphere { center: c, radius: rad, frame: None },
             material: 0,
             emission: Vec3::ZERO,
+            emission_texture: None,
         });
     }
     common::shapes_scene(shapes)
@@ -102,6 +104,7 @@ fn rays_from_inside_a_sphere_hit_its_far_side_exactly() {
         geometry: Geometry::Sphere { center: Vec3::new(0.3, -0.2, 0.1), radius: 0.7, frame: None },
         material: 0,
         emission: Vec3::ZERO,
+        emission_texture: None,
     }]);
     let a = Accel::new(&scene).unwrap();
     let mut r = Rng::new(3, 0, 0);

@@ -103,6 +103,9 @@ fn each_malformed_scene_gets_its_own_message() {
     std::fs::write(d.join("nomtl.obj"), "mtllib gone.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     std::fs::write(d.join("text.serialized"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     std::fs::write(d.join("short.ply"), "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n").unwrap();
+    let mut negative = caustica::film::Image::new(2, 1);
+    negative.pixels[1] = glam::Vec3::new(1.0, -0.5, 1.0);
+    caustica::output::write_exr(&d.join("negative.exr"), &negative).unwrap();
     let cases: Vec<(&str, String, Vec<&str>, Vec<&str>)> = vec![
         ("syntax", GOOD.replace("fov = 40", "fov = = 40"), vec![], vec!["line 5"]),
         ("unknown_key", GOOD.replace("fov = 40", "fovv = 40"), vec![], vec!["unknown field `fovv`", "line 5"]),
@@ -252,6 +255,35 @@ fn each_malformed_scene_gets_its_own_message() {
             with_white("white = { type = \"blend\", first = \"white\", second = \"chalk\" }"),
             vec![],
             vec!["materials.white.second", "unknown material `chalk`"],
+        ),
+        (
+            "sides_one_sided_back",
+            with_white(
+                "white = { type = \"sides\", front = \"d\", back = \"b\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\nb = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5], two_sided = false }",
+            ),
+            vec![],
+            vec!["materials.white.back", "`b` is one-sided"],
+        ),
+        (
+            "sides_unknown_material",
+            with_white("white = { type = \"sides\", front = \"white\", back = \"chalk\" }"),
+            vec![],
+            vec!["materials.white.back", "unknown material `chalk`"],
+        ),
+        (
+            "emission_unknown_texture",
+            GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\""),
+            vec![],
+            vec!["shapes[0].emission", "unknown texture `glow`"],
+        ),
+        (
+            "emission_negative_texture",
+            GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\"").replace(
+                "[materials]",
+                "[textures]\nglow = { type = \"bitmap\", file = \"negative.exr\" }\n\n[materials]",
+            ),
+            vec![],
+            vec!["shapes[0].emission", "texture `glow` reaches -0.5", "≥ 0"],
         ),
         (
             "blend_weight_range",

@@ -167,6 +167,16 @@ fn rough_glass_xml_matches_mitsuba() {
     matches_mitsuba("roughglass", 1024, 0.003);
 }
 
+/// Area emitters whose radiance is a texture (`textured-light.xml`): an EXR image with a hot spot on an
+/// overhead panel, a checkerboard on a sphere, an sRGB image seen straight on; light samples, emission
+/// found by BSDF samples and the emitters seen directly all read the texture where they land; in every
+/// mode, photons and light subpaths carry the radiance where they leave.
+#[test]
+fn textured_emitters_xml_match_mitsuba() {
+    matches_mitsuba("textured-light", 1024, 0.003);
+    every_mode_means_match_mitsuba("textured-light");
+}
+
 /// `twosided` with two BSDFs (`sides.xml`): each surface its first BSDF in front and its second behind
 /// (a card with a gold mirror behind, a card seen from behind, a tube's inside, a ball's unseen inside).
 #[test]
@@ -928,6 +938,11 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "cylinder-texture",
             r#"<scene version="3.0.0"><shape type="cylinder"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape></scene>"#,
             "no texture coordinates",
+        ),
+        (
+            "cylinder-textured-light",
+            r#"<scene version="3.0.0"><shape type="cylinder"><emitter type="area"><texture type="checkerboard" name="radiance"/></emitter></shape></scene>"#,
+            "a textured emitter on a cylinder",
         ),
         (
             "filter-kind",

@@ -389,6 +389,9 @@ pub enum Scale {
     Axes(V3),
 }
 
+/// A shape. Every kind but the height field may emit: `emission` is its radiance, an `[r, g, b]`
+/// colour or the name of a `[textures]` entry read at each point's texture coordinates (values ≥ 0,
+/// any size: an EXR's), from the front of triangles and the outside of spheres.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum ShapeSpec {
@@ -400,7 +403,7 @@ pub enum ShapeSpec {
         #[serde(default)]
         transform: TransformSpec,
         #[serde(default)]
-        emission: Option<V3>,
+        emission: Option<Reflectance>,
         /// Smooth shading: the file's vertex normals, or area-weighted ones when it has none.
         /// false (default): flat shading, and normals in the file are not even read.
         #[serde(default)]
@@ -420,7 +423,7 @@ pub enum ShapeSpec {
         #[serde(default)]
         transform: TransformSpec,
         #[serde(default)]
-        emission: Option<V3>,
+        emission: Option<Reflectance>,
     },
     /// Parallelogram `corner + s·edge_u + t·edge_v`, s,t ∈ [0,1]; the front side is edge_u × edge_v.
     Quad {
@@ -431,7 +434,7 @@ pub enum ShapeSpec {
         #[serde(default)]
         transform: TransformSpec,
         #[serde(default)]
-        emission: Option<V3>,
+        emission: Option<Reflectance>,
         #[serde(default, skip_serializing_if = "is_false")]
         flip_normals: bool,
     },
@@ -447,7 +450,7 @@ pub enum ShapeSpec {
         #[serde(default)]
         transform: TransformSpec,
         #[serde(default)]
-        emission: Option<V3>,
+        emission: Option<Reflectance>,
         #[serde(default, skip_serializing_if = "is_false")]
         flip_normals: bool,
     },
@@ -464,7 +467,7 @@ pub enum ShapeSpec {
         #[serde(default)]
         transform: TransformSpec,
         #[serde(default)]
-        emission: Option<V3>,
+        emission: Option<Reflectance>,
     },
     /// Height field y = height + Σ waves over a `size[0]` × `size[1]` rectangle centred on the origin,
     /// normals up; each wave is amplitude · sin(2π (x·cos a + z·sin a)/wavelength + phase).
@@ -488,7 +491,7 @@ pub enum ShapeSpec {
         #[serde(default)]
         transform: TransformSpec,
         #[serde(default)]
-        emission: Option<V3>,
+        emission: Option<Reflectance>,
         #[serde(default, skip_serializing_if = "is_false")]
         flip_normals: bool,
     },

@@ -157,6 +157,15 @@ pub struct Lights {
     points: (usize, usize),
 }
 
+/// Radiance an emitting shape sends from a point `point` drew on its primitive `prim`.
+fn emitted_at(scene: &Scene, shape: u32, prim: usize, sp: &crate::scene::SurfacePoint) -> Rgb {
+    let s = &scene.shapes[shape as usize];
+    match s.emission_texture {
+        None => s.emission,
+        Some(_) => scene.radiance_at(shape, s.uv_of(prim, sp)),
+    }
+}
+
 /// A point on a light seen from a reference point.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
@@ -231,16 +240,22 @@ impl Lights {
                 continue;
             }
             l.shape_offset[si] = Some(l.list.len() as u32);
+            // A textured emitter weighs by its texture's mean (each triangle's own share of it would
+            // only steer the choice: the photons and light samples carry the radiance where they land).
+            let emission = match shape.emission_texture {
+                None => shape.emission,
+                Some(t) => shape.emission * scene.textures[t as usize].mean(),
+            };
             match &shape.geometry {
                 Geometry::Mesh(m) => {
                     for pi in 0..m.indices.len() {
                         l.list.push(LightKind::Triangle { shape: si as u32, prim: pi as u32 });
-                        l.power.push(shape.emission * PI * m.area(pi));
+                        l.power.push(emission * PI * m.area(pi));
                     }
                 }
                 Geometry::Sphere { radius, .. } => {
                     l.list.push(LightKind::Sphere { shape: si as u32 });
-                    l.power.push(shape.emission * PI * 4.0 * PI * radius * radius);
+                    l.power.push(emission * PI * 4.0 * PI * radius * radius);
                 }
             }
         }
@@ -405,7 +420,7 @@ impl Lights {
             }
             LightKind::Sphere { shape } => {
                 let s = &scene.shapes[*shape as usize];
-                let Geometry::Sphere { center, radius, .. } = s.geometry else {
+                let Geometry::Sphere { center, radius, frame } = s.geometry else {
                     return None;
                 };
                 let d = center - x;
@@ -426,7 +441,11 @@ impl Lights {
                 let emit_ratio = p_sel / (4.0 * PI * radius * radius) / (PI * pdf);
                 let emit_ratio = if cos_light > 0.0 { emit_ratio } else { 0.0 };
                 let normal = (y - center) / radius;
-                Some(LightSample { wi, dist, p, li: s.emission, pdf, delta: false, emit_ratio, light: i, normal })
+                let li = match s.emission_texture {
+                    None => s.emission,
+                    Some(_) => scene.radiance_at(*shape, crate::scene::sphere_uv_at(frame, normal)),
+                };
+                Some(LightSample { wi, dist, p, li, pdf, delta: false, emit_ratio, light: i, normal })
             }
             LightKind::Env | LightKind::Distant { .. } => {
                 let s = self.sample_infinite(i, u)?;
@@ -544,14 +563,14 @@ impl Lights {
                 LightPoint { p: *position, n: Vec3::ZERO, size: 0.0, pdf_area: 1.0, le: *intensity }
             }
             LightKind::Triangle { shape, prim } => {
-                let s = &scene.shapes[*shape as usize];
-                let sp = s.geometry.point(*prim as usize, u);
-                LightPoint { p: sp.p, n: sp.n, size: sp.size, pdf_area: 1.0 / sp.area, le: s.emission }
+                let sp = scene.shapes[*shape as usize].geometry.point(*prim as usize, u);
+                let le = emitted_at(scene, *shape, *prim as usize, &sp);
+                LightPoint { p: sp.p, n: sp.n, size: sp.size, pdf_area: 1.0 / sp.area, le }
             }
             LightKind::Sphere { shape } => {
-                let s = &scene.shapes[*shape as usize];
-                let sp = s.geometry.point(0, u);
-                LightPoint { p: sp.p, n: sp.n, size: sp.size, pdf_area: 1.0 / sp.area, le: s.emission }
+                let sp = scene.shapes[*shape as usize].geometry.point(0, u);
+                let le = emitted_at(scene, *shape, 0, &sp);
+                LightPoint { p: sp.p, n: sp.n, size: sp.size, pdf_area: 1.0 / sp.area, le }
             }
         })
     }
@@ -599,8 +618,16 @@ impl Lights {
                 size: 0.0,
             });
         }
-        let phi = self.power[i] / p_sel;
         let lp = self.sample_point(scene, i, u_pos)?;
+        // A textured emitter's photon carries the radiance where it leaves: L(x)·π / (pdf_area · p_choice).
+        let phi = match self.list[i] {
+            LightKind::Triangle { shape, .. } | LightKind::Sphere { shape }
+                if scene.shapes[shape as usize].emission_texture.is_some() =>
+            {
+                lp.le * (PI / (lp.pdf_area * p_sel))
+            }
+            _ => self.power[i] / p_sel,
+        };
         // A point light is no surface: its photons start exactly at it.
         let (ray, pdf_emit, cos) = if lp.n == Vec3::ZERO {
             (Ray::new(lp.p, sampling::uniform_sphere(u_dir)), p_sel / (4.0 * PI), 1.0)

@@ -822,8 +822,24 @@ fn build_shape(
             cx.err(&format!("{key}.material"), format!("unknown material `{name}` (defined: {known:?})"))
         })
     };
-    let emission = |e: &Option<V3>| -> Result<Rgb, SceneError> {
-        e.map_or(Ok(Rgb::ZERO), |c| cx.colour(&format!("{key}.emission"), c, None))
+    // Emitted radiance: a colour, or a texture (of values ≥ 0) times 1.
+    let emission = |e: &Option<Reflectance>, textures: &Textures| -> Result<(Rgb, Option<u32>), SceneError> {
+        let field = format!("{key}.emission");
+        match e {
+            None => Ok((Rgb::ZERO, None)),
+            Some(Reflectance::Colour(c)) => Ok((cx.colour(&field, *c, None)?, None)),
+            Some(Reflectance::Texture(name)) => {
+                let t = *textures.index.get(name).ok_or_else(|| {
+                    let known: Vec<&String> = textures.index.keys().collect();
+                    cx.err(&field, format!("unknown texture `{name}` (defined: {known:?})"))
+                })?;
+                let low = textures.list[t as usize].min_value();
+                if low.is_nan() || low < 0.0 {
+                    return Err(cx.err(&field, format!("texture `{name}` reaches {low}; radiance must be ≥ 0")));
+                }
+                Ok((Rgb::ONE, Some(t)))
+            }
+        }
     };
     // A mesh turned inside out if asked, then transformed, becomes the shape; smooth normals it lacks
     // (`smooth` with none in the file) are computed as placed.
@@ -832,7 +848,7 @@ fn build_shape(
                 flip: bool,
                 transform: &TransformSpec,
                 material: u32,
-                em: Rgb,
+                (emission, emission_texture): (Rgb, Option<u32>),
                 smooth: bool| {
         if flip {
             mesh.flip();
@@ -841,7 +857,8 @@ fn build_shape(
         if smooth && mesh.normals.is_none() {
             mesh.compute_smooth_normals();
         }
-        shapes.push(Shape { name: key.into(), geometry: Geometry::Mesh(mesh), material, emission: em });
+        let geometry = Geometry::Mesh(mesh);
+        shapes.push(Shape { name: key.into(), geometry, material, emission, emission_texture });
         Ok::<(), SceneError>(())
     };
     match spec {
@@ -868,26 +885,28 @@ fn build_shape(
                         );
                     }
                 };
-                push(out.shapes, lm.mesh, *flip_normals, transform, mat, emission(e)?, *smooth)?;
+                push(out.shapes, lm.mesh, *flip_normals, transform, mat, emission(e, out.textures)?, *smooth)?;
             }
         }
         ShapeSpec::Sphere { center, radius, material, transform, emission: e } => {
             let geometry = sphere_geometry(cx, key, *center, *radius, transform)?;
-            out.shapes.push(Shape { name: key.into(), geometry, material: lookup(material)?, emission: emission(e)? });
+            let (emission, emission_texture) = emission(e, out.textures)?;
+            let material = lookup(material)?;
+            out.shapes.push(Shape { name: key.into(), geometry, material, emission, emission_texture });
         }
         ShapeSpec::Heightfield { material, transform, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, false, transform, lookup(material)?, Rgb::ZERO, false)?;
+            push(out.shapes, mesh, false, transform, lookup(material)?, (Rgb::ZERO, None), false)?;
         }
         ShapeSpec::Quad { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Disk { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Box { material, transform, emission: e, flip_normals: flip, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e)?, false)?;
+            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e, out.textures)?, false)?;
         }
         ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, false, transform, lookup(material)?, emission(e)?, false)?;
+            push(out.shapes, mesh, false, transform, lookup(material)?, emission(e, out.textures)?, false)?;
         }
     }
     Ok(())
@@ -1089,7 +1108,7 @@ fn build_light(
             let area = 4.0 * std::f32::consts::PI * r * r;
             let emission = radiance_of(cx, key, power, radiance, area)?;
             let geometry = Geometry::Sphere { center: Vec3::from_array(*center), radius: r, frame: None };
-            shapes.push(Shape { name: key.into(), geometry, material: black, emission });
+            shapes.push(Shape { name: key.into(), geometry, material: black, emission, emission_texture: None });
         }
         LightSpec::Quad { corner, edge_u, edge_v, power, radiance } => {
             let (eu, ev) = (Vec3::from_array(*edge_u), Vec3::from_array(*edge_v));
@@ -1099,7 +1118,7 @@ fn build_light(
             }
             let emission = radiance_of(cx, key, power, radiance, area)?;
             let geometry = Geometry::Mesh(mesh::quad(Vec3::from_array(*corner), eu, ev));
-            shapes.push(Shape { name: key.into(), geometry, material: black, emission });
+            shapes.push(Shape { name: key.into(), geometry, material: black, emission, emission_texture: None });
         }
         LightSpec::Constant { .. } | LightSpec::Envmap { .. } | LightSpec::Distant { .. } => {
             unreachable!("built in build()")

@@ -26,6 +26,19 @@ impl TriMesh {
         [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
     }
 
+    /// Texture coordinates at barycentrics `[u, v]` of triangle `i` (the point a·(1 − u − v) + b·u + c·v):
+    /// the mesh's, interpolated, else the barycentrics themselves.
+    pub fn uv_at(&self, i: usize, [u, v]: [f32; 2]) -> glam::Vec2 {
+        match &self.uvs {
+            Some(t) => {
+                let [i0, i1, i2] = self.indices[i];
+                let [ta, tb, tc] = [t[i0 as usize], t[i1 as usize], t[i2 as usize]];
+                glam::Vec2::from(ta) * (1.0 - u - v) + glam::Vec2::from(tb) * u + glam::Vec2::from(tc) * v
+            }
+            None => glam::Vec2::new(u, v),
+        }
+    }
+
     pub fn area(&self, i: usize) -> f32 {
         let [a, b, c] = self.triangle(i);
         0.5 * (b - a).cross(c - a).length()

@@ -77,6 +77,8 @@ pub struct SurfacePoint {
     pub area: f32,
     /// Size of the primitive (longest triangle edge, sphere radius), for ray offsets.
     pub size: f32,
+    /// The point's barycentric coordinates on its triangle (zero on a sphere, where `n` places it).
+    pub bary: [f32; 2],
 }
 
 /// The longest edge of triangle abc (one square root: the root of the largest square is the largest root).
@@ -111,6 +113,7 @@ impl Geometry {
                     n: if rcp.is_finite() && rcp > 0.0 { cross * rcp } else { Vec3::ZERO },
                     area: 0.5 * len,
                     size: max_edge(a, b, c),
+                    bary: bc,
                 }
             }
             Geometry::Sphere { center, radius, .. } => {
@@ -120,6 +123,7 @@ impl Geometry {
                     n,
                     area: 4.0 * std::f32::consts::PI * radius * radius,
                     size: *radius,
+                    bary: [0.0; 2],
                 }
             }
         }
@@ -132,8 +136,12 @@ pub struct Shape {
     pub name: String,
     pub geometry: Geometry,
     pub material: u32,
-    /// Emitted radiance (front side of triangles, outside of spheres).
+    /// Emitted radiance (front side of triangles, outside of spheres); with `emission_texture`, the
+    /// factor the texture is multiplied by (1: any non-zero value marks the shape as an emitter).
     pub emission: Rgb,
+    /// Index into `Scene::textures`: the radiance at each point, read at its texture coordinates
+    /// (Mitsuba's textured `radiance`), times `emission`.
+    pub emission_texture: Option<u32>,
 }
 
 impl Shape {
@@ -143,6 +151,14 @@ impl Shape {
             Geometry::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
         }
     }
+    /// Texture coordinates of a point `point` drew on primitive `prim`.
+    pub fn uv_of(&self, prim: usize, sp: &SurfacePoint) -> glam::Vec2 {
+        match &self.geometry {
+            Geometry::Mesh(m) => m.uv_at(prim, sp.bary),
+            Geometry::Sphere { frame, .. } => sphere_uv_at(*frame, sp.n),
+        }
+    }
+
     pub fn primitive_count(&self) -> usize {
         match &self.geometry {
             Geometry::Mesh(m) => m.indices.len(),
@@ -185,6 +201,11 @@ fn sphere_uv(n: Vec3) -> glam::Vec2 {
     let phi = n.y.atan2(n.x);
     let u = if phi < 0.0 { phi + std::f32::consts::TAU } else { phi } / std::f32::consts::TAU;
     glam::Vec2::new(u, n.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI)
+}
+
+/// A sphere's texture coordinates at its unit normal `n` (world axes), in its own `frame`.
+pub fn sphere_uv_at(frame: Option<glam::Mat3>, n: Vec3) -> glam::Vec2 {
+    sphere_uv(frame.map_or(n, |f| f * n))
 }
 
 /// A ray's hit turned into surface data.
@@ -311,7 +332,7 @@ impl Scene {
             hash_vec3s(&mut h, e.image.iter().flat_map(|i| &i.texels));
         }
         for s in &self.shapes {
-            h.update(format!("|{}|{}|{:?}|", s.name, s.material, s.emission));
+            h.update(format!("|{}|{}|{:?}|{:?}|", s.name, s.material, s.emission, s.emission_texture));
             match &s.geometry {
                 Geometry::Mesh(m) => {
                     hash_vec3s(&mut h, &m.positions);
@@ -627,7 +648,7 @@ impl Scene {
     pub fn emitted(&self, si: &SurfaceHit, wo: Vec3) -> crate::color::Rgb {
         let e = self.shapes[si.shape as usize].emission;
         if e != crate::color::Rgb::ZERO && wo.dot(si.ng) > 0.0 {
-            e
+            self.radiance_at(si.shape, si.uv)
         } else {
             crate::color::Rgb::ZERO
         }
@@ -647,12 +668,23 @@ impl Scene {
         (self.bounds.1 - self.bounds.0).length()
     }
 
+    /// Radiance a shape emits at texture coordinates `uv` (its emission, times its texture's value there).
+    #[inline(always)]
+    pub fn radiance_at(&self, shape: u32, uv: glam::Vec2) -> Rgb {
+        let s = &self.shapes[shape as usize];
+        match s.emission_texture {
+            None => s.emission,
+            Some(t) => s.emission * self.textures[t as usize].eval(uv),
+        }
+    }
+
     /// Surface data at a hit (shape, primitive, barycentrics u,v, distance t along `ray`).
     pub fn surface(&self, ray: &crate::math::Ray, shape: u32, prim: u32, u: f32, v: f32, t: f32) -> SurfaceHit {
         // Texture coordinates cost trigonometry on a sphere and three more vertex reads on a mesh: only
         // a textured material reads them.
-        let textured = self.reads_uv(self.shapes[shape as usize].material);
-        match &self.shapes[shape as usize].geometry {
+        let s = &self.shapes[shape as usize];
+        let textured = s.emission_texture.is_some() || self.reads_uv(s.material);
+        match &s.geometry {
             Geometry::Mesh(m) => {
                 let [i0, i1, i2] = m.indices[prim as usize];
                 let (a, b, c) = (m.positions[i0 as usize], m.positions[i1 as usize], m.positions[i2 as usize]);
@@ -674,21 +706,14 @@ impl Scene {
                     None => ng,
                 };
                 let scale = max_edge(a, b, c);
-                let uv = match &m.uvs {
-                    _ if !textured => glam::Vec2::ZERO,
-                    Some(t) => {
-                        let [ta, tb, tc] = [t[i0 as usize], t[i1 as usize], t[i2 as usize]];
-                        glam::Vec2::from(ta) * (1.0 - u - v) + glam::Vec2::from(tb) * u + glam::Vec2::from(tc) * v
-                    }
-                    None => glam::Vec2::new(u, v),
-                };
+                let uv = if textured { m.uv_at(prim as usize, [u, v]) } else { glam::Vec2::ZERO };
                 SurfaceHit { p, ng, ns, shape, prim, scale, uv }
             }
             Geometry::Sphere { center, radius, frame } => {
                 let p = ray.at(t);
                 let n = (p - *center).normalize();
                 let p = *center + n * *radius;
-                let uv = if textured { sphere_uv(frame.map_or(n, |f| f * n)) } else { glam::Vec2::ZERO };
+                let uv = if textured { sphere_uv_at(*frame, n) } else { glam::Vec2::ZERO };
                 SurfaceHit { p, ng: n, ns: n, shape, prim, scale: *radius, uv }
             }
         }

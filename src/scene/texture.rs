@@ -85,6 +85,28 @@ impl Texture {
         }
     }
 
+    /// Mean value over the texture (a checkerboard's two colours equally; a bitmap's texels), in
+    /// double precision.
+    pub fn mean(&self) -> Rgb {
+        match self {
+            Texture::Checkerboard { color0, color1, .. } => (*color0 + *color1) * 0.5,
+            Texture::Bitmap { texels, .. } => {
+                let sum =
+                    texels.iter().fold([0.0f64; 3], |a, t| [a[0] + t.x as f64, a[1] + t.y as f64, a[2] + t.z as f64]);
+                let n = texels.len().max(1) as f64;
+                Rgb::new((sum[0] / n) as f32, (sum[1] / n) as f32, (sum[2] / n) as f32)
+            }
+        }
+    }
+
+    /// Smallest value any channel of the texture takes (an emitter's must stay ≥ 0).
+    pub fn min_value(&self) -> f32 {
+        match self {
+            Texture::Checkerboard { color0, color1, .. } => color0.min_element().min(color1.min_element()),
+            Texture::Bitmap { texels, .. } => texels.iter().map(|t| t.min_element()).fold(f32::INFINITY, f32::min),
+        }
+    }
+
     /// Largest value the texture takes (a reflectance must stay ≤ 1).
     pub fn max_value(&self) -> f32 {
         match self {

@@ -1,5 +1,8 @@
 //! Helpers shared by the integration tests: scenes built in code or from TOML text.
 #![allow(dead_code)]
+use caustica::accel::Accel;
+use caustica::film::Image;
+use caustica::pipeline::{plan_for, render_layers};
 use caustica::scene::file::FovAxis;
 use caustica::scene::{load_scene_str, Camera, Lights, Scene, Shape, SurfaceHit};
 use glam::Vec3;
@@ -27,6 +30,21 @@ pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
 /// Loads a scene from TOML text (paths resolve against the crate root).
 pub fn scene(text: &str) -> Scene {
     load_scene_str(text, "test.toml", Path::new(env!("CARGO_MANIFEST_DIR")), &[]).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Loads a scene from TOML text with `render.mode` set to `mode` and the `key=value` overrides `sets`.
+pub fn scene_in_mode(text: &str, mode: &str, sets: &[&str]) -> Scene {
+    let mut all = vec![format!("render.mode=\"{mode}\"")];
+    all.extend(sets.iter().map(|s| s.to_string()));
+    load_scene_str(text, "test.toml", Path::new(env!("CARGO_MANIFEST_DIR")), &all).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The image a scene renders in its own mode, as `caustica render` plans it.
+pub fn render_image(scene: &Scene) -> Image {
+    let accel = Accel::new(scene).unwrap();
+    let plan = plan_for(scene, &accel);
+    let layers = render_layers(scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true).unwrap();
+    layers[0].sums.image()
 }
 
 /// Six inward-facing quads forming the box [lo, hi]³ (for closed-room tests).

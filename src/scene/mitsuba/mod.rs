@@ -399,7 +399,9 @@ impl<'a> Cx<'a> {
                 return Err(e.error("only an `area` emitter can sit inside a shape"));
             }
             let ep = Props::new(e);
-            emission = Some(ep.rgb("radiance")?.unwrap_or([1.0; 3]));
+            // A colour, or a texture read at each point (its `id`, else named after the shape).
+            let radiance = self.colour_prop(&ep, "radiance", &format!("shapes[{index}]-emitter"))?;
+            emission = Some(radiance.unwrap_or(Reflectance::Colour([1.0; 3])));
             ep.finish("radiance")?;
         }
         let material = self.shape_material(n, &p, index, emission.is_some())?;
@@ -1020,7 +1022,7 @@ fn cylinder(
     p: &Props,
     to_world: Option<Mat4>,
     material: String,
-    emission: Option<[f32; 3]>,
+    emission: Option<Reflectance>,
     flip_normals: bool,
     materials: &BTreeMap<String, MaterialSpec>,
 ) -> Result<ShapeSpec, SceneError> {
@@ -1036,6 +1038,11 @@ fn cylinder(
         return Err(
             n.error("a textured BSDF on a cylinder is not supported (caustica's cylinder has no texture coordinates)")
         );
+    }
+    if matches!(emission, Some(Reflectance::Texture(_))) {
+        return Err(n.error(
+            "a textured emitter on a cylinder is not supported (caustica's cylinder has no texture coordinates)",
+        ));
     }
     // The lathe's y axis onto p0 → p1, its x and z onto a frame around the axis (a mirroring map would
     // not turn it inside out: meshes keep their winding's side under any transform).
