@@ -2,12 +2,9 @@
 //! against closed forms: nested blends pick each material as often as their weights say, and a blend
 //! of a diffuse surface with a black mirror reflects exactly what a darker diffuse surface does, in
 //! every mode (the pick, the photons stored whatever a photon's own pick, the merges of VCM).
-use caustica::accel::Accel;
-use caustica::pipeline::{plan_for, render_layers};
-use caustica::scene::SurfaceHit;
-use caustica::scene::{load_scene_str, load_scene_with};
+mod common;
+use caustica::scene::{load_scene_str, SurfaceHit};
 use glam::{Vec2, Vec3};
-use std::path::PathBuf;
 
 const BOX: &str = include_str!("../scenes/cornell-box.toml");
 
@@ -93,24 +90,16 @@ power = [10.0, 10.0, 10.0]
     plain.pick_material(&si, wo, || panic!("a number drawn for a plain material"));
 }
 
-/// Mean of the image `mode` renders of `toml` (written to a file, rendered with `sets`): r + g + b.
-fn mean_in_mode(toml: &str, name: &str, mode: &str, sets: &[&str]) -> f64 {
-    channel_means_in_mode(toml, name, mode, sets).iter().sum()
+/// Mean of the image `mode` renders of `toml` (48 × 48 pixels, with `sets`): r + g + b.
+fn mean_in_mode(toml: &str, mode: &str, sets: &[&str]) -> f64 {
+    channel_means_in_mode(toml, mode, sets).iter().sum()
 }
 
-/// Per-channel means of the image `mode` renders of `toml`.
-fn channel_means_in_mode(toml: &str, name: &str, mode: &str, sets: &[&str]) -> [f64; 3] {
-    let dir: PathBuf = std::env::temp_dir().join(format!("caustica-blend-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("{name}.toml"));
-    std::fs::write(&path, toml).unwrap();
-    let mut all = vec![format!("render.mode=\"{mode}\""), "camera.resolution=[48, 48]".to_string()];
-    all.extend(sets.iter().map(|s| s.to_string()));
-    let scene = load_scene_with(&path, &all).unwrap_or_else(|e| panic!("{e}"));
-    let accel = Accel::new(&scene).unwrap();
-    let plan = plan_for(&scene, &accel);
-    let layers = render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true).unwrap();
-    let img = layers[0].sums.image();
+/// Per-channel means of the image `mode` renders of `toml` (48 × 48 pixels, with `sets`).
+fn channel_means_in_mode(toml: &str, mode: &str, sets: &[&str]) -> [f64; 3] {
+    let mut all = vec!["camera.resolution=[48, 48]"];
+    all.extend(sets);
+    let img = common::render_image(&common::scene_in_mode(toml, mode, &all));
     let n = img.pixels.len() as f64;
     [0, 1, 2].map(|k| img.pixels.iter().map(|p| p[k] as f64).sum::<f64>() / n)
 }
@@ -136,8 +125,7 @@ void = { type = "mirror", specular = [0.0, 0.0, 0.0] }"#,
         ("photon_map", &["render.pm_spp=16"], 0.015),
     ];
     for (mode, sets, tol) in cases {
-        let (m_blend, m_plain) =
-            (mean_in_mode(&blend, "blend", mode, sets), mean_in_mode(&darker, "darker", mode, sets));
+        let (m_blend, m_plain) = (mean_in_mode(&blend, mode, sets), mean_in_mode(&darker, mode, sets));
         let rel = m_blend / m_plain - 1.0;
         println!("{mode}: blend {m_blend:.5}, diffuse {m_plain:.5} ({:+.2}%)", rel * 100.0);
         assert!(rel.abs() < tol, "{mode}: the blend's mean {m_blend} against the diffuse surface's {m_plain}");
@@ -236,8 +224,7 @@ panel = {{ type = "sides", {sides} }}"#
         ("photon_map", &["render.pm_spp=16"], 0.01),
     ];
     for (mode, sets, tol) in cases {
-        let (ma, mb) =
-            (channel_means_in_mode(&a, "panel-a", mode, sets), channel_means_in_mode(&b, "panel-b", mode, sets));
+        let (ma, mb) = (channel_means_in_mode(&a, mode, sets), channel_means_in_mode(&b, mode, sets));
         println!("{mode}: panel {ma:.5?}, turned over {mb:.5?}");
         for k in 0..3 {
             let rel = ma[k] / mb[k] - 1.0;

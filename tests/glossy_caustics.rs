@@ -5,11 +5,10 @@
 //! neither: the light sample is blocked by the glass and a sampled direction never finds a point. The
 //! caustic pass therefore light-traces such photons to the camera from the glossy surface they land
 //! on (when every bounce before was a mirror or glass); BDPT's light tracing is the reference.
-use caustica::accel::Accel;
+mod common;
 use caustica::film::Image;
-use caustica::pipeline::{plan_for, render_layers};
-use caustica::scene::{load_scene_str, Scene};
-use std::path::Path;
+use caustica::scene::Scene;
+use common::{render_image as render, scene_in_mode as load};
 
 /// A 1.5 glass ball 0.8 above a floor of material `floor` (a 4 × 4 square), under `light` (TOML),
 /// seen from above and in front, where a glossy floor sends the caustic below the ball towards the
@@ -28,19 +27,6 @@ fn scene(floor: &str, light: &str, ball: &str, extra: &str) -> String {
 }
 
 const POINT: &str = "[[lights]]\ntype = \"point\"\nposition = [0.0, 2.0, 0.0]\npower = [30.0, 30.0, 30.0]\n";
-
-fn load(text: &str, mode: &str, sets: &[&str]) -> Scene {
-    let mut all = vec![format!("render.mode=\"{mode}\"")];
-    all.extend(sets.iter().map(|s| s.to_string()));
-    load_scene_str(text, "glossy.toml", Path::new(env!("CARGO_MANIFEST_DIR")), &all).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn render(scene: &Scene) -> Image {
-    let accel = Accel::new(scene).unwrap();
-    let plan = plan_for(scene, &accel);
-    let layers = render_layers(scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true).unwrap();
-    layers[0].sums.image()
-}
 
 /// Sum over the pixels whose centre sees the floor within `r` of the point below the ball (the
 /// caustic), and over the whole image.

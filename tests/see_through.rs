@@ -6,12 +6,11 @@
 //! holes) receives (1 − w)² of its light (two crossings), all of it behind a null sphere, (1 − R')²
 //! behind thin glass; at max_depth 1 a floor seen through a pane is lit as without it, times what the
 //! pane lets through.
-use caustica::accel::Accel;
+mod common;
 use caustica::film::Image;
-use caustica::pipeline::{plan_for, render_layers};
-use caustica::scene::{load_scene_str, Scene};
+use caustica::scene::Scene;
+use common::{render_image as render, scene_in_mode as load};
 use glam::Vec3;
-use std::path::Path;
 
 /// Every mode with the settings that keep its noise in these small images under the bounds below.
 const MODES: [(&str, &[&str]); 6] = [
@@ -50,20 +49,6 @@ fn sphere(material: &str) -> String {
 }
 
 const POINT_LIGHT: &str = "[[lights]]\ntype = \"point\"\nposition = [0.0, 2.0, 0.0]\npower = [20.0, 20.0, 20.0]\n";
-
-fn load(text: &str, mode: &str, sets: &[&str]) -> Scene {
-    let mut all = vec![format!("render.mode=\"{mode}\"")];
-    all.extend(sets.iter().map(|s| s.to_string()));
-    load_scene_str(text, "see-through.toml", Path::new(env!("CARGO_MANIFEST_DIR")), &all)
-        .unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn render(scene: &Scene) -> Image {
-    let accel = Accel::new(scene).unwrap();
-    let plan = plan_for(scene, &accel);
-    let layers = render_layers(scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true).unwrap();
-    layers[0].sums.image()
-}
 
 /// Whether the ray from `o` along unit `d` passes within `r` of `c`.
 fn passes_near(o: Vec3, d: Vec3, c: Vec3, r: f32) -> bool {

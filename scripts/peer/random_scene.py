@@ -23,7 +23,8 @@ whose BSDF reads the bitmap label.png (a diffuse or plastic colour, a principled
 conductor's alpha as raw data), a named interior IOR, a thin-lens camera, another fov_axis, a
 Mitchell, Lanczos or Catmull-Rom filter, and spectra for about a third of the colours (a constant, or
 wavelength:value pairs inline or in a .spd file written beside OUT), and a second BSDF, the front, for
-half the twosided ones (the one they had is then their back).
+half the twosided ones (the one they had is then their back), and a texture for the radiance of some
+rectangle and sphere emitters (a checkerboard, sky.exr or label.png).
 """
 import argparse
 import os
@@ -316,6 +317,29 @@ if args.more:
         return m.group(0) + front
 
     text = re.sub(r'<bsdf type="twosided">', two_faced, text)
+    # Some area emitters get a texture for their radiance, from a fifth stream: a checkerboard (Mitsuba
+    # holds its colours to [0, 1] there), the HDR sky.exr or label.png. Only on rectangles and spheres:
+    # Mitsuba 3.9.1 draws a point on a textured emitter by its texture and places it by its uv, which
+    # on a cube (six faces sharing the uv square) reaches one face and reads the light biased dark
+    # (README, "Textured emitters"), and fails on a mesh without texture coordinates.
+    U = random.Random(args.seed * 6271 + 11)
+
+    def textured_light(m):
+        if m.group(1) not in ("rectangle", "sphere") or U.random() >= 0.4:
+            return m.group(0)
+        k = U.choice(["checkerboard", "sky.exr", "label.png"])
+        if k == "checkerboard":
+            c0 = ", ".join(f(U.uniform(0.1, 1.0)) for _ in range(3))
+            c1 = ", ".join(f(U.uniform(0.1, 1.0)) for _ in range(3))
+            s = U.choice([2, 3, 5])
+            tex = (f'<texture type="checkerboard" name="radiance"><rgb name="color0" value="{c0}"/>'
+                   f'<rgb name="color1" value="{c1}"/><transform name="to_uv"><scale x="{s}" y="{s}"/></transform></texture>')
+        else:
+            tex = f'<texture type="bitmap" name="radiance"><string name="filename" value="{k}"/></texture>'
+        return m.group(0).replace(m.group(2), tex)
+
+    text = re.sub(r'<shape type="(\w+)">.*?<emitter type="area">(<(?:rgb|spectrum) name="radiance"[^>]*/>)</emitter>',
+                  textured_light, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
