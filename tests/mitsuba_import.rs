@@ -687,12 +687,13 @@ fn emitter_spectra_read_as_mitsuba_reads_them() {
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let cases: [(&str, &[&str]); 7] = [
+    let cases: [(&str, &[&str]); 8] = [
         ("showcase", &["two_sided = false", "type = \"thin_dielectric\""]),
         ("uv", &["type = \"box\"", "type = \"disk\"", "type = \"sphere\""]),
         ("thinlens", &["aperture_radius = 0.2", "focus_distance = 4.0"]),
         ("blend", &["type = \"blend\"", "type = \"null\"", "weight = \"label\""]),
         ("sides", &["type = \"sides\"", "front = ", "back = "]),
+        ("textured-light", &["emission = \"shapes[5]-emitter-radiance\"", "sky.exr\""]),
         ("textured", &["roughness = \"label\"", "specular = \"label\"", "roughness = \"rough-squares-as-weight\""]),
         (
             "principled",
