@@ -283,7 +283,7 @@ fn each_malformed_scene_gets_its_own_message() {
                 "[textures]\nglow = { type = \"bitmap\", file = \"negative.exr\" }\n\n[materials]",
             ),
             vec![],
-            vec!["shapes[0].emission", "texture `glow` reaches -0.5", "≥ 0"],
+            vec!["shapes[0].emission", "texture `glow` (negative.exr) reaches -0.5", "≥ 0"],
         ),
         (
             "blend_weight_range",

@@ -437,12 +437,13 @@ const ASSETS: &[(&str, &str)] = &[
     ("meshes.serialized", "serialized.xml"),
     ("cu-eta.spd", "spectra.xml"),
     ("green.spd", "spectra.xml"),
+    ("sky.exr", "textured-light.xml"),
 ];
 
 proptest! {
     #![proptest_config(ProptestConfig { cases: cases() / 4, rng_seed: proptest::test_runner::RngSeed::Fixed(0xA55E7), failure_persistence: None, ..ProptestConfig::default() })]
 
-    /// A sky, a mesh, a texture or a spectrum file damaged on disk (truncated, bytes overwritten, inserted or cut): the
+    /// A sky, a mesh, a texture (one a light's radiance) or a spectrum file damaged on disk (truncated, bytes overwritten, inserted or cut): the
     /// scene that reads it renders or stops with an error naming the damaged file, never a panic.
     #[test]
     fn damaged_skies_meshes_and_textures_load_or_fail_cleanly(

@@ -770,10 +770,21 @@ fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures, what: &st
     })?;
     let max = textures.list[t as usize].max_value();
     if max > 1.0 {
-        let msg = format!("texture `{name}` reaches {max}; {what} must be in [0, 1]");
+        let msg = format!(
+            "texture {} reaches {max}; {what} must be in [0, 1]",
+            texture_label(name, &textures.list[t as usize])
+        );
         return Err(cx.err(key, msg));
     }
     Ok(t)
+}
+
+/// A texture as an error names it: `name`, and the image file it was read from.
+fn texture_label(name: &str, t: &Texture) -> String {
+    match t {
+        Texture::Bitmap { file, .. } => format!("`{name}` ({file})"),
+        Texture::Checkerboard { .. } => format!("`{name}`"),
+    }
 }
 
 /// Transform to a matrix; refuses degenerate or non-finite ones.
@@ -835,7 +846,8 @@ fn build_shape(
                 })?;
                 let low = textures.list[t as usize].min_value();
                 if low.is_nan() || low < 0.0 {
-                    return Err(cx.err(&field, format!("texture `{name}` reaches {low}; radiance must be ≥ 0")));
+                    let label = texture_label(name, &textures.list[t as usize]);
+                    return Err(cx.err(&field, format!("texture {label} reaches {low}; radiance must be ≥ 0")));
                 }
                 Ok((Rgb::ONE, Some(t)))
             }
