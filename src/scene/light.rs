@@ -157,15 +157,6 @@ pub struct Lights {
     points: (usize, usize),
 }
 
-/// Radiance an emitting shape sends from a point `point` drew on its primitive `prim`.
-fn emitted_at(scene: &Scene, shape: u32, prim: usize, sp: &crate::scene::SurfacePoint) -> Rgb {
-    let s = &scene.shapes[shape as usize];
-    match s.emission_texture {
-        None => s.emission,
-        Some(_) => scene.radiance_at(shape, s.uv_of(prim, sp)),
-    }
-}
-
 /// A point on a light seen from a reference point.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
@@ -441,10 +432,7 @@ impl Lights {
                 let emit_ratio = p_sel / (4.0 * PI * radius * radius) / (PI * pdf);
                 let emit_ratio = if cos_light > 0.0 { emit_ratio } else { 0.0 };
                 let normal = (y - center) / radius;
-                let li = match s.emission_texture {
-                    None => s.emission,
-                    Some(_) => scene.radiance_at(*shape, crate::scene::sphere_uv_at(frame, normal)),
-                };
+                let li = scene.radiance_at(*shape, || crate::scene::sphere_uv_at(frame, normal));
                 Some(LightSample { wi, dist, p, li, pdf, delta: false, emit_ratio, light: i, normal })
             }
             LightKind::Env | LightKind::Distant { .. } => {
@@ -563,13 +551,15 @@ impl Lights {
                 LightPoint { p: *position, n: Vec3::ZERO, size: 0.0, pdf_area: 1.0, le: *intensity }
             }
             LightKind::Triangle { shape, prim } => {
-                let sp = scene.shapes[*shape as usize].geometry.point(*prim as usize, u);
-                let le = emitted_at(scene, *shape, *prim as usize, &sp);
+                let s = &scene.shapes[*shape as usize];
+                let sp = s.geometry.point(*prim as usize, u);
+                let le = scene.radiance_at(*shape, || s.uv_of(*prim as usize, &sp));
                 LightPoint { p: sp.p, n: sp.n, size: sp.size, pdf_area: 1.0 / sp.area, le }
             }
             LightKind::Sphere { shape } => {
-                let sp = scene.shapes[*shape as usize].geometry.point(0, u);
-                let le = emitted_at(scene, *shape, 0, &sp);
+                let s = &scene.shapes[*shape as usize];
+                let sp = s.geometry.point(0, u);
+                let le = scene.radiance_at(*shape, || s.uv_of(0, &sp));
                 LightPoint { p: sp.p, n: sp.n, size: sp.size, pdf_area: 1.0 / sp.area, le }
             }
         })

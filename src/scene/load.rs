@@ -509,7 +509,6 @@ fn build_material(
     textures: &Textures,
     index: &HashMap<String, u32>,
 ) -> Result<SurfaceMaterial, SceneError> {
-    // A number field that must lie in [0, 1] (a roughness, a weight).
     // Another material, by name.
     let named = |field: &str, name: &str| {
         index.get(name).copied().ok_or_else(|| {
@@ -517,6 +516,7 @@ fn build_material(
             cx.err(&format!("{key}.{field}"), format!("unknown material `{name}` (defined: {known:?})"))
         })
     };
+    // A number field that must lie in [0, 1] (a roughness, a weight).
     let unit = |field: &str, x: f32| -> Result<f32, SceneError> {
         if (0.0..=1.0).contains(&x) {
             Ok(x)
@@ -764,10 +764,7 @@ fn relative_ior(cx: &Ctx, key: &str, ior: f32, outside_ior: f32) -> Result<f32, 
 /// The `[textures]` entry `name` that the material field `key` names (a reflectance, a blend's weight);
 /// refused if unknown or above 1 anywhere, as `what` must stay in [0, 1].
 fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures, what: &str) -> Result<u32, SceneError> {
-    let t = *textures.index.get(name).ok_or_else(|| {
-        let known: Vec<&String> = textures.index.keys().collect();
-        cx.err(key, format!("unknown texture `{name}` (defined: {known:?})"))
-    })?;
+    let t = texture_named(cx, key, name, textures)?;
     let max = textures.list[t as usize].max_value();
     if max > 1.0 {
         let msg = format!(
@@ -777,6 +774,14 @@ fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures, what: &st
         return Err(cx.err(key, msg));
     }
     Ok(t)
+}
+
+/// The `[textures]` entry `name` that the field `key` names; refused if there is none.
+fn texture_named(cx: &Ctx, key: &str, name: &str, textures: &Textures) -> Result<u32, SceneError> {
+    textures.index.get(name).copied().ok_or_else(|| {
+        let known: Vec<&String> = textures.index.keys().collect();
+        cx.err(key, format!("unknown texture `{name}` (defined: {known:?})"))
+    })
 }
 
 /// A texture as an error names it: `name`, and the image file it was read from.
@@ -840,10 +845,7 @@ fn build_shape(
             None => Ok((Rgb::ZERO, None)),
             Some(Reflectance::Colour(c)) => Ok((cx.colour(&field, *c, None)?, None)),
             Some(Reflectance::Texture(name)) => {
-                let t = *textures.index.get(name).ok_or_else(|| {
-                    let known: Vec<&String> = textures.index.keys().collect();
-                    cx.err(&field, format!("unknown texture `{name}` (defined: {known:?})"))
-                })?;
+                let t = texture_named(cx, &field, name, textures)?;
                 let low = textures.list[t as usize].min_value();
                 if low.is_nan() || low < 0.0 {
                     let label = texture_label(name, &textures.list[t as usize]);

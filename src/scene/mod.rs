@@ -648,7 +648,7 @@ impl Scene {
     pub fn emitted(&self, si: &SurfaceHit, wo: Vec3) -> crate::color::Rgb {
         let e = self.shapes[si.shape as usize].emission;
         if e != crate::color::Rgb::ZERO && wo.dot(si.ng) > 0.0 {
-            self.radiance_at(si.shape, si.uv)
+            self.radiance_at(si.shape, || si.uv)
         } else {
             crate::color::Rgb::ZERO
         }
@@ -668,13 +668,14 @@ impl Scene {
         (self.bounds.1 - self.bounds.0).length()
     }
 
-    /// Radiance a shape emits at texture coordinates `uv` (its emission, times its texture's value there).
+    /// Radiance a shape emits at the point whose texture coordinates `uv` gives (its emission, times
+    /// its texture's value there; `uv` is called only on a textured emitter).
     #[inline(always)]
-    pub fn radiance_at(&self, shape: u32, uv: glam::Vec2) -> Rgb {
+    pub fn radiance_at(&self, shape: u32, uv: impl FnOnce() -> glam::Vec2) -> Rgb {
         let s = &self.shapes[shape as usize];
         match s.emission_texture {
             None => s.emission,
-            Some(t) => s.emission * self.textures[t as usize].eval(uv),
+            Some(t) => s.emission * self.textures[t as usize].eval(uv()),
         }
     }
 
