@@ -31,6 +31,13 @@ fn with_white(line: &str) -> String {
     GOOD.replace("white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }", line)
 }
 
+/// `GOOD` with its material `white` a normal map (a checkerboard of normals, `saw`) over a material `d`
+/// that `rest` (whole lines) defines; `extra` ends white's table (`, key = value`).
+fn normal_mapped(extra: &str, rest: &str) -> String {
+    with_white(&format!("white = {{ type = \"normalmap\", normal_map = \"saw\", material = \"d\"{extra} }}\n{rest}"))
+        .replace("[materials]", "[textures]\nsaw = { type = \"checkerboard\" }\n\n[materials]")
+}
+
 /// `GOOD` with its quad's type and geometry (the lines before its material) replaced by `shape`.
 fn with_shape(shape: &str) -> String {
     GOOD.replace(
@@ -106,6 +113,7 @@ fn each_malformed_scene_gets_its_own_message() {
     let mut negative = caustica::film::Image::new(2, 1);
     negative.pixels[1] = glam::Vec3::new(1.0, -0.5, 1.0);
     caustica::output::write_exr(&d.join("negative.exr"), &negative).unwrap();
+    std::fs::write(d.join("nouv.obj"), "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n").unwrap();
     let cases: Vec<(&str, String, Vec<&str>, Vec<&str>)> = vec![
         ("syntax", GOOD.replace("fov = 40", "fov = = 40"), vec![], vec!["line 5"]),
         ("unknown_key", GOOD.replace("fov = 40", "fovv = 40"), vec![], vec!["unknown field `fovv`", "line 5"]),
@@ -269,6 +277,52 @@ fn each_malformed_scene_gets_its_own_message() {
             with_white("white = { type = \"sides\", front = \"white\", back = \"chalk\" }"),
             vec![],
             vec!["materials.white.back", "unknown material `chalk`"],
+        ),
+        (
+            "normalmap_unknown_texture",
+            with_white("white = { type = \"normalmap\", normal_map = \"bumps\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"),
+            vec![],
+            vec!["materials.white.normal_map", "unknown texture `bumps`"],
+        ),
+        (
+            "normalmap_over_blend",
+            normal_mapped("", "d = { type = \"blend\", first = \"e\", second = \"e\" }\ne = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"),
+            vec![],
+            vec!["materials.white.material", "`d` is a blend"],
+        ),
+        (
+            "normalmap_over_pane",
+            normal_mapped("", "d = { type = \"thin_dielectric\", ior = 1.5 }"),
+            vec![],
+            vec!["materials.white.material", "`d` is a thin pane"],
+        ),
+        (
+            "normalmap_twice",
+            normal_mapped("", "d = { type = \"normalmap\", normal_map = \"saw\", material = \"e\" }\ne = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"),
+            vec![],
+            vec!["materials.white.material", "`d` has a normal map already"],
+        ),
+        (
+            "normalmap_in_blend",
+            with_white("white = { type = \"blend\", first = \"m\", second = \"d\" }\nm = { type = \"normalmap\", normal_map = \"saw\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }")
+                .replace("[materials]", "[textures]\nsaw = { type = \"checkerboard\" }\n\n[materials]"),
+            vec![],
+            vec!["materials.white.first", "`m` has a normal map"],
+        ),
+        (
+            "normalmap_mirrored_glass",
+            normal_mapped(", two_sided = true", "d = { type = \"dielectric\", ior = 1.5 }"),
+            vec![],
+            vec!["materials.white.two_sided", "`d` lets light through"],
+        ),
+        (
+            "normalmap_without_uv",
+            normal_mapped("", "d = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }").replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+                "type = \"mesh\"\nfile = \"nouv.obj\"",
+            ),
+            vec![],
+            vec!["shapes[0].material", "`white` has a normal map, which needs texture coordinates"],
         ),
         (
             "emission_unknown_texture",

@@ -184,6 +184,17 @@ fn twosided_with_two_bsdfs_xml_matches_mitsuba() {
     matches_mitsuba("sides", 1024, 0.003);
 }
 
+/// Tangent-space normal maps (`normalmap.xml`): sinusoidal bumps (`bumps.exr`) under a diffuse floor,
+/// a rough gold ball (inside `twosided`), a plastic tile and a turned card, raked by a point light. The
+/// BSDF is Mitsuba's: the nested one about the mapped normal (reflected where the viewer is below it),
+/// times the bump-terminator shadowing on the light's side. Every mode: light paths and photons draw
+/// their way on about either normal.
+#[test]
+fn normal_maps_xml_match_mitsuba() {
+    matches_mitsuba("normalmap", 1024, 0.003);
+    every_mode_means_match_mitsuba("normalmap");
+}
+
 #[test]
 fn cylinders_xml_match_mitsuba() {
     matches_mitsuba("cylinder", 1024, 0.003);
@@ -687,7 +698,8 @@ fn emitter_spectra_read_as_mitsuba_reads_them() {
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let cases: [(&str, &[&str]); 8] = [
+    let cases: [(&str, &[&str]); 9] = [
+        ("normalmap", &["type = \"normalmap\"", "two_sided = true", "normal_map = \"bumps\""]),
         ("showcase", &["two_sided = false", "type = \"thin_dielectric\""]),
         ("uv", &["type = \"box\"", "type = \"disk\"", "type = \"sphere\""]),
         ("thinlens", &["aperture_radius = 0.2", "focus_distance = 4.0"]),
@@ -884,6 +896,46 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "twosided-front-transmitter",
             r#"<bsdf type="twosided"><bsdf type="principled"><float name="spec_trans" value="0.5"/></bsdf><bsdf type="diffuse"/></bsdf>"#,
             &["lets light through"],
+        ),
+        (
+            "normalmap-in-blend",
+            r#"<bsdf type="blendbsdf"><bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/></bsdf><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "a normalmap inside a blendbsdf"],
+        ),
+        (
+            "normalmap-over-blend",
+            r#"<bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></bsdf>"#,
+            &["line 8", "a `blendbsdf` under a normalmap"],
+        ),
+        (
+            "normalmap-over-sides",
+            r#"<bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="conductor"/></bsdf></bsdf>"#,
+            &["line 8", "a twosided of two BSDFs under a normalmap"],
+        ),
+        (
+            "normalmap-over-pane",
+            r#"<bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="thindielectric"/></bsdf>"#,
+            &["line 8", "a `thindielectric` under a normalmap"],
+        ),
+        (
+            "normalmap-no-map",
+            r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "needs a `normalmap` texture"],
+        ),
+        (
+            "normalmap-unflipped",
+            r#"<bsdf type="normalmap"><boolean name="flip_invalid_normals" value="false"/><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "`flip_invalid_normals` false is not supported"],
+        ),
+        (
+            "normalmap-two",
+            r#"<bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "exactly one nested BSDF (found 2)"],
+        ),
+        (
+            "twosided-normalmap-glass",
+            r#"<bsdf type="twosided"><bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="dielectric"/></bsdf></bsdf>"#,
+            &["twosided"],
         ),
         (
             "blend-one",

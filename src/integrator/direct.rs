@@ -71,7 +71,11 @@ pub fn estimate_direct_with(
             if tr == Rgb::ZERO {
                 Rgb::ZERO
             } else {
-                let w = if ls.delta || !mis { 1.0 } else { power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns)) };
+                let w = if ls.delta || !mis {
+                    1.0
+                } else {
+                    power_heuristic(ls.pdf, mat.pdf(wo, ls.wi, si.ns, crate::scene::TransportMode::Radiance))
+                };
                 f * ls.li * tr * (w / ls.pdf)
             }
         }

@@ -877,7 +877,10 @@ impl Vcm<'_> {
             sp.s_vm *= cos_out;
             sp.held_vm = 0.0;
         } else {
-            let rev = mat.pdf(bs.wi, wo, si.ns);
+            // The reverse density: wo drawn from bs.wi's side, in the other subpath's mode.
+            let other =
+                if mode == TransportMode::Radiance { TransportMode::Importance } else { TransportMode::Radiance };
+            let rev = mat.pdf(bs.wi, wo, si.ns, other);
             let f = cos_out / bs.pdf;
             sp.d_vc = f * (sp.d_vc * rev + sp.d_vcm + vm);
             sp.s_vm = f * (sp.s_vm * rev + sp.d_vcm * it.vc + vm);
@@ -908,7 +911,7 @@ impl Vcm<'_> {
         }
         let weight = |dir: Vec3, camera_pdf_a: f32| {
             it.weight(s, t, || {
-                let rev = lv.mat.pdf(dir, lv.wo, lv.si.ns);
+                let rev = lv.mat.pdf(dir, lv.wo, lv.si.ns, TransportMode::Radiance);
                 // The light vertex is the camera's first hit here: merging there is a strategy as
                 // `merge_primary` says.
                 let vm = it.vm_as_first_hit(lv);
@@ -1102,8 +1105,8 @@ impl Vcm<'_> {
             return Rgb::ZERO;
         };
         let w = it.weight(1, sp.len + 1, || {
-            let dir_pdf = if ls.delta { 0.0 } else { mat.pdf(wo, ls.wi, si.ns) };
-            let rev_pdf = mat.pdf(ls.wi, wo, si.ns);
+            let dir_pdf = if ls.delta { 0.0 } else { mat.pdf(wo, ls.wi, si.ns, TransportMode::Radiance) };
+            let rev_pdf = mat.pdf(ls.wi, wo, si.ns, TransportMode::Importance);
             let w_light = dir_pdf / ls.pdf;
             let aim = if self.scene.lights.list[ls.light].at_infinity() {
                 1.0
@@ -1156,10 +1159,10 @@ impl Vcm<'_> {
             return Rgb::ZERO;
         }
         let w = it.weight(lv.len + 1, sp.len + 1, || {
-            let cam_dir_a = mat.pdf(wo, dir, si.ns) * cos_g(&lv.si, dir) / dist2;
-            let cam_rev = mat.pdf(dir, wo, si.ns);
-            let light_dir_a = lv.mat.pdf(lv.wo, -dir, lv.si.ns) * cos_g(si, dir) / dist2;
-            let light_rev = lv.mat.pdf(-dir, lv.wo, lv.si.ns);
+            let cam_dir_a = mat.pdf(wo, dir, si.ns, TransportMode::Radiance) * cos_g(&lv.si, dir) / dist2;
+            let cam_rev = mat.pdf(dir, wo, si.ns, TransportMode::Importance);
+            let light_dir_a = lv.mat.pdf(lv.wo, -dir, lv.si.ns, TransportMode::Importance) * cos_g(si, dir) / dist2;
+            let light_rev = lv.mat.pdf(-dir, lv.wo, lv.si.ns, TransportMode::Radiance);
             let w_light = cam_dir_a * (lv.vm + lv.d_vcm + lv.d_vc * light_rev);
             let w_camera = light_dir_a * (vm + sp.d_vcm + sp.d_vc * cam_rev);
             1.0 / (w_light + 1.0 + w_camera)
@@ -1206,8 +1209,9 @@ impl Vcm<'_> {
                 if f == Rgb::ZERO {
                     continue;
                 }
-                let w_light = (lv.d_vcm * it.vc + lv.s_vm * mat.pdf(wo, lv.wo, si.ns)) / eta;
-                let w_camera = (sp.d_vcm * it.vc + sp.s_vm * mat.pdf(lv.wo, wo, si.ns)) / eta;
+                let w_light = (lv.d_vcm * it.vc + lv.s_vm * mat.pdf(wo, lv.wo, si.ns, TransportMode::Radiance)) / eta;
+                let w_camera =
+                    (sp.d_vcm * it.vc + sp.s_vm * mat.pdf(lv.wo, wo, si.ns, TransportMode::Importance)) / eta;
                 sum += f * lv.beta * (1.0 / (w_light + 1.0 + w_camera));
             }
         });

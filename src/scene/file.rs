@@ -205,6 +205,22 @@ pub enum MaterialSpec {
     /// and another behind (Mitsuba's `twosided` with two BSDFs): `back` is seen from behind as it would
     /// be from its own front, so it must be two-sided, and neither side may let light through.
     Sides { front: String, back: String },
+    /// Another of the `[materials]`, by name, under a tangent-space normal map (Mitsuba's `normalmap`):
+    /// `normal_map` names a `[textures]` entry whose colour c gives the normal as 2c − 1 in the frame of
+    /// ∂p/∂u (along the texture's u) made orthogonal to the shading normal, the normal × that, and the
+    /// normal (use `raw = true` for an image of normals). The material is taken about that normal, as
+    /// Mitsuba 3 does (its reflection about the shading normal where the viewer is below it, and the
+    /// bump-terminator shadowing of Conty Estevez et al. 2019). `two_sided = true` (Mitsuba's `twosided`
+    /// around the `normalmap`) shows the mirror image of the front behind the surface, whatever the
+    /// material's own sides. Only on a shape's own material (not inside a blend or a side of `sides`),
+    /// on meshes with texture coordinates and spheres; over any material but a thin pane or a null
+    /// surface. Photons are not stored on it: the photon mappers follow camera paths across it.
+    Normalmap {
+        normal_map: String,
+        material: String,
+        #[serde(default)]
+        two_sided: bool,
+    },
     /// Mitsuba's `principled` BSDF (Burley's "Disney" model as Mitsuba 3 writes it): `base_color` (a
     /// colour or a texture, default ½) and `roughness` (a number or a texture read by luminance,
     /// default ½) and, each a number in [0, 1] defaulting to 0: `metallic`, `spec_trans`
@@ -262,6 +278,7 @@ impl MaterialSpec {
             MaterialSpec::Principled { base_color, roughness, .. } => t(base_color) || w(roughness),
             MaterialSpec::Blend { weight, .. } => w(weight),
             MaterialSpec::Sides { .. } | MaterialSpec::Null => false,
+            MaterialSpec::Normalmap { .. } => true,
         }
     }
 }

@@ -6,7 +6,8 @@ use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
 use crate::scene::light::{Lights, PointLight, Spot};
 use crate::scene::material::{
-    conductor_preset, BlendWeight, Fresnel, Material, ParamMaps, Principled, RoughCoat, SurfaceMaterial, MIN_ALPHA,
+    conductor_preset, BlendWeight, Fresnel, Mapped, Material, Nested, ParamMaps, Principled, RoughCoat,
+    SurfaceMaterial, MIN_ALPHA,
 };
 use crate::scene::mesh::{self, TriMesh};
 use crate::scene::texture::{load_image, Texture, UvMap};
@@ -189,6 +190,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         materials.push(build_material(&cx, &format!("materials.{name}"), spec, &textures, &index)?);
         names.push(name.clone());
     }
+    apply_normal_maps(&cx, &file, &index, &textures, &mut materials)?;
     refuse_blend_cycles(&cx, &materials, &names)?;
     check_sides(&cx, &materials, &names)?;
     let mut shapes = Vec::new();
@@ -712,7 +714,71 @@ fn build_material(
         MaterialSpec::Sides { front, back } => {
             SurfaceMaterial::blend(BlendWeight::Side, named("front", front)?, named("back", back)?)
         }
+        // Filled in by `apply_normal_maps` once every material is built.
+        MaterialSpec::Normalmap { .. } => SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO }),
     })
+}
+
+/// Each `normalmap` material becomes the material it names with the normal map added (built after
+/// every material, as it may name one listed later). A normal map of a normal map, and one on a
+/// blend's or a side material's own materials (the normal is perturbed before a blend picks), are
+/// refused.
+fn apply_normal_maps(
+    cx: &Ctx,
+    file: &SceneFile,
+    index: &HashMap<String, u32>,
+    textures: &Textures,
+    materials: &mut [SurfaceMaterial],
+) -> Result<(), SceneError> {
+    let mapped: Vec<bool> = file.materials.values().map(|m| matches!(m, MaterialSpec::Normalmap { .. })).collect();
+    for (i, (name, spec)) in file.materials.iter().enumerate() {
+        let MaterialSpec::Normalmap { normal_map, material, two_sided } = spec else { continue };
+        let key = format!("materials.{name}");
+        let Some(&j) = index.get(material) else {
+            let known: Vec<&String> = index.keys().collect();
+            return Err(
+                cx.err(&format!("{key}.material"), format!("unknown material `{material}` (defined: {known:?})"))
+            );
+        };
+        if mapped[j as usize] {
+            return Err(cx.err(&format!("{key}.material"), format!("`{material}` has a normal map already")));
+        }
+        let t = *textures.index.get(normal_map).ok_or_else(|| {
+            let known: Vec<&String> = textures.index.keys().collect();
+            cx.err(&format!("{key}.normal_map"), format!("unknown texture `{normal_map}` (defined: {known:?})"))
+        })?;
+        let inner = &materials[j as usize];
+        if inner.blend.is_some() {
+            let msg =
+                format!("`{material}` is a blend; a normal map goes over one material (put it on each of the blend's)");
+            return Err(cx.err(&format!("{key}.material"), msg));
+        }
+        let Some(nested) = Nested::new(inner.bsdf) else {
+            let msg = format!("`{material}` is a thin pane or a null surface, which a normal map cannot bend");
+            return Err(cx.err(&format!("{key}.material"), msg));
+        };
+        if *two_sided && inner.bsdf.transmits() {
+            let msg = format!("`{material}` lets light through; its back cannot be its front's mirror image");
+            return Err(cx.err(&format!("{key}.two_sided"), msg));
+        }
+        let bsdf = Material::Mapped(Mapped { normal: Vec3::ZERO, mirror_back: *two_sided, nested });
+        let two_sided = *two_sided || inner.two_sided;
+        materials[i] = SurfaceMaterial { bsdf, two_sided, normal_map: Some(t), ..inner.clone() };
+    }
+    for (name, spec) in &file.materials {
+        let fields = match spec {
+            MaterialSpec::Blend { first, second, .. } => [("first", first), ("second", second)],
+            MaterialSpec::Sides { front, back } => [("front", front), ("back", back)],
+            _ => continue,
+        };
+        for (field, other) in fields {
+            if index.get(other).is_some_and(|&j| materials[j as usize].normal_map.is_some()) {
+                let msg = format!("`{other}` has a normal map; a blend's or a side material's materials cannot (put the normal map around `{name}` instead)");
+                return Err(cx.err(&format!("materials.{name}.{field}"), msg));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A side blend's back is seen from behind as from its own front, so each material it can be must be
@@ -832,6 +898,7 @@ fn build_shape(
     index: &HashMap<String, u32>,
     out: &mut Built,
 ) -> Result<(), SceneError> {
+    let first = out.shapes.len();
     let lookup = |name: &str| -> Result<u32, SceneError> {
         index.get(name).copied().ok_or_else(|| {
             let known: Vec<&String> = index.keys().collect();
@@ -921,6 +988,15 @@ fn build_shape(
         ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
             push(out.shapes, mesh, false, transform, lookup(material)?, emission(e, out.textures)?, false)?;
+        }
+    }
+    // A normal map is read along the texture's u: a mesh without texture coordinates has none.
+    for s in &out.shapes[first..] {
+        let mapped = out.materials[s.material as usize].normal_map.is_some();
+        if mapped && matches!(&s.geometry, Geometry::Mesh(m) if m.uvs.is_none()) {
+            let name = &out.names[s.material as usize];
+            let msg = format!("`{name}` has a normal map, which needs texture coordinates, and this mesh has none");
+            return Err(cx.err(&format!("{key}.material"), msg));
         }
     }
     Ok(())

@@ -54,6 +54,212 @@ pub enum Material {
     },
     /// Mitsuba's `principled` (see `Principled`).
     Principled(Principled),
+    /// Another BSDF under a tangent-space normal map (see `Mapped`).
+    Mapped(Mapped),
+}
+
+/// A BSDF under a normal map, as Mitsuba 3's `normalmap` defines it (its defaults,
+/// `flip_invalid_normals` and `use_shadowing_function`). At a hit the map gives a normal `normal`
+/// (world axes; zero in a scene's material, filled in per hit). Seen from a direction c on the camera's
+/// side, the nested BSDF is taken about that normal, reflected about the shading normal ns where c lies
+/// on the other side of it than of ns; light from the light's side l counts only where l lies on the
+/// same side of both normals, times the shadowing term of Conty Estevez et al. 2019,
+/// G = 2 / (1 + √(1 + α² tan²θ_l)), α² = min(1, tan²θ_normal / 8), angles to ns. So
+/// f(c, l)·|l·ns| = f_nested(c, l)·|l·n'|·G(l): the BSDF is not symmetric, and light paths, which know l
+/// and sample c, draw it about either normal with even odds.
+///
+/// With `mirror_back` (Mitsuba's `twosided` around the `normalmap`), seen from behind ns the surface is
+/// its mirror image: ns and the map's normal reflected through the tangent plane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Mapped {
+    pub normal: Vec3,
+    pub mirror_back: bool,
+    pub nested: Nested,
+}
+
+/// The BSDFs a normal map may sit over: every `Material` but a thin pane and another normal map, by
+/// their fields in the order they are declared there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Nested {
+    Diffuse(Rgb),
+    Conductor(Fresnel, f32, Microfacet),
+    Dielectric(f32, Rgb, f32, Microfacet),
+    Plastic(Rgb, Rgb, f32, bool, Option<&'static RoughCoat>),
+    Principled(Principled),
+}
+
+impl Nested {
+    /// `m` as a normal map's nested BSDF (None for a thin pane or a normal map).
+    pub fn new(m: Material) -> Option<Nested> {
+        Some(match m {
+            Material::Diffuse { reflectance } => Nested::Diffuse(reflectance),
+            Material::Conductor { fresnel, alpha, distribution } => Nested::Conductor(fresnel, alpha, distribution),
+            Material::Dielectric { ior, tint, alpha, distribution } => {
+                Nested::Dielectric(ior, tint, alpha, distribution)
+            }
+            Material::Plastic { diffuse, specular, ior, nonlinear, rough } => {
+                Nested::Plastic(diffuse, specular, ior, nonlinear, rough)
+            }
+            Material::Principled(p) => Nested::Principled(p),
+            Material::ThinDielectric { .. } | Material::Mapped(_) => return None,
+        })
+    }
+
+    pub fn material(self) -> Material {
+        match self {
+            Nested::Diffuse(reflectance) => Material::Diffuse { reflectance },
+            Nested::Conductor(fresnel, alpha, distribution) => Material::Conductor { fresnel, alpha, distribution },
+            Nested::Dielectric(ior, tint, alpha, distribution) => {
+                Material::Dielectric { ior, tint, alpha, distribution }
+            }
+            Nested::Plastic(diffuse, specular, ior, nonlinear, rough) => {
+                Material::Plastic { diffuse, specular, ior, nonlinear, rough }
+            }
+            Nested::Principled(p) => Material::Principled(p),
+        }
+    }
+}
+
+/// What `Mapped::frame` finds for a direction on the camera's side: the normal `n` the nested BSDF is
+/// taken about, the shading normal `ns` as seen from there (mirrored behind a `mirror_back` surface),
+/// and which of `Mapped::candidates` `n` is.
+struct Frame2 {
+    n: Vec3,
+    ns: Vec3,
+    which: usize,
+}
+
+impl Mapped {
+    /// The shading normal and the map's normal as seen from `c` (the camera's side): both mirrored
+    /// through the tangent plane behind a `mirror_back` surface.
+    fn sided(&self, c: Vec3, ns: Vec3) -> (Vec3, Vec3) {
+        if self.mirror_back && c.dot(ns) < 0.0 {
+            (-ns, self.normal - ns * (2.0 * self.normal.dot(ns)))
+        } else {
+            (ns, self.normal)
+        }
+    }
+
+    /// The normal the nested BSDF is taken about, seen from `c`: the map's, reflected about the shading
+    /// normal where `c` lies on the other side of it than of the shading normal; and which of the two
+    /// candidates (`candidates`) that is.
+    fn frame(&self, c: Vec3, ns: Vec3) -> Frame2 {
+        let (ns_c, n0) = self.sided(c, ns);
+        let flip = c.dot(ns_c) * c.dot(n0) <= 0.0;
+        let n = if flip { ns_c * (2.0 * n0.dot(ns_c)) - n0 } else { n0 };
+        // Behind a mirrored surface the unflipped normal is the line of the front's flipped one.
+        let back = self.mirror_back && c.dot(ns) < 0.0;
+        Frame2 { n: n.normalize_or_zero(), ns: ns_c, which: (flip != back) as usize }
+    }
+
+    /// The two normals the nested BSDF can be taken about (as lines): the map's, and its reflection
+    /// about the shading normal.
+    fn candidates(&self, ns: Vec3) -> [Vec3; 2] {
+        let n0 = self.normal;
+        [n0, (ns * (2.0 * n0.dot(ns)) - n0).normalize_or_zero()]
+    }
+
+    /// Mitsuba's shadowing term for light along `l` about the mapped normal `n` (angles to `ns`).
+    fn shadowing(n: Vec3, l: Vec3, ns: Vec3) -> f32 {
+        let tan2 = |c: f32| {
+            let c2 = c * c;
+            if c2 > 0.0 {
+                (1.0 - c2).max(0.0) / c2
+            } else {
+                f32::INFINITY
+            }
+        };
+        let alpha2 = (0.125 * tan2(n.dot(ns))).min(1.0);
+        let t = tan2(l.dot(ns));
+        if t.is_infinite() {
+            return if alpha2 > 0.0 { 0.0 } else { 1.0 };
+        }
+        2.0 / (1.0 + (1.0 + alpha2 * t).sqrt())
+    }
+
+    /// f(c, l)·|l·ns| / (f_nested about `n`)(c, l): |l·n|·G / |l·ns| where l lies on the same side of
+    /// `n` and `ns`, else 0.
+    fn factor(n: Vec3, l: Vec3, ns: Vec3) -> f32 {
+        let (ln, ls) = (l.dot(n), l.dot(ns));
+        if ln * ls <= 0.0 {
+            return 0.0;
+        }
+        ln.abs() * Self::shadowing(n, l, ns) / ls.abs()
+    }
+
+    fn eval(&self, wo: Vec3, wi: Vec3, ns: Vec3, mode: TransportMode) -> Rgb {
+        let (c, l) = if mode == TransportMode::Radiance { (wo, wi) } else { (wi, wo) };
+        let f = self.frame(c, ns);
+        let k = Self::factor(f.n, l, f.ns);
+        if k == 0.0 || f.n == Vec3::ZERO {
+            return Rgb::ZERO;
+        }
+        self.nested.material().eval(wo, wi, f.n, mode) * k
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3, ns: Vec3, mode: TransportMode) -> f32 {
+        let nested = self.nested.material();
+        match mode {
+            TransportMode::Radiance => {
+                let f = self.frame(wo, ns);
+                if wi.dot(f.n) * wi.dot(f.ns) <= 0.0 {
+                    return 0.0;
+                }
+                nested.pdf(wo, wi, f.n, mode)
+            }
+            TransportMode::Importance => {
+                let [a, b] = self.candidates(ns);
+                0.5 * (nested.pdf(wo, wi, a, mode) + nested.pdf(wo, wi, b, mode))
+            }
+        }
+    }
+
+    fn sample(&self, wo: Vec3, ns: Vec3, u: [f32; 2], uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+        let nested = self.nested.material();
+        if mode == TransportMode::Radiance {
+            let f = self.frame(wo, ns);
+            let mut bs = nested.sample(wo, f.n, u, uc, mode)?;
+            let g = Self::factor(f.n, bs.wi, f.ns);
+            if g == 0.0 {
+                return None;
+            }
+            // The nested weight carries |l·n|; f·|l·ns| / pdf wants it times G alone.
+            bs.weight *= g * bs.wi.dot(f.ns).abs() / bs.wi.dot(f.n).abs();
+            return Some(bs);
+        }
+        // A light path knows l (`wo`) and draws c: about either candidate normal, even odds.
+        let k = (uc >= 0.5) as usize;
+        let uc = if k == 0 { uc * 2.0 } else { (uc - 0.5) * 2.0 }.min(f32::from_bits(0x3f7f_ffff));
+        let about = self.candidates(ns)[k];
+        let mut bs = nested.sample(wo, about, u, uc, mode)?;
+        let c = bs.wi;
+        if bs.delta {
+            let f = self.frame(c, ns);
+            // Only the normal c is seen about can have sent it (the other's delta lobe points elsewhere).
+            if f.which != k {
+                return None;
+            }
+            let g = Self::factor(f.n, wo, f.ns);
+            let (cn, cs) = (c.dot(f.n).abs(), c.dot(ns).abs());
+            if g == 0.0 || cn == 0.0 {
+                return None;
+            }
+            bs.weight *= 2.0 * g * cs / cn;
+            bs.pdf *= 0.5;
+            return Some(bs);
+        }
+        let pdf = self.pdf(wo, c, ns, mode);
+        if pdf <= 0.0 {
+            return None;
+        }
+        let f = self.eval(wo, c, ns, mode);
+        if f == Rgb::ZERO {
+            return None;
+        }
+        bs.weight = f * (c.dot(ns).abs() / pdf);
+        bs.pdf = pdf;
+        Some(bs)
+    }
 }
 
 /// A scene's material: its BSDF, whether its back is black (Mitsuba's one-sided BSDFs), and the textures
@@ -72,6 +278,10 @@ pub struct SurfaceMaterial {
     /// Textures for the BSDF's other parameters.
     pub maps: ParamMaps,
     pub blend: Option<Blend>,
+    /// Index into `Scene::textures`: a tangent-space normal map over `bsdf` (then a `Material::Mapped`),
+    /// its colour c read as the normal's coordinates 2c − 1 along (∂p/∂u made orthogonal to the shading
+    /// normal, the normal × that, the normal).
+    pub normal_map: Option<u32>,
 }
 
 /// Textures that replace a BSDF's parameters at each hit (indices into `Scene::textures`), as Mitsuba's
@@ -96,7 +306,14 @@ impl ParamMaps {
 
 impl SurfaceMaterial {
     pub fn new(bsdf: Material) -> Self {
-        SurfaceMaterial { bsdf, two_sided: true, texture: None, maps: ParamMaps::default(), blend: None }
+        SurfaceMaterial {
+            bsdf,
+            two_sided: true,
+            texture: None,
+            maps: ParamMaps::default(),
+            blend: None,
+            normal_map: None,
+        }
     }
 
     /// The blend of `first` and `second` (indices into `Scene::materials`) by `weight`.
@@ -678,6 +895,9 @@ impl Material {
                 }
             }
             Material::Diffuse { .. } => {}
+            Material::Mapped(m) => {
+                m.nested = Nested::new(m.nested.material().with_params(specular, tint, alpha)).unwrap_or(m.nested);
+            }
         }
         self
     }
@@ -689,6 +909,7 @@ impl Material {
             Material::Conductor { alpha, .. } | Material::Dielectric { alpha, .. } => *alpha == 0.0,
             Material::ThinDielectric { .. } => true,
             Material::Plastic { .. } | Material::Principled(_) => false,
+            Material::Mapped(m) => m.nested.material().is_delta(),
         }
     }
 
@@ -698,6 +919,7 @@ impl Material {
         match self {
             Material::Plastic { rough: None, specular, .. } => *specular != Rgb::ZERO,
             Material::ThinDielectric { ior, .. } => *ior != 1.0,
+            Material::Mapped(m) => m.nested.material().has_delta_lobe(),
             m => m.is_delta(),
         }
     }
@@ -842,7 +1064,7 @@ impl Material {
     fn plastic_pdf(&self, share: f32, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
         let base = (1.0 - share) * wi.dot(face_forward(n, wo)).max(0.0) / PI;
         match self.coat_lobe() {
-            Some(lobe) if share > 0.0 => base + share * lobe.pdf(wo, wi, n),
+            Some(lobe) if share > 0.0 => base + share * lobe.pdf(wo, wi, n, TransportMode::Radiance),
             _ => base,
         }
     }
@@ -868,6 +1090,7 @@ impl Material {
         match self {
             Material::Dielectric { .. } | Material::ThinDielectric { .. } => true,
             Material::Principled(p) => p.spec_trans > 0.0 && p.metallic < 1.0,
+            Material::Mapped(m) => m.nested.material().transmits(),
             _ => false,
         }
     }
@@ -885,6 +1108,7 @@ impl Material {
             Material::Conductor { fresnel, .. } => fresnel.eval(1.0),
             Material::Dielectric { tint, .. } | Material::ThinDielectric { tint, .. } => *tint,
             Material::Principled(p) => p.base,
+            Material::Mapped(m) => m.nested.material().albedo(),
         }
     }
 
@@ -893,6 +1117,7 @@ impl Material {
     /// in a rough dielectric's transmission (by η²).
     pub fn eval(&self, wo: Vec3, wi: Vec3, n: Vec3, mode: TransportMode) -> Rgb {
         match self {
+            Material::Mapped(m) => m.eval(wo, wi, n, mode),
             Material::Diffuse { reflectance } => {
                 if wo.dot(n) * wi.dot(n) > 0.0 {
                     *reflectance / PI
@@ -947,9 +1172,11 @@ impl Material {
         }
     }
 
-    /// Solid-angle density of `sample` choosing wi (0 for delta BSDFs).
-    pub fn pdf(&self, wo: Vec3, wi: Vec3, n: Vec3) -> f32 {
+    /// Solid-angle density of `sample` choosing wi (0 for delta BSDFs) in `mode`: the same in both but
+    /// under a normal map, which camera paths sample about one normal and light paths about either.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3, n: Vec3, mode: TransportMode) -> f32 {
         match self {
+            Material::Mapped(m) => m.pdf(wo, wi, n, mode),
             Material::Diffuse { .. } => wi.dot(face_forward(n, wo)).max(0.0) / PI,
             Material::Plastic { .. } => self.plastic_pdf(self.coat_share(wo, n), wo, wi, n),
             Material::Conductor { alpha, distribution: m, .. } if *alpha > 0.0 => {
@@ -988,6 +1215,7 @@ impl Material {
             radiance_scale,
         };
         match self {
+            Material::Mapped(m) => m.sample(wo, n, u, uc, mode),
             Material::Principled(p) => {
                 let f = p.frame(wo, n);
                 let lo = f.to_local(wo);
@@ -1041,7 +1269,7 @@ impl Material {
                     return Some(sample(wi, fr, 1.0, true, false, 1.0));
                 }
                 let (wi, cos) = distribution.sample_reflection(wo, side, u, *alpha)?;
-                let pdf = self.pdf(wo, wi, n);
+                let pdf = self.pdf(wo, wi, n, mode);
                 if pdf <= 0.0 {
                     return None;
                 }
@@ -1428,6 +1656,209 @@ mod tests {
     use super::*;
     use crate::math::Rng;
 
+    /// Mitsuba 3.9.1's `normalmap` over a white `diffuse` (a map of one normal, read nearest; ns = z,
+    /// ∂p/∂u = x), its `eval` (f·cos) for the camera's side c (Mitsuba's si.wi) and the light's l, and
+    /// in `twosided` seen from behind; caustica's f·|l·ns| must match. Cases from a script of random
+    /// normals and directions (one of each kind zero: light below the mapped normal).
+    #[test]
+    fn normal_map_matches_mitsuba() {
+        #[allow(clippy::type_complexity)]
+        let cases: [(bool, [f32; 3], [f32; 3], [f32; 3], f32); 8] = [
+            (
+                false,
+                [0.2737577, -0.7184546, 0.6394371],
+                [-0.2008502, 0.3400144, 0.9187216],
+                [0.1135568, -0.5720439, 0.8123242],
+                0.299_243_1,
+            ),
+            (
+                false,
+                [0.2153782, -0.001114964, 0.9765301],
+                [0.1720408, -0.7778855, 0.6043974],
+                [0.6760401, 0.0857219, 0.7318617],
+                2.7344817e-01,
+            ),
+            (
+                false,
+                [-0.4937741, 0.02165973, 0.8693204],
+                [-0.5886163, -0.4564653, 0.6672109],
+                [0.6823846, -0.07779286, 0.7268422],
+                0.092_511_03,
+            ),
+            (
+                false,
+                [0.4754559, -0.5057452, 0.7198358],
+                [-0.8510331, -0.1329779, 0.5079955],
+                [-0.1330778, -0.990978, 0.01590153],
+                1.2736262e-02,
+            ),
+            (
+                true,
+                [-0.5309741, 0.2231995, 0.8174647],
+                [-0.6700271, -0.2533176, -0.6977778],
+                [-0.7675094, 0.1273052, -0.6282696],
+                2.9537755e-01,
+            ),
+            (
+                true,
+                [0.1623015, -0.5110756, 0.8440734],
+                [-0.8695118, 0.1184389, -0.4795013],
+                [0.01661849, 0.02193463, -0.9996213],
+                2.6586282e-01,
+            ),
+            (
+                true,
+                [0.1699829, -0.07582134, 0.9825258],
+                [0.5682503, -0.6978765, -0.4359587],
+                [-0.7724911, -0.2328713, -0.5907863],
+                1.4828044e-01,
+            ),
+            (
+                true,
+                [0.0379715, 0.6118401, 0.7900696],
+                [0.9165332, 0.2419418, -0.3184824],
+                [0.8090864, -0.5838124, -0.06739647],
+                0.0,
+            ),
+        ];
+        for (two_sided, n, c, l, want) in cases {
+            let nested = Nested::Diffuse(Rgb::ONE);
+            let m = Material::Mapped(Mapped { normal: Vec3::from(n).normalize(), mirror_back: two_sided, nested });
+            let (c, l) = (Vec3::from(c), Vec3::from(l));
+            let got = m.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
+            assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
+            // The adjoint is the same number with the roles of the directions said the other way.
+            let adjoint = m.eval(l, c, Vec3::Z, TransportMode::Importance).x * l.z.abs();
+            assert_eq!(adjoint, got);
+        }
+    }
+
+    /// Under a normal map each mode's samples weigh f·|cos|/pdf with `eval` and `pdf` of that mode, and
+    /// their mean is the integral of f·|cos| over the sphere (the albedo seen from the given side). Light
+    /// paths draw about either normal: with a pdf or a weight for one normal only, the importance mode's
+    /// albedo over a steep map is off by a quarter or more. Delta lobes (a mirror, a plastic's coat):
+    /// the albedo adds each normal's reflection where it is the one the reflected direction sees.
+    #[test]
+    fn normal_map_samples_match_eval_pdf_and_albedo() {
+        let (pure, _) = sampling_cases();
+        let mut r = Rng::new(17, 0, 0);
+        let normals = [Vec3::new(0.55, 0.1, 0.83), Vec3::new(-0.2, 0.7, 0.68), Vec3::new(0.05, 0.0, 1.0)];
+        for nested in pure {
+            for (i, n0) in normals.iter().enumerate() {
+                for mirror_back in [false, true] {
+                    let m = Material::Mapped(Mapped { normal: n0.normalize(), mirror_back, nested });
+                    // From above, grazing, and (two-sided) from below.
+                    for wo in [Vec3::new(0.3, -0.2, 0.93), Vec3::new(-0.9, 0.3, 0.2), Vec3::new(0.4, 0.5, -0.77)] {
+                        let wo = wo.normalize();
+                        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                            let count = 100_000;
+                            let (mut sampled, mut integrated) = (Mean::default(), Mean::default());
+                            for _ in 0..count {
+                                let mut x = 0.0;
+                                if let Some(s) = m.sample(wo, Vec3::Z, r.next_2d(), r.next_f32(), mode) {
+                                    let w =
+                                        m.eval(wo, s.wi, Vec3::Z, mode) * s.wi.z.abs() / m.pdf(wo, s.wi, Vec3::Z, mode);
+                                    let tol = 1e-3 * w.length().max(1.0);
+                                    assert!(
+                                        (w - s.weight).length() < tol,
+                                        "{nested:?} {i} {mode:?}: {w} vs {}",
+                                        s.weight
+                                    );
+                                    x = s.weight.x as f64;
+                                }
+                                sampled.add(x);
+                                let wi = sampling::uniform_sphere(r.next_2d());
+                                integrated.add((m.eval(wo, wi, Vec3::Z, mode).x * wi.z.abs() * 4.0 * PI) as f64);
+                            }
+                            // Within five standard errors of the two estimates, and 0.2%.
+                            let (a, b) = (sampled.mean(), integrated.mean());
+                            let bound =
+                                5.0 * (sampled.variance_of_mean() + integrated.variance_of_mean()).sqrt() + 0.002 * b;
+                            assert!(
+                                (a - b).abs() < bound,
+                                "{nested:?}, normal {i}, {wo}, {mode:?}: sampled {a} vs integrated {b} (bound {bound})"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        // A mirror under the map: what light paths carry off it is what camera paths arriving along the
+        // reflections bring back to it, normal by normal.
+        let mirror = Nested::Conductor(Fresnel::Constant(Rgb::ONE), 0.0, Microfacet::Ggx);
+        for (i, n0) in normals.iter().enumerate() {
+            let mapped = Mapped { normal: n0.normalize(), mirror_back: false, nested: mirror };
+            let m = Material::Mapped(mapped);
+            // Light from the normal's side (one normal reflects it to where the camera sees that normal)
+            // and from straight above (both do, on either side of the facet).
+            for l in [Vec3::new(-0.3, 0.1, 0.95).normalize(), Vec3::Z] {
+                let (mut want, mut normals_seen) = (0.0f64, 0);
+                for about in mapped.candidates(Vec3::Z) {
+                    let c = reflect(l, about);
+                    // The camera's side c sees this normal, and c's reflection about it is l.
+                    if let Some(back) = m.sample(c, Vec3::Z, [0.5, 0.5], 0.5, TransportMode::Radiance) {
+                        if back.wi.dot(l) > 0.9999 {
+                            want += (back.weight.x * c.z.abs() / l.z.abs()) as f64;
+                            normals_seen += 1;
+                        }
+                    }
+                }
+                let count = 20_000;
+                let mut got = 0.0f64;
+                for _ in 0..count {
+                    if let Some(s) = m.sample(l, Vec3::Z, r.next_2d(), r.next_f32(), TransportMode::Importance) {
+                        assert!(s.delta);
+                        got += s.weight.x as f64 / count as f64;
+                    }
+                }
+                if l == Vec3::Z && i == 0 {
+                    assert_eq!(normals_seen, 2, "normal {i}: light from above reaches the camera off both");
+                }
+                assert!(
+                    (got - want).abs() <= 0.02 * want,
+                    "normal {i}, {l}: light paths carry {got}, camera paths say {want}"
+                );
+            }
+        }
+    }
+
+    /// A running mean and the variance of that mean.
+    #[derive(Default)]
+    struct Mean {
+        n: f64,
+        sum: f64,
+        sum2: f64,
+    }
+
+    impl Mean {
+        fn add(&mut self, x: f64) {
+            (self.n, self.sum, self.sum2) = (self.n + 1.0, self.sum + x, self.sum2 + x * x);
+        }
+        fn mean(&self) -> f64 {
+            self.sum / self.n
+        }
+        fn variance_of_mean(&self) -> f64 {
+            (self.sum2 / self.n - self.mean().powi(2)).max(0.0) / self.n
+        }
+    }
+
+    /// Nested BSDFs for the normal-map tests: without delta lobes, and the rest.
+    fn sampling_cases() -> ([Nested; 4], [Nested; 2]) {
+        let coat = RoughCoat::get(0.2, Microfacet::Ggx, 1.5);
+        (
+            [
+                Nested::Diffuse(Rgb::splat(0.8)),
+                Nested::Conductor(Fresnel::Constant(Rgb::splat(0.9)), 0.25, Microfacet::Ggx),
+                Nested::Plastic(Rgb::splat(0.5), Rgb::ONE, 1.5, false, Some(coat)),
+                Nested::Dielectric(1.5, Rgb::ONE, 0.3, Microfacet::Ggx),
+            ],
+            [
+                Nested::Conductor(Fresnel::Constant(Rgb::ONE), 0.0, Microfacet::Ggx),
+                Nested::Plastic(Rgb::splat(0.5), Rgb::ONE, 1.5, false, None),
+            ],
+        )
+    }
+
     #[test]
     fn fresnel_normal_incidence_and_tir() {
         let (f, _) = fresnel_dielectric(1.0, 1.5);
@@ -1449,7 +1880,8 @@ mod tests {
             let count = 200_000;
             for _ in 0..count {
                 if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), TransportMode::Radiance) {
-                    let w = m.eval(wo, s.wi, n, TransportMode::Radiance) * s.wi.dot(n) / m.pdf(wo, s.wi, n);
+                    let w = m.eval(wo, s.wi, n, TransportMode::Radiance) * s.wi.dot(n)
+                        / m.pdf(wo, s.wi, n, TransportMode::Radiance);
                     assert!((w - s.weight).length() < 1e-3 * w.length().max(1.0));
                     albedo += s.weight.x as f64;
                 }
@@ -1509,14 +1941,15 @@ mod tests {
                     assert_eq!(s.pdf, share);
                     mirror += s.weight;
                 } else {
-                    let (f, pdf) = (m.eval(wo, s.wi, n, TransportMode::Radiance), m.pdf(wo, s.wi, n));
+                    let (f, pdf) =
+                        (m.eval(wo, s.wi, n, TransportMode::Radiance), m.pdf(wo, s.wi, n, TransportMode::Radiance));
                     assert!((pdf / s.pdf - 1.0).abs() < 1e-4);
                     assert!((f * s.wi.z / pdf - s.weight).length() < 1e-4 * s.weight.length().max(1.0));
                     assert!((m.eval(s.wi, wo, n, TransportMode::Importance) - f).length() < 1e-6);
                     base += s.weight;
                 }
                 let wi = sampling::uniform_sphere(r.next_2d());
-                pdf_int += (m.pdf(wo, wi, n) * 4.0 * PI) as f64;
+                pdf_int += (m.pdf(wo, wi, n, TransportMode::Radiance) * 4.0 * PI) as f64;
             }
             let (mirror, base) = (mirror / count as f32, base / count as f32);
             let close = |a: f32, b: f32| (a - b).abs() < 0.01 * b + 0.001;
@@ -1634,14 +2067,17 @@ mod tests {
                 for _ in 0..count {
                     if let Some(s) = m.sample(*wo, n, r.next_2d(), r.next_f32(), TransportMode::Radiance) {
                         assert!(!s.delta);
-                        let (f, pdf) = (m.eval(*wo, s.wi, n, TransportMode::Radiance), m.pdf(*wo, s.wi, n));
+                        let (f, pdf) = (
+                            m.eval(*wo, s.wi, n, TransportMode::Radiance),
+                            m.pdf(*wo, s.wi, n, TransportMode::Radiance),
+                        );
                         assert!((pdf / s.pdf - 1.0).abs() < 1e-4);
                         assert!((f * s.wi.z / pdf - s.weight).length() < 1e-4 * s.weight.length().max(1.0));
                         albedo += s.weight;
                         ok += 1;
                     }
                     let wi = sampling::uniform_sphere(r.next_2d());
-                    pdf_int += (m.pdf(*wo, wi, n) * 4.0 * PI) as f64;
+                    pdf_int += (m.pdf(*wo, wi, n, TransportMode::Radiance) * 4.0 * PI) as f64;
                 }
                 let albedo = albedo / count as f32;
                 let close = |a: f32, b: f32| (a - b).abs() < 0.01 * b + 0.002;
@@ -1672,7 +2108,7 @@ mod tests {
         let (mut rt, mut integrated, mut hits, mut pdf_sum) = ([[0.0f64; 3]; 2], 0.0f64, 0u32, 0.0f64);
         for _ in 0..count {
             if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), mode) {
-                let pdf = m.pdf(wo, s.wi, n);
+                let pdf = m.pdf(wo, s.wi, n, TransportMode::Radiance);
                 let w = m.eval(wo, s.wi, n, mode) * s.wi.dot(n).abs() / pdf;
                 assert!((pdf / s.pdf - 1.0).abs() < 1e-3, "{case}: pdf {pdf} vs sampled {}", s.pdf);
                 assert!((w - s.weight).length() < 2e-3 * w.length().max(1.0), "{case}: {w:?} vs {:?}", s.weight);
@@ -1688,9 +2124,9 @@ mod tests {
                 m.sample(wo, n, r.next_2d(), r.next_f32(), mode).map(|s| s.wi)
             };
             if let Some(wi) = drawn {
-                let mix = 0.5 / (4.0 * PI) + 0.5 * m.pdf(wo, wi, n);
+                let mix = 0.5 / (4.0 * PI) + 0.5 * m.pdf(wo, wi, n, TransportMode::Radiance);
                 integrated += (m.eval(wo, wi, n, mode).x * wi.z.abs() / mix) as f64 / count as f64;
-                pdf_sum += (m.pdf(wo, wi, n) / mix) as f64 / count as f64;
+                pdf_sum += (m.pdf(wo, wi, n, TransportMode::Radiance) / mix) as f64 / count as f64;
             }
         }
         let (sampled, hit_rate) = (rt[0][0] + rt[1][0], hits as f64 / count as f64);

@@ -39,6 +39,22 @@ impl TriMesh {
         }
     }
 
+    /// ∂p/∂u on triangle `i`: from its texture coordinates where it has them (and they span an area),
+    /// else along its barycentric u (b − a), as its uv are then its barycentrics.
+    pub fn dp_du(&self, i: usize) -> Vec3 {
+        let [a, b, c] = self.triangle(i);
+        if let Some(t) = &self.uvs {
+            let [i0, i1, i2] = self.indices[i];
+            let [ta, tb, tc] = [t[i0 as usize], t[i1 as usize], t[i2 as usize]];
+            let (du1, dv1, du2, dv2) = (tb[0] - ta[0], tb[1] - ta[1], tc[0] - ta[0], tc[1] - ta[1]);
+            let det = du1 * dv2 - dv1 * du2;
+            if det != 0.0 && det.is_finite() {
+                return ((b - a) * dv2 - (c - a) * dv1) / det;
+            }
+        }
+        b - a
+    }
+
     pub fn area(&self, i: usize) -> f32 {
         let [a, b, c] = self.triangle(i);
         0.5 * (b - a).cross(c - a).length()

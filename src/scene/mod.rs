@@ -558,7 +558,7 @@ impl Scene {
                     || self.reads_uv(b.first)
                     || self.reads_uv(b.second)
             }
-            None => m.texture.is_some() || m.maps.any(),
+            None => m.texture.is_some() || m.maps.any() || m.normal_map.is_some(),
         }
     }
 
@@ -622,7 +622,46 @@ impl Scene {
         if !m.two_sided && wo.dot(si.ng) <= 0.0 {
             return Material::Diffuse { reflectance: Rgb::ZERO };
         }
-        let bsdf = match (m.texture, m.bsdf) {
+        if let (Material::Mapped(mut mapped), Some(t)) = (m.bsdf, m.normal_map) {
+            let nested = self.textured_bsdf(m, mapped.nested.material(), si);
+            mapped.nested = material::Nested::new(nested).unwrap_or(mapped.nested);
+            mapped.normal = self.mapped_normal(t, si);
+            return Material::Mapped(mapped);
+        }
+        self.textured_bsdf(m, m.bsdf, si)
+    }
+
+    /// The normal a normal map (texture `t`) gives at `si`: its colour c as 2c − 1 in the frame of ∂p/∂u
+    /// made orthogonal to the shading normal, the normal × that, and the normal (Mitsuba's
+    /// `normalmap`), as a unit vector. The shading normal itself where there is no such frame (∂p/∂u
+    /// zero or along the normal) or the map reads zero.
+    fn mapped_normal(&self, t: u32, si: &SurfaceHit) -> Vec3 {
+        let ns = si.ns;
+        let dp_du = match &self.shapes[si.shape as usize].geometry {
+            Geometry::Mesh(m) => m.dp_du(si.prim as usize),
+            // Along growing longitude (Mitsuba's u) in the sphere's own axes, then in the world's.
+            Geometry::Sphere { frame, .. } => {
+                let own = frame.map_or(ns, |f| f * ns);
+                let along = Vec3::new(-own.y, own.x, 0.0);
+                frame.map_or(along, |f| f.transpose() * along)
+            }
+        };
+        let s = (dp_du - ns * ns.dot(dp_du)).normalize_or_zero();
+        if s == Vec3::ZERO {
+            return ns;
+        }
+        let c = self.textures[t as usize].eval(si.uv) * 2.0 - Vec3::ONE;
+        let n = (s * c.x + ns.cross(s) * c.y + ns * c.z).normalize_or_zero();
+        if n == Vec3::ZERO || !n.is_finite() {
+            ns
+        } else {
+            n
+        }
+    }
+
+    /// `bsdf`, material `m`'s BSDF, with its textures read at `si`.
+    fn textured_bsdf(&self, m: &SurfaceMaterial, bsdf: Material, si: &SurfaceHit) -> Material {
+        let bsdf = match (m.texture, bsdf) {
             (Some(t), Material::Diffuse { .. }) => {
                 Material::Diffuse { reflectance: self.textures[t as usize].eval(si.uv) }
             }

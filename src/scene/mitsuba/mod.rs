@@ -33,7 +33,7 @@ enum Valued<'a> {
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
-                     roughconductor (ggx, beckmann), principled (isotropic), twosided, blendbsdf, mask, null";
+                     roughconductor (ggx, beckmann), principled (isotropic), twosided, blendbsdf, mask, null, normalmap";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
@@ -51,6 +51,7 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
         file: empty_file(),
         done: HashMap::new(),
         blends: Vec::new(),
+        in_sides: false,
     };
     for c in &root.children {
         if let Some(id) = c.attr("id") {
@@ -120,6 +121,8 @@ struct Cx<'a> {
     done: HashMap<*const Node, String>,
     /// The blends being converted, outermost first (a blend that refers to itself is refused).
     blends: Vec<*const Node>,
+    /// Whether a `twosided` of two BSDFs is being converted (no normal map may sit inside it).
+    in_sides: bool,
 }
 
 impl<'a> Cx<'a> {
@@ -534,10 +537,15 @@ impl<'a> Cx<'a> {
                 match inner[..] {
                     [one] => self.bsdf(one, true, name)?,
                     // The first on the front, the second on the back, seen as from its own front.
-                    [front, back] => MaterialSpec::Sides {
-                        front: self.nested_material(front, false, &format!("{name}-front"))?,
-                        back: self.nested_material(back, true, &format!("{name}-back"))?,
-                    },
+                    [front, back] => {
+                        self.in_sides = true;
+                        let sides = (
+                            self.nested_material(front, false, &format!("{name}-front")),
+                            self.nested_material(back, true, &format!("{name}-back")),
+                        );
+                        self.in_sides = false;
+                        MaterialSpec::Sides { front: sides.0?, back: sides.1? }
+                    }
                     _ => return Err(b.error(format!("needs one or two nested BSDFs (found {})", inner.len()))),
                 }
             }
@@ -590,11 +598,13 @@ impl<'a> Cx<'a> {
             "principled" => self.principled(b, &p, two_sided, name)?,
             "blendbsdf" | "mask" => self.blend(b, &p, two_sided, name)?,
             "null" => MaterialSpec::Null,
+            "normalmap" => self.normal_map(b, &p, two_sided, name)?,
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
         };
         p.finish(
             "the parameters of diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
-             roughconductor, principled, twosided, blendbsdf (weight) and mask (opacity)",
+             roughconductor, principled, twosided, blendbsdf (weight), mask (opacity) and normalmap (normalmap, \
+             flip_invalid_normals and use_shadowing_function, both true)",
         )?;
         Ok(spec)
     }
@@ -626,6 +636,52 @@ impl<'a> Cx<'a> {
         self.blends.pop();
         let (first, second) = sides?;
         Ok(MaterialSpec::Blend { weight, first, second })
+    }
+
+    /// `normalmap`: its `normalmap` texture over its one nested BSDF (converted as a material of its
+    /// own). Inside `twosided` the back shows the front's mirror image; a `twosided` inside it makes the
+    /// nested BSDF two-sided about the mapped normal. Not inside a blend or a `twosided` of two BSDFs
+    /// (the normal is perturbed for the whole surface, before a blend picks), nor over one.
+    fn normal_map(
+        &mut self,
+        b: &'a Node,
+        p: &Props<'a>,
+        two_sided: bool,
+        name: &str,
+    ) -> Result<MaterialSpec, SceneError> {
+        if !self.blends.is_empty() || self.in_sides {
+            return Err(b.error(
+                "a normalmap inside a blendbsdf, mask or two-BSDF twosided is not supported (put it around them)",
+            ));
+        }
+        let texture = match self.colour_or_node(p, "normalmap", name)? {
+            Some(Valued::Texture(t, fallback)) => self.texture(t, &fallback)?,
+            _ => return Err(b.error("needs a `normalmap` texture")),
+        };
+        for flag in ["flip_invalid_normals", "use_shadowing_function"] {
+            if p.boolean(flag)? == Some(false) {
+                return Err(
+                    b.error(format!("`{flag}` false is not supported (caustica's normal map is Mitsuba's default)"))
+                );
+            }
+        }
+        let nested = self.nested_bsdfs(p)?;
+        let [one] = nested[..] else {
+            return Err(b.error(format!("needs exactly one nested BSDF (found {})", nested.len())));
+        };
+        if let Some(t @ ("blendbsdf" | "mask" | "null" | "thindielectric" | "normalmap")) = one.attr("type") {
+            return Err(
+                one.error(format!("a `{t}` under a normalmap is not supported (put the normal maps inside it)"))
+            );
+        }
+        let material = self.nested_material(one, two_sided, &format!("{name}-mapped"))?;
+        if let Some(MaterialSpec::Blend { .. } | MaterialSpec::Sides { .. }) = self.file.materials.get(&material) {
+            return Err(
+                one.error("a twosided of two BSDFs under a normalmap is not supported (put a normalmap in each)")
+            );
+        }
+        // Inside `twosided`, the back is the front's mirror image, normal map and all.
+        Ok(MaterialSpec::Normalmap { normal_map: texture, material, two_sided })
     }
 
     /// The two materials a blend mixes (a mask's first is a `null` surface).
