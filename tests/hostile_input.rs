@@ -343,6 +343,7 @@ const XML_TYPES: &[&str] = &[
     "spot",
     "plastic",
     "roughplastic",
+    "normalmap",
     "gaussian",
     "tent",
     "mitchell",
@@ -382,6 +383,10 @@ const XML_EXTRAS: &[&str] = &[
     r#"<bsdf type="principled" id="pr9"><float name="eta" value="1e-30"/><float name="spec_trans" value="1"/></bsdf><shape type="sphere"><ref id="pr9"/></shape>"#,
     r#"<bsdf type="principled" id="pr8"><float name="roughness" value="0"/><float name="clearcoat" value="1"/><float name="clearcoat_gloss" value="1"/><float name="sheen" value="1"/><rgb name="base_color" value="0"/></bsdf><shape type="sphere"><ref id="pr8"/></shape>"#,
     r#"<bsdf type="twosided" id="pr7"><bsdf type="principled"><float name="specular" value="0"/><float name="metallic" value="1"/><float name="flatness" value="1"/></bsdf></bsdf><shape type="rectangle"><ref id="pr7"/></shape>"#,
+    // Normal maps of no normal (2c − 1 = 0), of a normal straight into the surface and of one in its
+    // tangent plane, over a sphere and, mirrored, over a rectangle seen from behind.
+    r#"<bsdf type="normalmap" id="nm9"><texture type="checkerboard" name="normalmap"><rgb name="color0" value="0.5"/><rgb name="color1" value="0.5, 0.5, 0"/></texture><bsdf type="diffuse"/></bsdf><shape type="sphere"><ref id="nm9"/></shape>"#,
+    r#"<bsdf type="twosided" id="nm8"><bsdf type="normalmap"><texture type="checkerboard" name="normalmap"><rgb name="color0" value="1, 0.5, 0.5"/><rgb name="color1" value="0.5, 0.5, 0"/></texture><bsdf type="conductor"/></bsdf></bsdf><shape type="rectangle"><transform name="to_world"><rotate x="1" angle="180"/></transform><ref id="nm8"/></shape>"#,
     r#"<shape type="sphere"><ref id="nowhere"/></shape>"#,
     r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="ball.ply"/></texture></bsdf></shape>"#,
 ];
@@ -438,6 +443,7 @@ const ASSETS: &[(&str, &str)] = &[
     ("cu-eta.spd", "spectra.xml"),
     ("green.spd", "spectra.xml"),
     ("sky.exr", "textured-light.xml"),
+    ("bumps.exr", "normalmap.xml"),
 ];
 
 proptest! {

@@ -23,8 +23,10 @@ whose BSDF reads the bitmap label.png (a diffuse or plastic colour, a principled
 conductor's alpha as raw data), a named interior IOR, a thin-lens camera, another fov_axis, a
 Mitchell, Lanczos or Catmull-Rom filter, and spectra for about a third of the colours (a constant, or
 wavelength:value pairs inline or in a .spd file written beside OUT), and a second BSDF, the front, for
-half the twosided ones (the one they had is then their back), and a texture for the radiance of some
-rectangle and sphere emitters (a checkerboard, sky.exr or label.png).
+half the twosided ones (the one they had is then their back), a texture for the radiance of some
+rectangle and sphere emitters (a checkerboard, sky.exr or label.png), and a normal map (bumps.exr) over
+the BSDF of about a third of the shapes with texture
+coordinates.
 """
 import argparse
 import os
@@ -340,6 +342,61 @@ if args.more:
 
     text = re.sub(r'<shape type="(\w+)">.*?<emitter type="area">(<(?:rgb|spectrum) name="radiance"[^>]*/>)</emitter>',
                   textured_light, text)
+    # Some shapes with texture coordinates get a normal map over their BSDF, from a sixth stream:
+    # bumps.exr (raw, repeated 1 to 3 times, sometimes read nearest), around the BSDF or, inside a twosided of
+    # one BSDF, around that one (the back then the front's mirror image). Not over blends, masks,
+    # panes or two-BSDF twosided (caustica refuses those), nor on the PLY ball or a cylinder (no
+    # texture coordinates).
+    N = random.Random(args.seed * 3571 + 29)
+    MAPPABLE = ("diffuse", "plastic", "roughplastic", "conductor", "roughconductor", "dielectric",
+                "roughdielectric", "principled")
+
+    def element_end(t, i):
+        """The index just past the <bsdf> element that starts at t[i]."""
+        depth = 0
+        for m in re.finditer(r'<bsdf\b[^>]*?(/?)>|</bsdf>', t[i:]):
+            if m.group(0) == "</bsdf>":
+                depth -= 1
+            elif m.group(1) != "/":
+                depth += 1
+            if depth == 0:
+                return i + m.end()
+        raise ValueError("unbalanced <bsdf>")
+
+    def normal_map_texture():
+        # bumps.exr (Mitsuba's checkerboard has no eval_3, which its normalmap calls).
+        s = N.choice([1, 2, 3])
+        nearest = '<string name="filter_type" value="nearest"/>' if N.random() < 0.3 else ""
+        return (f'<texture type="bitmap" name="normalmap"><string name="filename" value="bumps.exr"/>'
+                f'<boolean name="raw" value="true"/>{nearest}<transform name="to_uv"><scale x="{s}" y="{s}"/></transform></texture>')
+
+    def normal_mapped(line):
+        m = re.match(r'<shape type="(\w+)">', line)
+        if not m or m.group(1) not in ("rectangle", "cube", "disk", "sphere", "obj") or N.random() >= 0.35:
+            return line
+        i = line.find("<bsdf")
+        if i < 0:
+            return line
+        j = element_end(line, i)
+        outer = line[i:j]
+        kind = re.match(r'<bsdf type="(\w+)"', outer).group(1)
+        if kind in MAPPABLE:
+            return line[:i] + f'<bsdf type="normalmap">{normal_map_texture()}{outer}</bsdf>' + line[j:]
+        if kind != "twosided":
+            return line
+        k = outer.find("<bsdf", 1)
+        inner = outer[k:element_end(outer, k)]
+        if len(inner) + len('<bsdf type="twosided">') + len("</bsdf>") != len(outer):
+            return line  # two BSDFs
+        if re.match(r'<bsdf type="(\w+)"', inner).group(1) not in MAPPABLE:
+            return line
+        if N.random() < 0.5:
+            mapped = f'<bsdf type="twosided"><bsdf type="normalmap">{normal_map_texture()}{inner}</bsdf></bsdf>'
+        else:
+            mapped = f'<bsdf type="normalmap">{normal_map_texture()}{outer}</bsdf>'
+        return line[:i] + mapped + line[j:]
+
+    text = "\n".join(normal_mapped(line) for line in text.split("\n"))
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

@@ -1842,6 +1842,40 @@ mod tests {
         }
     }
 
+    /// A map's normal straight into the surface, in its tangent plane or barely off the shading normal
+    /// gives finite, non-negative values everywhere (black where no light can pass).
+    #[test]
+    fn degenerate_normal_maps_stay_finite() {
+        let (pure, delta) = sampling_cases();
+        let mut r = Rng::new(5, 0, 0);
+        for normal in [-Vec3::Z, Vec3::X, Vec3::new(1e-7, 0.0, 1.0).normalize()] {
+            for nested in pure.iter().chain(&delta) {
+                for mirror_back in [false, true] {
+                    let m = Material::Mapped(Mapped { normal, mirror_back, nested: *nested });
+                    for _ in 0..2000 {
+                        let (wo, wi) = (sampling::uniform_sphere(r.next_2d()), sampling::uniform_sphere(r.next_2d()));
+                        for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                            let f = m.eval(wo, wi, Vec3::Z, mode);
+                            let p = m.pdf(wo, wi, Vec3::Z, mode);
+                            assert!(
+                                f.is_finite() && f.min_element() >= 0.0 && p.is_finite() && p >= 0.0,
+                                "{normal}: {f} {p}"
+                            );
+                            if let Some(s) = m.sample(wo, Vec3::Z, r.next_2d(), r.next_f32(), mode) {
+                                assert!(
+                                    s.weight.is_finite() && s.weight.min_element() >= 0.0,
+                                    "{normal}: {}",
+                                    s.weight
+                                );
+                                assert!(s.wi.is_finite() && s.pdf.is_finite(), "{normal}: {} {}", s.wi, s.pdf);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// Nested BSDFs for the normal-map tests: without delta lobes, and the rest.
     fn sampling_cases() -> ([Nested; 4], [Nested; 2]) {
         let coat = RoughCoat::get(0.2, Microfacet::Ggx, 1.5);
