@@ -928,6 +928,11 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &["line 8", "`flip_invalid_normals` false is not supported"],
         ),
         (
+            "bumpmap",
+            r#"<bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="bumps.exr"/></texture><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "bumpmap is not read", "a normalmap"],
+        ),
+        (
             "normalmap-two",
             r#"<bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
             &["line 8", "exactly one nested BSDF (found 2)"],

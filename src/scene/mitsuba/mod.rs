@@ -599,6 +599,12 @@ impl<'a> Cx<'a> {
             "blendbsdf" | "mask" => self.blend(b, &p, two_sided, name)?,
             "null" => MaterialSpec::Null,
             "normalmap" => self.normal_map(b, &p, two_sided, name)?,
+            "bumpmap" => {
+                return Err(b.error(
+                    "bumpmap is not read (Mitsuba 3.9.1 bends it by a height gradient that is not its texture's \
+                     derivative); a normalmap of the surface's normals is",
+                ))
+            }
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
         };
         p.finish(
