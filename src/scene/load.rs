@@ -512,12 +512,7 @@ fn build_material(
     index: &HashMap<String, u32>,
 ) -> Result<SurfaceMaterial, SceneError> {
     // Another material, by name.
-    let named = |field: &str, name: &str| {
-        index.get(name).copied().ok_or_else(|| {
-            let known: Vec<&String> = index.keys().collect();
-            cx.err(&format!("{key}.{field}"), format!("unknown material `{name}` (defined: {known:?})"))
-        })
-    };
+    let named = |field: &str, name: &str| material_named(cx, &format!("{key}.{field}"), name, index);
     // A number field that must lie in [0, 1] (a roughness, a weight).
     let unit = |field: &str, x: f32| -> Result<f32, SceneError> {
         if (0.0..=1.0).contains(&x) {
@@ -734,19 +729,11 @@ fn apply_normal_maps(
     for (i, (name, spec)) in file.materials.iter().enumerate() {
         let MaterialSpec::Normalmap { normal_map, material, two_sided } = spec else { continue };
         let key = format!("materials.{name}");
-        let Some(&j) = index.get(material) else {
-            let known: Vec<&String> = index.keys().collect();
-            return Err(
-                cx.err(&format!("{key}.material"), format!("unknown material `{material}` (defined: {known:?})"))
-            );
-        };
+        let j = material_named(cx, &format!("{key}.material"), material, index)?;
         if mapped[j as usize] {
             return Err(cx.err(&format!("{key}.material"), format!("`{material}` has a normal map already")));
         }
-        let t = *textures.index.get(normal_map).ok_or_else(|| {
-            let known: Vec<&String> = textures.index.keys().collect();
-            cx.err(&format!("{key}.normal_map"), format!("unknown texture `{normal_map}` (defined: {known:?})"))
-        })?;
+        let t = texture_named(cx, &format!("{key}.normal_map"), normal_map, textures)?;
         let inner = &materials[j as usize];
         if inner.blend.is_some() {
             let msg =
@@ -842,6 +829,14 @@ fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures, what: &st
     Ok(t)
 }
 
+/// The `[materials]` entry `name` that the field `key` names; refused if there is none.
+fn material_named(cx: &Ctx, key: &str, name: &str, index: &HashMap<String, u32>) -> Result<u32, SceneError> {
+    index.get(name).copied().ok_or_else(|| {
+        let known: Vec<&String> = index.keys().collect();
+        cx.err(key, format!("unknown material `{name}` (defined: {known:?})"))
+    })
+}
+
 /// The `[textures]` entry `name` that the field `key` names; refused if there is none.
 fn texture_named(cx: &Ctx, key: &str, name: &str, textures: &Textures) -> Result<u32, SceneError> {
     textures.index.get(name).copied().ok_or_else(|| {
@@ -899,12 +894,7 @@ fn build_shape(
     out: &mut Built,
 ) -> Result<(), SceneError> {
     let first = out.shapes.len();
-    let lookup = |name: &str| -> Result<u32, SceneError> {
-        index.get(name).copied().ok_or_else(|| {
-            let known: Vec<&String> = index.keys().collect();
-            cx.err(&format!("{key}.material"), format!("unknown material `{name}` (defined: {known:?})"))
-        })
-    };
+    let lookup = |name: &str| material_named(cx, &format!("{key}.material"), name, index);
     // Emitted radiance: a colour, or a texture (of values ≥ 0) times 1.
     let emission = |e: &Option<Reflectance>, textures: &Textures| -> Result<(Rgb, Option<u32>), SceneError> {
         let field = format!("{key}.emission");

@@ -651,8 +651,9 @@ impl Scene {
             return ns;
         }
         let c = self.textures[t as usize].eval(si.uv) * 2.0 - Vec3::ONE;
+        // normalize_or_zero gives zero for a zero or non-finite normal too.
         let n = (s * c.x + ns.cross(s) * c.y + ns * c.z).normalize_or_zero();
-        if n == Vec3::ZERO || !n.is_finite() {
+        if n == Vec3::ZERO {
             ns
         } else {
             n
