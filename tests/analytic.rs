@@ -151,7 +151,7 @@ fn glass_slab_conserves_energy_and_matches_fresnel() {
 
 #[test]
 fn total_internal_reflection_past_the_critical_angle() {
-    let glass = Material::Dielectric { ior: 1.5, tint: Vec3::ONE, alpha: 0.0, distribution: Default::default() };
+    let glass = Material::dielectric(1.5, Vec3::ONE, 0.0, Default::default());
     let n = Vec3::Y; // outward normal; the ray travels inside (below) towards it
     let crit = (1.0f32 / 1.5).asin();
     let mut rng = Rng::new(1, 0, 0);
@@ -170,7 +170,7 @@ fn total_internal_reflection_past_the_critical_angle() {
 fn refraction_scales_radiance_by_one_over_eta_squared_and_leaves_flux_alone() {
     // One interface, n = 1.5 below y = 0. The mean weight of the refracted samples is (1 − F)·s with
     // s = 1/η² for radiance entering glass, η² for radiance leaving it, and 1 for flux either way.
-    let glass = Material::Dielectric { ior: 1.5, tint: Vec3::ONE, alpha: 0.0, distribution: Default::default() };
+    let glass = Material::dielectric(1.5, Vec3::ONE, 0.0, Default::default());
     let n = Vec3::Y;
     let count = 200_000;
     for theta_deg in [0.0f32, 25.0, 40.0] {

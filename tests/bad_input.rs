@@ -180,6 +180,26 @@ fn each_malformed_scene_gets_its_own_message() {
             vec![],
             vec!["lights[0].target", "no direction"],
         ),
+        // Anisotropic roughness (session 43): a number across the tangent, with a number along it, both > 0.
+        (
+            "anisotropic_textured_roughness",
+            with_white("white = { type = \"mirror\", roughness = \"saw\", roughness_v = 0.3 }")
+                .replace("[materials]", "[textures]\nsaw = { type = \"checkerboard\" }\n\n[materials]"),
+            vec![],
+            vec!["materials.white.roughness", "anisotropic roughness (`roughness_v`) needs a number `roughness`"],
+        ),
+        (
+            "anisotropic_roughness_range",
+            with_white("white = { type = \"conductor\", preset = \"Au\", roughness = 0.1, roughness_v = 1.5 }"),
+            vec![],
+            vec!["materials.white.roughness_v", "[0, 1]", "got 1.5"],
+        ),
+        (
+            "anisotropic_smooth",
+            with_white("white = { type = \"dielectric\", ior = 1.5, roughness_v = 0.2 }"),
+            vec![],
+            vec!["materials.white.roughness_v", "both `roughness` and `roughness_v` > 0 (got 0 and 0.2)"],
+        ),
         (
             "glass_roughness",
             with_white("white = { type = \"dielectric\", ior = 1.5, roughness = 1.5 }"),

@@ -383,6 +383,10 @@ const XML_EXTRAS: &[&str] = &[
     r#"<bsdf type="principled" id="pr9"><float name="eta" value="1e-30"/><float name="spec_trans" value="1"/></bsdf><shape type="sphere"><ref id="pr9"/></shape>"#,
     r#"<bsdf type="principled" id="pr8"><float name="roughness" value="0"/><float name="clearcoat" value="1"/><float name="clearcoat_gloss" value="1"/><float name="sheen" value="1"/><rgb name="base_color" value="0"/></bsdf><shape type="sphere"><ref id="pr8"/></shape>"#,
     r#"<bsdf type="twosided" id="pr7"><bsdf type="principled"><float name="specular" value="0"/><float name="metallic" value="1"/><float name="flatness" value="1"/></bsdf></bsdf><shape type="rectangle"><ref id="pr7"/></shape>"#,
+    // Anisotropic roughness at its extremes (one roughness at the least f32, the other 1), on a sphere
+    // whose poles have no tangent, in metal and in glass.
+    r#"<bsdf type="roughconductor" id="an9"><float name="alpha_u" value="1e-38"/><float name="alpha_v" value="1"/></bsdf><shape type="sphere"><ref id="an9"/></shape>"#,
+    r#"<bsdf type="roughdielectric" id="an8"><string name="distribution" value="ggx"/><float name="alpha_u" value="1"/><float name="alpha_v" value="1e-30"/></bsdf><shape type="sphere"><ref id="an8"/></shape>"#,
     // Normal maps of no normal (2c − 1 = 0), of a normal straight into the surface and of one in its
     // tangent plane, over a sphere and, mirrored, over a rectangle seen from behind.
     r#"<bsdf type="normalmap" id="nm9"><texture type="checkerboard" name="normalmap"><rgb name="color0" value="0.5"/><rgb name="color1" value="0.5, 0.5, 0"/></texture><bsdf type="diffuse"/></bsdf><shape type="sphere"><ref id="nm9"/></shape>"#,

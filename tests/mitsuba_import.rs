@@ -195,6 +195,16 @@ fn normal_maps_xml_match_mitsuba() {
     every_mode_means_match_mitsuba("normalmap");
 }
 
+/// Anisotropic roughness (`anisotropic.xml`): `alpha_u` along each surface's ∂p/∂u and `alpha_v` across
+/// it, on a turned rectangle, a sphere (along its longitude), a disk (radially), a cube's faces, an OBJ
+/// tile in rough glass and a PLY ball without texture coordinates (each triangle's first edge). Every
+/// mode: light paths and photons see the same frames.
+#[test]
+fn anisotropic_roughness_xml_matches_mitsuba() {
+    matches_mitsuba("anisotropic", 1024, 0.003);
+    every_mode_means_match_mitsuba("anisotropic");
+}
+
 #[test]
 fn cylinders_xml_match_mitsuba() {
     matches_mitsuba("cylinder", 1024, 0.003);
@@ -698,7 +708,8 @@ fn emitter_spectra_read_as_mitsuba_reads_them() {
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let cases: [(&str, &[&str]); 9] = [
+    let cases: [(&str, &[&str]); 10] = [
+        ("anisotropic", &["roughness = 0.04", "roughness_v = 0.35", "roughness_v = 0.04"]),
         ("normalmap", &["type = \"normalmap\"", "two_sided = true", "normal_map = \"bumps\""]),
         ("showcase", &["two_sided = false", "type = \"thin_dielectric\""]),
         ("uv", &["type = \"box\"", "type = \"disk\"", "type = \"sphere\""]),
@@ -809,10 +820,27 @@ fn what_is_not_read_is_refused_naming_the_line() {
             r#"<bsdf type="roughconductor"><string name="distribution" value="phong"/></bsdf>"#,
             &["phong", "beckmann, ggx"],
         ),
+        // Anisotropic roughness (read since session 43): both or neither of alpha_u and alpha_v, not
+        // with alpha, numbers > 0.
         (
-            "aniso",
-            r#"<bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#,
-            &["anisotropic"],
+            "aniso-one",
+            r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.1"/></bsdf>"#,
+            &["line 8", "give both `alpha_u` and `alpha_v`"],
+        ),
+        (
+            "aniso-and-alpha",
+            r#"<bsdf type="roughdielectric"><float name="alpha" value="0.2"/><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#,
+            &["line 8", "give `alpha`, or `alpha_u` and `alpha_v`, not both"],
+        ),
+        (
+            "aniso-zero",
+            r#"<bsdf type="roughconductor"><float name="alpha_u" value="0"/><float name="alpha_v" value="0.3"/></bsdf>"#,
+            &["line 8", "must both be > 0 (got 0 and 0.3)"],
+        ),
+        (
+            "aniso-texture",
+            r#"<bsdf type="roughconductor"><texture type="checkerboard" name="alpha_u"/><float name="alpha_v" value="0.3"/></bsdf>"#,
+            &["line 8", "alpha_u"],
         ),
         // roughplastic's α is one number (Mitsuba precomputes its coat for it), a colour's α is refused,
         // and a dielectric reflects what its Fresnel says.
@@ -996,6 +1024,11 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "cylinder-texture",
             r#"<scene version="3.0.0"><shape type="cylinder"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape></scene>"#,
             "no texture coordinates",
+        ),
+        (
+            "cylinder-anisotropic",
+            r#"<scene version="3.0.0"><shape type="cylinder"><bsdf type="roughconductor"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf></shape></scene>"#,
+            "an anisotropic BSDF (alpha_u ≠ alpha_v) on a cylinder",
         ),
         (
             "cylinder-textured-light",

@@ -24,9 +24,9 @@ conductor's alpha as raw data), a named interior IOR, a thin-lens camera, anothe
 Mitchell, Lanczos or Catmull-Rom filter, and spectra for about a third of the colours (a constant, or
 wavelength:value pairs inline or in a .spd file written beside OUT), and a second BSDF, the front, for
 half the twosided ones (the one they had is then their back), a texture for the radiance of some
-rectangle and sphere emitters (a checkerboard, sky.exr or label.png), and a normal map (bumps.exr) over
-the BSDF of about a third of the shapes with texture
-coordinates.
+rectangle and sphere emitters (a checkerboard, sky.exr or label.png), a normal map (bumps.exr) over
+the BSDF of about a third of the shapes with texture coordinates, and an anisotropic roughness
+(alpha_u and alpha_v) for about three in five rough conductors and dielectrics not on a cylinder.
 """
 import argparse
 import os
@@ -397,6 +397,25 @@ if args.more:
         return line[:i] + mapped + line[j:]
 
     text = "\n".join(normal_mapped(line) for line in text.split("\n"))
+
+    # Some rough conductors and dielectrics get an anisotropic roughness (alpha_u along the shape's
+    # ∂p/∂u, alpha_v across it), from a seventh stream: not on a cylinder (caustica's has no ∂p/∂u).
+    A = random.Random(args.seed * 6133 + 41)
+
+    def anisotropic(m):
+        if A.random() >= 0.6:
+            return m.group(0)
+        alpha, other = m.group(2), f(A.uniform(0.02, 0.5))
+        u, v = (alpha, other) if A.random() < 0.5 else (other, alpha)
+        return m.group(1) + f'<float name="alpha_u" value="{u}"/><float name="alpha_v" value="{v}"/>'
+
+    def anisotropic_line(line):
+        if line.startswith('<shape type="cylinder"'):
+            return line
+        return re.sub(r'(<bsdf type="rough(?:conductor|dielectric)">(?:(?!</bsdf>).)*?)<float name="alpha" value="([^"]+)"/>',
+                      anisotropic, line)
+
+    text = "\n".join(anisotropic_line(line) for line in text.split("\n"))
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

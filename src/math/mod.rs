@@ -40,6 +40,16 @@ impl Frame {
         let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
         Frame { s, t, n }
     }
+    /// The frame about the unit normal `n` whose s is `tangent` made orthogonal to `n` (Gram–Schmidt, as
+    /// Mitsuba builds a shading frame from ∂p/∂u), t = n × s; `from_normal` where `tangent` is zero,
+    /// along `n` or not finite.
+    pub fn from_normal_tangent(n: Vec3, tangent: Vec3) -> Frame {
+        let s = (tangent - n * n.dot(tangent)).normalize_or_zero();
+        if s == Vec3::ZERO {
+            return Frame::from_normal(n);
+        }
+        Frame { s, t: n.cross(s), n }
+    }
     pub fn to_world(&self, v: Vec3) -> Vec3 {
         self.s * v.x + self.t * v.y + self.n * v.z
     }

@@ -123,6 +123,11 @@ pub enum MaterialSpec {
         specular: Reflectance,
         #[serde(default = "smooth", skip_serializing_if = "is_smooth")]
         roughness: Weight,
+        /// Roughness across the surface's tangent (anisotropic; `roughness` then runs along the tangent,
+        /// ∂p/∂u of the shape's texture coordinates or, on a mesh without them, its triangles' first edge,
+        /// as Mitsuba's `alpha_u` and `alpha_v`): a number, and `roughness` a number, both > 0.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        roughness_v: Option<f32>,
         /// Microfacet distribution of a rough mirror: "ggx" (default) or "beckmann".
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
@@ -143,6 +148,11 @@ pub enum MaterialSpec {
         k: Option<V3>,
         #[serde(default = "smooth", skip_serializing_if = "is_smooth")]
         roughness: Weight,
+        /// Roughness across the surface's tangent (anisotropic; `roughness` then runs along the tangent,
+        /// ∂p/∂u of the shape's texture coordinates or, on a mesh without them, its triangles' first edge,
+        /// as Mitsuba's `alpha_u` and `alpha_v`): a number, and `roughness` a number, both > 0.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        roughness_v: Option<f32>,
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
         #[serde(default = "yes", skip_serializing_if = "is_true")]
@@ -189,6 +199,11 @@ pub enum MaterialSpec {
         tint: Reflectance,
         #[serde(default = "smooth", skip_serializing_if = "is_smooth")]
         roughness: Weight,
+        /// Roughness across the surface's tangent (anisotropic; `roughness` then runs along the tangent,
+        /// ∂p/∂u of the shape's texture coordinates or, on a mesh without them, its triangles' first edge,
+        /// as Mitsuba's `alpha_u` and `alpha_v`): a number, and `roughness` a number, both > 0.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        roughness_v: Option<f32>,
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
     },

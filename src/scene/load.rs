@@ -552,6 +552,24 @@ fn build_material(
             }
         }
     };
+    // The roughness across the tangent: `roughness` again unless `roughness_v` is given (anisotropic:
+    // both numbers > 0).
+    let across = |alpha: f32, map: Option<u32>, v: &Option<f32>| -> Result<f32, SceneError> {
+        let Some(v) = *v else {
+            return Ok(alpha);
+        };
+        let v = unit("roughness_v", v)?;
+        if map.is_some() {
+            let msg = "an anisotropic roughness (`roughness_v`) needs a number `roughness`, not a texture";
+            return Err(cx.err(&format!("{key}.roughness"), msg));
+        }
+        if alpha == 0.0 || v == 0.0 {
+            let msg =
+                format!("an anisotropic roughness needs both `roughness` and `roughness_v` > 0 (got {alpha} and {v})");
+            return Err(cx.err(&format!("{key}.roughness_v"), msg));
+        }
+        Ok(v)
+    };
     let sided = |bsdf: Material, two_sided: bool, maps: ParamMaps| SurfaceMaterial {
         two_sided,
         maps,
@@ -585,13 +603,16 @@ fn build_material(
             let maps = ParamMaps { specular: specular_map, ..Default::default() };
             SurfaceMaterial { two_sided: *two_sided, texture, maps, ..SurfaceMaterial::new(bsdf) }
         }
-        MaterialSpec::Mirror { specular, roughness: r, distribution, two_sided } => {
+        MaterialSpec::Mirror { specular, roughness: r, roughness_v, distribution, two_sided } => {
             let (c, specular) = colour("specular", specular)?;
             let (alpha, alpha_map) = roughness(r)?;
-            let bsdf = Material::Conductor { fresnel: Fresnel::Constant(c), alpha, distribution: *distribution };
+            let alpha_v = across(alpha, alpha_map, roughness_v)?;
+            let fresnel = Fresnel::Constant(c);
+            let bsdf =
+                Material::Conductor { fresnel, alpha, alpha_v, tangent: Vec3::ZERO, distribution: *distribution };
             sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, tint: None })
         }
-        MaterialSpec::Conductor { preset, specular, eta, k, roughness: r, distribution, two_sided } => {
+        MaterialSpec::Conductor { preset, specular, eta, k, roughness: r, roughness_v, distribution, two_sided } => {
             let (fresnel, specular) = match (preset, specular, eta, k) {
                 (Some(p), None, None, None) => (
                     Fresnel::Schlick(conductor_preset(p).ok_or_else(|| {
@@ -615,16 +636,20 @@ fn build_material(
                 }
             };
             let (alpha, alpha_map) = roughness(r)?;
-            let bsdf = Material::Conductor { fresnel, alpha, distribution: *distribution };
+            let alpha_v = across(alpha, alpha_map, roughness_v)?;
+            let bsdf =
+                Material::Conductor { fresnel, alpha, alpha_v, tangent: Vec3::ZERO, distribution: *distribution };
             sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, tint: None })
         }
         MaterialSpec::Dielectric { ior, outside_ior, tint, .. }
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
             let ior = relative_ior(cx, key, *ior, *outside_ior)?;
             let (tint, tint_map) = colour("tint", tint)?;
-            if let MaterialSpec::Dielectric { roughness: r, distribution, .. } = spec {
+            if let MaterialSpec::Dielectric { roughness: r, roughness_v, distribution, .. } = spec {
                 let (alpha, alpha_map) = roughness(r)?;
-                let bsdf = Material::Dielectric { ior, tint, alpha, distribution: *distribution };
+                let alpha_v = across(alpha, alpha_map, roughness_v)?;
+                let distribution = *distribution;
+                let bsdf = Material::Dielectric { ior, tint, alpha, alpha_v, tangent: Vec3::ZERO, distribution };
                 sided(bsdf, true, ParamMaps { tint: tint_map, alpha: alpha_map, specular: None })
             } else {
                 sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })

@@ -406,11 +406,7 @@ impl Scene {
             return Crossing::At(mat);
         };
         if r > 0.0 && u() < r {
-            let mirror = Material::Conductor {
-                fresnel: material::Fresnel::Constant(Rgb::ONE),
-                alpha: 0.0,
-                distribution: material::Microfacet::Ggx,
-            };
+            let mirror = Material::conductor(material::Fresnel::Constant(Rgb::ONE), 0.0, material::Microfacet::Ggx);
             Crossing::At(mirror)
         } else {
             Crossing::Through(tint)
@@ -625,17 +621,23 @@ impl Scene {
         if let (Material::Mapped(mut mapped), Some(t)) = (m.bsdf, m.normal_map) {
             let nested = self.textured_bsdf(m, mapped.nested.material(), si);
             mapped.nested = material::Nested::new(nested).unwrap_or(mapped.nested);
-            mapped.normal = self.mapped_normal(t, si);
-            return Material::Mapped(mapped);
+            let s = self.tangent(si);
+            mapped.normal = self.mapped_normal(t, si, s);
+            let bsdf = Material::Mapped(mapped);
+            return if bsdf.anisotropic() { bsdf.with_tangent(s) } else { bsdf };
         }
-        self.textured_bsdf(m, m.bsdf, si)
+        let bsdf = self.textured_bsdf(m, m.bsdf, si);
+        if bsdf.anisotropic() {
+            bsdf.with_tangent(self.tangent(si))
+        } else {
+            bsdf
+        }
     }
 
-    /// The normal a normal map (texture `t`) gives at `si`: its colour c as 2c − 1 in the frame of ∂p/∂u
-    /// made orthogonal to the shading normal, the normal × that, and the normal (Mitsuba's
-    /// `normalmap`), as a unit vector. The shading normal itself where there is no such frame (∂p/∂u
-    /// zero or along the normal) or the map reads zero.
-    fn mapped_normal(&self, t: u32, si: &SurfaceHit) -> Vec3 {
+    /// The shading frame's tangent at `si`, as Mitsuba builds it: ∂p/∂u (a mesh's from its texture
+    /// coordinates or, without them, its triangle's first edge; a sphere's along growing longitude) made
+    /// orthogonal to the shading normal; zero where ∂p/∂u is zero or along the normal.
+    fn tangent(&self, si: &SurfaceHit) -> Vec3 {
         let ns = si.ns;
         let dp_du = match &self.shapes[si.shape as usize].geometry {
             Geometry::Mesh(m) => m.dp_du(si.prim as usize),
@@ -646,7 +648,15 @@ impl Scene {
                 frame.map_or(along, |f| f.transpose() * along)
             }
         };
-        let s = (dp_du - ns * ns.dot(dp_du)).normalize_or_zero();
+        (dp_du - ns * ns.dot(dp_du)).normalize_or_zero()
+    }
+
+    /// The normal a normal map (texture `t`) gives at `si`: its colour c as 2c − 1 in the frame of the
+    /// tangent `s` (`tangent`), the shading normal × that, and the normal (Mitsuba's `normalmap`), as a
+    /// unit vector. The shading normal itself where there is no such frame (`s` zero) or the map reads
+    /// zero.
+    fn mapped_normal(&self, t: u32, si: &SurfaceHit, s: Vec3) -> Vec3 {
+        let ns = si.ns;
         if s == Vec3::ZERO {
             return ns;
         }

@@ -586,11 +586,19 @@ impl<'a> Cx<'a> {
                         outside_ior: ext,
                         tint,
                         roughness: Weight::Value(0.0),
+                        roughness_v: None,
                         distribution: Default::default(),
                     },
                     _ => {
-                        let (roughness, distribution) = self.microfacet(b, &p, name)?;
-                        MaterialSpec::Dielectric { ior: int, outside_ior: ext, tint, roughness, distribution }
+                        let (roughness, roughness_v, distribution) = self.microfacet(b, &p, name)?;
+                        MaterialSpec::Dielectric {
+                            ior: int,
+                            outside_ior: ext,
+                            tint,
+                            roughness,
+                            roughness_v,
+                            distribution,
+                        }
                     }
                 }
             }
@@ -799,10 +807,10 @@ impl<'a> Cx<'a> {
         name: &str,
     ) -> Result<MaterialSpec, SceneError> {
         use crate::scene::material::Microfacet;
-        let (roughness, distribution) = if b.attr("type") == Some("roughconductor") {
+        let (roughness, roughness_v, distribution) = if b.attr("type") == Some("roughconductor") {
             self.microfacet(b, p, name)?
         } else {
-            (Weight::Value(0.0), Microfacet::Ggx)
+            (Weight::Value(0.0), None, Microfacet::Ggx)
         };
         let specular = self.colour_prop(p, "specular_reflectance", name)?;
         let (eta, k) = (p.rgb("eta")?, p.rgb("k")?);
@@ -810,7 +818,7 @@ impl<'a> Cx<'a> {
         let (eta, k) = match (material.as_deref(), eta, k) {
             (None | Some("none"), None, None) => {
                 let specular = specular.unwrap_or(Reflectance::Colour([1.0; 3]));
-                return Ok(MaterialSpec::Mirror { specular, roughness, distribution, two_sided });
+                return Ok(MaterialSpec::Mirror { specular, roughness, roughness_v, distribution, two_sided });
             }
             (Some(m), None, None) => {
                 let (e, k) = crate::scene::material::complex_ior(m).ok_or_else(|| {
@@ -828,29 +836,39 @@ impl<'a> Cx<'a> {
             eta: Some(eta),
             k: Some(k),
             roughness,
+            roughness_v,
             distribution,
             two_sided,
         })
     }
 
-    /// A rough conductor's or dielectric's isotropic roughness α (Mitsuba's default 0.1; a number or a
-    /// texture read as one number) and microfacet distribution (Mitsuba's default Beckmann).
+    /// A rough conductor's or dielectric's roughness α (`alpha`, Mitsuba's default 0.1; a number or a
+    /// texture read as one number), or `alpha_u` and `alpha_v` (two numbers; anisotropic where they
+    /// differ: α along the surface's ∂p/∂u and the roughness across it), and microfacet distribution
+    /// (Mitsuba's default Beckmann).
     fn microfacet(
         &mut self,
         b: &'a Node,
         p: &Props<'a>,
         name: &str,
-    ) -> Result<(Weight, crate::scene::material::Microfacet), SceneError> {
+    ) -> Result<(Weight, Option<f32>, crate::scene::material::Microfacet), SceneError> {
         let distribution = microfacet_distribution(b, p)?;
-        let alpha = match self.scalar_prop(b, p, "alpha", name)? {
-            Some(a) => a,
-            None => match (p.float("alpha_u")?, p.float("alpha_v")?) {
-                (Some(u), Some(v)) if u == v => Weight::Value(u),
-                (None, None) => Weight::Value(0.1),
-                _ => return Err(b.error("anisotropic roughness (alpha_u ≠ alpha_v) is not supported")),
-            },
+        let alpha = self.scalar_prop(b, p, "alpha", name)?;
+        let (u, v) = (p.float("alpha_u")?, p.float("alpha_v")?);
+        let (alpha, across) = match (alpha, u, v) {
+            (Some(a), None, None) => (a, None),
+            (Some(_), _, _) => return Err(b.error("give `alpha`, or `alpha_u` and `alpha_v`, not both")),
+            (None, None, None) => (Weight::Value(0.1), None),
+            (None, Some(u), Some(v)) if u == v => (Weight::Value(u), None),
+            (None, Some(u), Some(v)) => {
+                if !(u > 0.0 && v > 0.0) {
+                    return Err(b.error(format!("`alpha_u` and `alpha_v` must both be > 0 (got {u} and {v})")));
+                }
+                (Weight::Value(u), Some(v))
+            }
+            (None, _, _) => return Err(b.error("give both `alpha_u` and `alpha_v` (or one `alpha`)")),
         };
-        Ok((alpha, distribution))
+        Ok((alpha, across, distribution))
     }
 
     /// A property Mitsuba reads as one number (its `eval_1`), if given: a number, a grey colour, or a
@@ -1101,6 +1119,11 @@ fn cylinder(
             n.error("a textured BSDF on a cylinder is not supported (caustica's cylinder has no texture coordinates)")
         );
     }
+    if anisotropic(materials, &material, 0) {
+        return Err(n.error(
+            "an anisotropic BSDF (alpha_u ≠ alpha_v) on a cylinder is not supported (caustica's cylinder has no ∂p/∂u)",
+        ));
+    }
     if matches!(emission, Some(Reflectance::Texture(_))) {
         return Err(n.error(
             "a textured emitter on a cylinder is not supported (caustica's cylinder has no texture coordinates)",
@@ -1130,14 +1153,42 @@ fn cylinder(
 /// Whether material `name` reads a texture: for any of its parameters, or a blend's weight or either
 /// side's.
 fn reads_texture(materials: &BTreeMap<String, MaterialSpec>, name: &str, depth: u32) -> bool {
-    match materials.get(name) {
-        Some(m) if m.names_texture() => true,
-        // The converter writes no cycle; the depth bound only keeps this safe on any input.
-        Some(MaterialSpec::Blend { first, second, .. } | MaterialSpec::Sides { front: first, back: second })
-            if depth < 64 =>
-        {
-            reads_texture(materials, first, depth + 1) || reads_texture(materials, second, depth + 1)
+    any_material(materials, name, depth, &|m| m.names_texture())
+}
+
+/// Whether material `name`, or a material it is made of (a blend's, a side's, the one under a normal
+/// map), is anisotropic (a `roughness_v`).
+fn anisotropic(materials: &BTreeMap<String, MaterialSpec>, name: &str, depth: u32) -> bool {
+    any_material(materials, name, depth, &|m| match m {
+        MaterialSpec::Mirror { roughness_v, .. }
+        | MaterialSpec::Conductor { roughness_v, .. }
+        | MaterialSpec::Dielectric { roughness_v, .. } => roughness_v.is_some(),
+        _ => false,
+    })
+}
+
+/// Whether `test` holds for material `name` or any material it is made of.
+fn any_material(
+    materials: &BTreeMap<String, MaterialSpec>,
+    name: &str,
+    depth: u32,
+    test: &dyn Fn(&MaterialSpec) -> bool,
+) -> bool {
+    let Some(m) = materials.get(name) else {
+        return false;
+    };
+    if test(m) {
+        return true;
+    }
+    // The converter writes no cycle; the depth bound only keeps this safe on any input.
+    if depth >= 64 {
+        return false;
+    }
+    match m {
+        MaterialSpec::Blend { first, second, .. } | MaterialSpec::Sides { front: first, back: second } => {
+            any_material(materials, first, depth + 1, test) || any_material(materials, second, depth + 1, test)
         }
+        MaterialSpec::Normalmap { material, .. } => any_material(materials, material, depth + 1, test),
         _ => false,
     }
 }
