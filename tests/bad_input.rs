@@ -201,6 +201,12 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["materials.white.roughness_v", "both `roughness` and `roughness_v` > 0 (got 0 and 0.2)"],
         ),
         (
+            "principled_anisotropic_range",
+            with_white("white = { type = \"principled\", anisotropic = 1.5 }"),
+            vec![],
+            vec!["materials.white.anisotropic", "[0, 1]", "got 1.5"],
+        ),
+        (
             "glass_roughness",
             with_white("white = { type = \"dielectric\", ior = 1.5, roughness = 1.5 }"),
             vec![],

@@ -197,8 +197,9 @@ fn normal_maps_xml_match_mitsuba() {
 
 /// Anisotropic roughness (`anisotropic.xml`): `alpha_u` along each surface's ∂p/∂u and `alpha_v` across
 /// it, on a turned rectangle, a sphere (along its longitude), a disk (radially), a cube's faces, an OBJ
-/// tile in rough glass and a PLY ball without texture coordinates (each triangle's first edge). Every
-/// mode: light paths and photons see the same frames.
+/// tile in rough glass, a PLY ball without texture coordinates (each triangle's first edge), a normal
+/// map over brushed gold and an anisotropic principled ball. Every mode: light paths and photons see the
+/// same frames.
 #[test]
 fn anisotropic_roughness_xml_matches_mitsuba() {
     matches_mitsuba("anisotropic", 1024, 0.003);
@@ -796,9 +797,9 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &["line 8", "measured", "diffuse, plastic, roughplastic", "principled"],
         ),
         (
-            "principled-aniso",
-            r#"<bsdf type="principled"><float name="anisotropic" value="0.5"/></bsdf>"#,
-            &["line 8", "anisotropic principled"],
+            "principled-aniso-texture",
+            r#"<bsdf type="principled"><texture type="checkerboard" name="anisotropic"/></bsdf>"#,
+            &["line 8", "`anisotropic` of a principled BSDF must be a number"],
         ),
         (
             "principled-metallic-texture",

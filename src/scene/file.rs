@@ -266,6 +266,10 @@ pub enum MaterialSpec {
         clearcoat: f32,
         #[serde(default, skip_serializing_if = "is_zero")]
         clearcoat_gloss: f32,
+        /// The specular and transmission lobes stretched along the surface's tangent (∂p/∂u, as
+        /// `roughness_v` takes it), Mitsuba's `anisotropic`: a number in [0, 1].
+        #[serde(default, skip_serializing_if = "is_zero")]
+        anisotropic: f32,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         specular: Option<f32>,
         #[serde(default, skip_serializing_if = "Option::is_none")]

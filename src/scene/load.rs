@@ -666,6 +666,7 @@ fn build_material(
             flatness,
             clearcoat,
             clearcoat_gloss,
+            anisotropic,
             specular,
             eta,
             two_sided,
@@ -679,6 +680,7 @@ fn build_material(
             p.flatness = unit("flatness", *flatness)?;
             p.clearcoat = unit("clearcoat", *clearcoat)?;
             p.clearcoat_gloss = unit("clearcoat_gloss", *clearcoat_gloss)?;
+            p.anisotropic = unit("anisotropic", *anisotropic)?;
             // Mitsuba's own guards: a transmitting surface of index 1 (or specular 0) is made 1.001 (1e-3).
             let transmits = p.spec_trans > 0.0;
             p.eta = match (eta, specular) {

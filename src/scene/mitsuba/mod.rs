@@ -882,8 +882,8 @@ impl<'a> Cx<'a> {
         }))
     }
 
-    /// Mitsuba's `principled`: `base_color` and `roughness` may be textures, every other weight is a
-    /// number; anisotropy is refused; the sampling rates change only the noise and are read and left.
+    /// Mitsuba's `principled`: `base_color` and `roughness` may be textures, every other weight
+    /// (`anisotropic` too) is a number; the sampling rates change only the noise and are read and left.
     fn principled(
         &mut self,
         b: &'a Node,
@@ -900,9 +900,6 @@ impl<'a> Cx<'a> {
                 ))),
             }
         };
-        if number("anisotropic")? != 0.0 {
-            return Err(b.error("anisotropic principled BSDFs are not supported (anisotropic must be 0)"));
-        }
         for rate in ["main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"] {
             p.float(rate)?;
         }
@@ -923,6 +920,7 @@ impl<'a> Cx<'a> {
             flatness: number("flatness")?,
             clearcoat: number("clearcoat")?,
             clearcoat_gloss: number("clearcoat_gloss")?,
+            anisotropic: number("anisotropic")?,
             specular: p.float("specular")?,
             eta: p.float("eta")?,
             two_sided: Some(two_sided),
