@@ -26,7 +26,8 @@ wavelength:value pairs inline or in a .spd file written beside OUT), and a secon
 half the twosided ones (the one they had is then their back), a texture for the radiance of some
 rectangle and sphere emitters (a checkerboard, sky.exr or label.png), a normal map (bumps.exr) over
 the BSDF of about a third of the shapes with texture coordinates, and an anisotropic roughness
-(alpha_u and alpha_v) for about three in five rough conductors and dielectrics not on a cylinder.
+(alpha_u and alpha_v) for about three in five rough conductors and dielectrics and an `anisotropic`
+for half the principled BSDFs, not on a cylinder.
 """
 import argparse
 import os
@@ -399,7 +400,8 @@ if args.more:
     text = "\n".join(normal_mapped(line) for line in text.split("\n"))
 
     # Some rough conductors and dielectrics get an anisotropic roughness (alpha_u along the shape's
-    # ∂p/∂u, alpha_v across it), from a seventh stream: not on a cylinder (caustica's has no ∂p/∂u).
+    # ∂p/∂u, alpha_v across it), and some principled BSDFs an `anisotropic`, from a seventh stream: not
+    # on a cylinder (caustica's has no ∂p/∂u).
     A = random.Random(args.seed * 6133 + 41)
 
     def anisotropic(m):
@@ -409,11 +411,17 @@ if args.more:
         u, v = (alpha, other) if A.random() < 0.5 else (other, alpha)
         return m.group(1) + f'<float name="alpha_u" value="{u}"/><float name="alpha_v" value="{v}"/>'
 
+    def anisotropic_principled(m):
+        if A.random() >= 0.5:
+            return m.group(0)
+        return m.group(0) + f'<float name="anisotropic" value="{f(A.uniform(0.1, 1.0))}"/>'
+
     def anisotropic_line(line):
         if line.startswith('<shape type="cylinder"'):
             return line
-        return re.sub(r'(<bsdf type="rough(?:conductor|dielectric)">(?:(?!</bsdf>).)*?)<float name="alpha" value="([^"]+)"/>',
+        line = re.sub(r'(<bsdf type="rough(?:conductor|dielectric)">(?:(?!</bsdf>).)*?)<float name="alpha" value="([^"]+)"/>',
                       anisotropic, line)
+        return re.sub(r'<bsdf type="principled">', anisotropic_principled, line)
 
     text = "\n".join(anisotropic_line(line) for line in text.split("\n"))
     for spd, body in spd_files:

@@ -33,7 +33,7 @@ enum Valued<'a> {
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
-                     roughconductor (ggx, beckmann), principled (isotropic), twosided, blendbsdf, mask, null, normalmap";
+                     roughconductor (ggx, beckmann), principled, twosided, blendbsdf, mask, null, normalmap";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
