@@ -206,6 +206,19 @@ fn each_malformed_scene_gets_its_own_message() {
             vec![],
             vec!["materials.white.anisotropic", "[0, 1]", "got 1.5"],
         ),
+        // Cylinders (session 43).
+        (
+            "cylinder_radius",
+            with_shape("type = \"cylinder\"\nradius = 0.0"),
+            vec![],
+            vec!["shapes[0].radius", "finite radius > 0, got 0"],
+        ),
+        (
+            "cylinder_axis",
+            with_shape("type = \"cylinder\"\np0 = [0.0, 1.0, 0.0]\np1 = [0.0, 1.0, 0.0]"),
+            vec![],
+            vec!["shapes[0].p1", "must differ from p0"],
+        ),
         (
             "glass_roughness",
             with_white("white = { type = \"dielectric\", ior = 1.5, roughness = 1.5 }"),

@@ -27,7 +27,7 @@ half the twosided ones (the one they had is then their back), a texture for the 
 rectangle and sphere emitters (a checkerboard, sky.exr or label.png), a normal map (bumps.exr) over
 the BSDF of about a third of the shapes with texture coordinates, and an anisotropic roughness
 (alpha_u and alpha_v) for about three in five rough conductors and dielectrics and an `anisotropic`
-for half the principled BSDFs, not on a cylinder.
+for half the principled BSDFs, not on a cylinder; and for half the cylinders a normal map or anisotropy.
 """
 import argparse
 import os
@@ -424,6 +424,32 @@ if args.more:
         return re.sub(r'<bsdf type="principled">', anisotropic_principled, line)
 
     text = "\n".join(anisotropic_line(line) for line in text.split("\n"))
+
+    # Cylinders (texture coordinates in caustica since session 43), from an eighth stream so that the
+    # streams above stay as they were: half of them get a normal map over their BSDF, or, if it is a
+    # rough conductor or dielectric or a principled BSDF, an anisotropic roughness instead.
+    C = random.Random(args.seed * 2741 + 53)
+
+    def cylinder_extra(line):
+        if not line.startswith('<shape type="cylinder"') or C.random() >= 0.5:
+            return line
+        rough = re.sub(r'(<bsdf type="rough(?:conductor|dielectric)">(?:(?!</bsdf>).)*?)<float name="alpha" value="([^"]+)"/>',
+                       lambda m: m.group(1) + f'<float name="alpha_u" value="{m.group(2)}"/>'
+                                 f'<float name="alpha_v" value="{f(C.uniform(0.02, 0.5))}"/>', line, count=1)
+        if rough != line:
+            return rough
+        if '<bsdf type="principled">' in line:
+            return line.replace('<bsdf type="principled">', f'<bsdf type="principled"><float name="anisotropic" value="{f(C.uniform(0.1, 1.0))}"/>', 1)
+        i = line.find("<bsdf")
+        if i < 0:
+            return line
+        j = element_end(line, i)
+        outer = line[i:j]
+        if re.match(r'<bsdf type="(\w+)"', outer).group(1) not in MAPPABLE:
+            return line
+        return line[:i] + f'<bsdf type="normalmap">{normal_map_texture()}{outer}</bsdf>' + line[j:]
+
+    text = "\n".join(cylinder_extra(line) for line in text.split("\n"))
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

@@ -505,6 +505,26 @@ pub enum ShapeSpec {
         #[serde(default)]
         emission: Option<Reflectance>,
     },
+    /// Open tube (no caps) of `radius` from `p0` to `p1`, as Mitsuba's `cylinder`: `segments` sides with
+    /// smooth radial normals, texture coordinates u around the axis (from the first tangent of the
+    /// axis's frame, Mitsuba's) and v from `p0` to `p1`; outward, inward with `flip_normals`.
+    Cylinder {
+        #[serde(default = "origin")]
+        p0: V3,
+        #[serde(default = "unit_z")]
+        p1: V3,
+        #[serde(default = "one")]
+        radius: f32,
+        material: String,
+        #[serde(default = "default_cylinder_segments")]
+        segments: u32,
+        #[serde(default)]
+        transform: TransformSpec,
+        #[serde(default)]
+        emission: Option<Reflectance>,
+        #[serde(default, skip_serializing_if = "is_false")]
+        flip_normals: bool,
+    },
     /// Height field y = height + Σ waves over a `size[0]` × `size[1]` rectangle centred on the origin,
     /// normals up; each wave is amplitude · sin(2π (x·cos a + z·sin a)/wavelength + phase).
     Heightfield {
@@ -535,6 +555,15 @@ pub enum ShapeSpec {
 
 fn default_lathe_segments() -> u32 {
     128
+}
+fn default_cylinder_segments() -> u32 {
+    256
+}
+fn origin() -> V3 {
+    [0.0; 3]
+}
+fn unit_z() -> V3 {
+    [0.0, 0.0, 1.0]
 }
 fn default_hf_resolution() -> [u32; 2] {
     [256, 256]

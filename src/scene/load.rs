@@ -1006,6 +1006,10 @@ fn build_shape(
             let mesh = generated_mesh(cx, key, spec)?;
             push(out.shapes, mesh, false, transform, lookup(material)?, emission(e, out.textures)?, false)?;
         }
+        ShapeSpec::Cylinder { material, transform, emission: e, flip_normals: flip, .. } => {
+            let mesh = generated_mesh(cx, key, spec)?;
+            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e, out.textures)?, false)?;
+        }
     }
     // A normal map is read along the texture's u: a mesh without texture coordinates has none.
     for s in &out.shapes[first..] {
@@ -1072,7 +1076,8 @@ fn sphere_geometry(cx: &Ctx, key: &str, center: V3, radius: f32, t: &TransformSp
     Ok(Geometry::Sphere { center: m.transform_point3(Vec3::from_array(center)), radius: radius * s, frame })
 }
 
-/// The triangle mesh of a generated shape (quad, disk, lathe, height field, box), its parameters checked.
+/// The triangle mesh of a generated shape (quad, disk, lathe, cylinder, height field, box), its parameters
+/// checked.
 fn generated_mesh(cx: &Ctx, key: &str, spec: &ShapeSpec) -> Result<TriMesh, SceneError> {
     let bad = |field: &str, msg: String| cx.err(&format!("{key}.{field}"), msg);
     Ok(match spec {
@@ -1095,6 +1100,31 @@ fn generated_mesh(cx: &Ctx, key: &str, spec: &ShapeSpec) -> Result<TriMesh, Scen
             mesh::disk(Vec3::from_array(*center), n, *radius, *segments)
         }
         ShapeSpec::Lathe { profile, segments, smooth, .. } => lathe_mesh(cx, key, profile, *segments, *smooth)?,
+        ShapeSpec::Cylinder { p0, p1, radius, segments, .. } => {
+            let (p0, p1) = (Vec3::from_array(*p0), Vec3::from_array(*p1));
+            let axis = p1 - p0;
+            if !(radius.is_finite() && *radius > 0.0) {
+                return Err(bad("radius", format!("must be a finite radius > 0, got {radius}")));
+            }
+            if !(p0.is_finite() && axis.is_finite() && axis.length() > 0.0) {
+                return Err(bad("p1", format!("must differ from p0, both finite (got p0 {p0}, p1 {p1})")));
+            }
+            if !(3..=1 << 20).contains(segments) {
+                return Err(bad("segments", "must be in [3, 1048576]".into()));
+            }
+            // Mitsuba's placement: its unit tube's x and y along the axis frame's tangents (scaled by
+            // the radius), its z along p0 → p1.
+            let f = crate::math::Frame::from_normal(axis.normalize());
+            let local = Mat4::from_cols(
+                (f.s * *radius).extend(0.0),
+                (f.t * *radius).extend(0.0),
+                axis.extend(0.0),
+                p0.extend(1.0),
+            );
+            let mut m = mesh::cylinder(*segments);
+            m.transform(&local);
+            m
+        }
         ShapeSpec::Heightfield { size, resolution, height, waves, .. } => {
             if size[0] <= 0.0 || size[1] <= 0.0 {
                 return Err(bad("size", "both sides must be > 0".into()));

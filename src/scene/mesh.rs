@@ -616,6 +616,31 @@ pub fn disk(center: Vec3, normal: Vec3, radius: f32, segments: u32) -> TriMesh {
     m
 }
 
+/// Mitsuba's `cylinder` in its own axes: the open tube of radius 1 about z from z = 0 to z = 1 with
+/// `segments` sides and outward radial normals (smooth shading), and Mitsuba's texture coordinates: u the
+/// angle from +x towards +y over 2π, v = z. The seam's vertices are there twice, at u = 0 and u = 1, in
+/// the same place (the surface stays closed).
+pub fn cylinder(segments: u32) -> TriMesh {
+    let mut m = TriMesh { uvs: Some(Vec::new()), normals: Some(Vec::new()), ..TriMesh::default() };
+    for j in 0..=segments {
+        let phi = std::f32::consts::TAU * (j % segments) as f32 / segments as f32;
+        let (sin, cos) = phi.sin_cos();
+        let u = j as f32 / segments as f32;
+        for z in [0.0, 1.0] {
+            m.positions.push(Vec3::new(cos, sin, z));
+            m.normals.as_mut().unwrap().push(Vec3::new(cos, sin, 0.0));
+            m.uvs.as_mut().unwrap().push([u, z]);
+        }
+    }
+    for j in 0..segments {
+        // a, b: this column's bottom and top; c, d: the next one's (the angle grows from a to c).
+        let (a, b, c, d) = (2 * j, 2 * j + 1, 2 * j + 2, 2 * j + 3);
+        m.indices.push([a, c, b]);
+        m.indices.push([c, d, b]);
+    }
+    m
+}
+
 /// Surface of revolution about the y axis; profile points [r, y] bottom to top give outward normals.
 /// Triangles that collapse on the axis (r = 0) are left out.
 pub fn lathe(profile: &[[f32; 2]], segments: u32) -> TriMesh {
@@ -848,6 +873,35 @@ mod tests {
         }
         let expect = std::f32::consts::TAU * 2.0;
         assert!((m.total_area() - expect).abs() < 1e-3 * expect, "{}", m.total_area());
+    }
+
+    /// The tube faces outward with its radial normals, covers 2π r h (to the polygon's area), keeps its
+    /// seam closed, and its ∂p/∂u runs around the axis as Mitsuba's (2π along growing angle).
+    #[test]
+    fn cylinder_faces_outward_with_mitsubas_texture_coordinates() {
+        let m = cylinder(256);
+        let ns = m.normals.as_ref().unwrap();
+        for i in 0..m.indices.len() {
+            let [a, b, c] = m.triangle(i);
+            let n = (b - a).cross(c - a);
+            let centre = (a + b + c) / 3.0;
+            assert!(n.dot(Vec3::new(centre.x, centre.y, 0.0)) > 0.0, "triangle {i} faces inward");
+            for k in m.indices[i] {
+                let p = m.positions[k as usize];
+                assert!((ns[k as usize] - Vec3::new(p.x, p.y, 0.0)).length() < 1e-6);
+            }
+            let du = m.dp_du(i);
+            let around = Vec3::new(-centre.y, centre.x, 0.0).normalize();
+            assert!(du.normalize().dot(around) > 0.9999, "triangle {i}: ∂p/∂u {du}");
+            assert!((du.length() / std::f32::consts::TAU - 1.0).abs() < 1e-3, "triangle {i}: |∂p/∂u| {}", du.length());
+        }
+        // 256 flat sides of width 2 sin(π/256) and height 1.
+        let sides = 256.0 * 2.0 * (std::f32::consts::PI / 256.0).sin();
+        assert!((m.total_area() / sides - 1.0).abs() < 1e-4, "{} against {sides}", m.total_area());
+        // The seam's two columns share their places.
+        let last = m.positions.len() - 2;
+        assert_eq!(m.positions[0], m.positions[last]);
+        assert_eq!(m.uvs.as_ref().unwrap()[last], [1.0, 0.0]);
     }
 
     #[test]

@@ -463,7 +463,7 @@ impl<'a> Cx<'a> {
                 let radius = p.float("radius")?.unwrap_or(1.0);
                 ShapeSpec::Sphere { center, radius, material, transform, emission }
             }
-            "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals, &self.file.materials)?,
+            "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals)?,
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
         };
         p.finish(
@@ -1091,10 +1091,10 @@ pub fn rebase(file: &mut SceneFile, from: &Path, to: &Path) -> Result<(), String
     Ok(())
 }
 
-/// Mitsuba's `cylinder`: the open tube (no caps) of `radius` from `p0` to `p1` under `to_world`, as a
-/// 256-sided lathe with smooth normals (its silhouette within 7.6e-5 radii of the circle); normals
-/// outward, inward with `flip_normals`. The lathe has no texture coordinates, so a textured BSDF on
-/// it is refused.
+/// Mitsuba's `cylinder`: the open tube (no caps) of `radius` from `p0` to `p1` under `to_world`, with
+/// its texture coordinates (so textures, normal maps and anisotropic BSDFs follow them), as a 256-sided
+/// tube with smooth radial normals (its silhouette within 7.6e-5 radii of the circle); normals outward,
+/// inward with `flip_normals`.
 fn cylinder(
     n: &Node,
     p: &Props,
@@ -1102,7 +1102,6 @@ fn cylinder(
     material: String,
     emission: Option<Reflectance>,
     flip_normals: bool,
-    materials: &BTreeMap<String, MaterialSpec>,
 ) -> Result<ShapeSpec, SceneError> {
     let p0 = Vec3::from_array(p.point("p0")?.unwrap_or([0.0; 3]));
     let p1 = Vec3::from_array(p.point("p1")?.unwrap_or([0.0, 0.0, 1.0]));
@@ -1112,83 +1111,16 @@ fn cylinder(
     if !fine {
         return Err(n.error(format!("needs a radius > 0 and p0 ≠ p1 (got radius {radius}, p0 {p0}, p1 {p1})")));
     }
-    if reads_texture(materials, &material, 0) {
-        return Err(
-            n.error("a textured BSDF on a cylinder is not supported (caustica's cylinder has no texture coordinates)")
-        );
-    }
-    if anisotropic(materials, &material, 0) {
-        return Err(n.error(
-            "an anisotropic BSDF (alpha_u ≠ alpha_v) on a cylinder is not supported (caustica's cylinder has no ∂p/∂u)",
-        ));
-    }
-    if matches!(emission, Some(Reflectance::Texture(_))) {
-        return Err(n.error(
-            "a textured emitter on a cylinder is not supported (caustica's cylinder has no texture coordinates)",
-        ));
-    }
-    // The lathe's y axis onto p0 → p1, its x and z onto a frame around the axis (a mirroring map would
-    // not turn it inside out: meshes keep their winding's side under any transform).
-    let frame = crate::math::Frame::from_normal(axis.normalize());
-    let local = Mat4::from_cols(
-        (frame.t * radius).extend(0.0),
-        axis.extend(0.0),
-        (frame.s * radius).extend(0.0),
-        p0.extend(1.0),
-    );
-    let to_world = to_world.unwrap_or(Mat4::IDENTITY) * local;
-    let profile = if flip_normals { vec![[1.0, 1.0], [1.0, 0.0]] } else { vec![[1.0, 0.0], [1.0, 1.0]] };
-    Ok(ShapeSpec::Lathe {
-        profile,
+    Ok(ShapeSpec::Cylinder {
+        p0: p0.to_array(),
+        p1: p1.to_array(),
+        radius,
         material,
         segments: 256,
-        smooth: true,
-        transform: transform_spec(Some(to_world)),
+        transform: transform_spec(to_world),
         emission,
+        flip_normals,
     })
-}
-
-/// Whether material `name` reads a texture: for any of its parameters, or a blend's weight or either
-/// side's.
-fn reads_texture(materials: &BTreeMap<String, MaterialSpec>, name: &str, depth: u32) -> bool {
-    any_material(materials, name, depth, &|m| m.names_texture())
-}
-
-/// Whether material `name`, or a material it is made of (a blend's, a side's, the one under a normal
-/// map), is anisotropic (a `roughness_v`).
-fn anisotropic(materials: &BTreeMap<String, MaterialSpec>, name: &str, depth: u32) -> bool {
-    any_material(materials, name, depth, &|m| match m {
-        MaterialSpec::Mirror { roughness_v, .. }
-        | MaterialSpec::Conductor { roughness_v, .. }
-        | MaterialSpec::Dielectric { roughness_v, .. } => roughness_v.is_some(),
-        _ => false,
-    })
-}
-
-/// Whether `test` holds for material `name` or any material it is made of.
-fn any_material(
-    materials: &BTreeMap<String, MaterialSpec>,
-    name: &str,
-    depth: u32,
-    test: &dyn Fn(&MaterialSpec) -> bool,
-) -> bool {
-    let Some(m) = materials.get(name) else {
-        return false;
-    };
-    if test(m) {
-        return true;
-    }
-    // The converter writes no cycle; the depth bound only keeps this safe on any input.
-    if depth >= 64 {
-        return false;
-    }
-    match m {
-        MaterialSpec::Blend { first, second, .. } | MaterialSpec::Sides { front: first, back: second } => {
-            any_material(materials, first, depth + 1, test) || any_material(materials, second, depth + 1, test)
-        }
-        MaterialSpec::Normalmap { material, .. } => any_material(materials, material, depth + 1, test),
-        _ => false,
-    }
 }
 
 /// A microfacet BSDF's `distribution` (Mitsuba's default Beckmann) and `sample_visible` (read and
