@@ -964,8 +964,8 @@ impl Material {
         }
     }
 
-    /// This BSDF with `t` as its surface tangent (a conductor's, a dielectric's, a principled BSDF's), under a normal map too;
-    /// unchanged if it has none.
+    /// This BSDF with `t` as its surface tangent (a conductor's, a dielectric's, a principled BSDF's),
+    /// under a normal map too; unchanged if it has none.
     pub fn with_tangent(self, t: Vec3) -> Material {
         match self {
             Material::Conductor { fresnel, alpha, alpha_v, distribution, .. } => {
