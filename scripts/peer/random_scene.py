@@ -403,6 +403,8 @@ if args.more:
     # ∂p/∂u, alpha_v across it), and some principled BSDFs an `anisotropic`, from a seventh stream: not
     # on a cylinder (caustica's has no ∂p/∂u).
     A = random.Random(args.seed * 6133 + 41)
+    # A rough conductor's or dielectric's opening up to its number alpha (group 1), and that number (2).
+    ROUGH_ALPHA = re.compile(r'(<bsdf type="rough(?:conductor|dielectric)">(?:(?!</bsdf>).)*?)<float name="alpha" value="([^"]+)"/>')
 
     def anisotropic(m):
         if A.random() >= 0.6:
@@ -419,8 +421,7 @@ if args.more:
     def anisotropic_line(line):
         if line.startswith('<shape type="cylinder"'):
             return line
-        line = re.sub(r'(<bsdf type="rough(?:conductor|dielectric)">(?:(?!</bsdf>).)*?)<float name="alpha" value="([^"]+)"/>',
-                      anisotropic, line)
+        line = ROUGH_ALPHA.sub(anisotropic, line)
         return re.sub(r'<bsdf type="principled">', anisotropic_principled, line)
 
     text = "\n".join(anisotropic_line(line) for line in text.split("\n"))
@@ -433,9 +434,8 @@ if args.more:
     def cylinder_extra(line):
         if not line.startswith('<shape type="cylinder"') or C.random() >= 0.5:
             return line
-        rough = re.sub(r'(<bsdf type="rough(?:conductor|dielectric)">(?:(?!</bsdf>).)*?)<float name="alpha" value="([^"]+)"/>',
-                       lambda m: m.group(1) + f'<float name="alpha_u" value="{m.group(2)}"/>'
-                                 f'<float name="alpha_v" value="{f(C.uniform(0.02, 0.5))}"/>', line, count=1)
+        rough = ROUGH_ALPHA.sub(lambda m: m.group(1) + f'<float name="alpha_u" value="{m.group(2)}"/>'
+                                f'<float name="alpha_v" value="{f(C.uniform(0.02, 0.5))}"/>', line, count=1)
         if rough != line:
             return rough
         if '<bsdf type="principled">' in line:

@@ -998,6 +998,7 @@ fn build_shape(
         }
         ShapeSpec::Quad { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Disk { material, transform, emission: e, flip_normals: flip, .. }
+        | ShapeSpec::Cylinder { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Box { material, transform, emission: e, flip_normals: flip, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
             push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e, out.textures)?, false)?;
@@ -1005,10 +1006,6 @@ fn build_shape(
         ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
             push(out.shapes, mesh, false, transform, lookup(material)?, emission(e, out.textures)?, false)?;
-        }
-        ShapeSpec::Cylinder { material, transform, emission: e, flip_normals: flip, .. } => {
-            let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e, out.textures)?, false)?;
         }
     }
     // A normal map is read along the texture's u: a mesh without texture coordinates has none.

@@ -598,22 +598,18 @@ impl Microfacet {
         if c2 <= 0.0 {
             return 0.0;
         }
-        // α² tan²θ along w's azimuth, and Beckmann's a = 1 / (α tan θ).
-        let (at2, inv_a) = if alpha.isotropic() {
-            let a = alpha.u.max(MIN_ALPHA);
-            let t2 = (1.0 - c2) / c2;
-            (a * a * t2, 1.0 / (a * t2.sqrt()))
-        } else {
-            let at2 = alpha.projected_tan2(w);
-            (at2, 1.0 / at2.sqrt())
-        };
+        let isotropic = alpha.isotropic();
+        let (a, t2) = (alpha.u.max(MIN_ALPHA), (1.0 - c2) / c2);
+        // α² tan²θ along w's azimuth.
+        let at2 = if isotropic { a * a * t2 } else { alpha.projected_tan2(w) };
         match self {
             Microfacet::Ggx => 2.0 / (1.0 + (1.0 + at2).sqrt()),
             Microfacet::Beckmann => {
                 if at2 <= 0.0 {
                     return 1.0;
                 }
-                let a = inv_a;
+                // 1 / (α tan θ), in the isotropic case as it always was computed.
+                let a = if isotropic { 1.0 / (a * t2.sqrt()) } else { 1.0 / at2.sqrt() };
                 if a >= 1.6 {
                     1.0
                 } else {
