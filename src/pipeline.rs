@@ -635,12 +635,13 @@ pub fn render_progressive_share(
 }
 
 /// How many pixels a length `r` spans on the surface the camera's centre ray meets, seen face-on (its
-/// distance there times the film's width over the field of view); None when that ray meets nothing.
+/// distance there times the film's width over the field of view; an orthographic film's width); None
+/// when that ray meets nothing.
 fn pixels_across(scene: &Scene, tracer: &dyn Tracer, r: f32) -> Option<f32> {
     let cam = &scene.camera;
     let ray = cam.ray(0.5 * cam.width as f32, 0.5 * cam.height as f32);
     let t = tracer.intersect(&ray)?.t;
-    let pixel = 2.0 * t * ray.d.dot(cam.forward) * cam.tan_half[0] / cam.width as f32;
+    let pixel = cam.pixel_width_at(t, ray.d);
     (pixel > 0.0 && pixel.is_finite()).then(|| r / pixel)
 }
 

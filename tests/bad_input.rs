@@ -288,6 +288,43 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["camera.aperture_radius", "3.3e38 puts the lens beyond f32's range"],
         ),
         (
+            "orthographic_fov",
+            with_camera("projection = \"orthographic\""),
+            vec![],
+            vec!["camera.fov", "an orthographic camera has no field of view"],
+        ),
+        (
+            "orthographic_lens",
+            with_camera("projection = \"orthographic\"\naperture_radius = 0.1").replace("fov = 40\n", ""),
+            vec![],
+            vec!["camera.aperture_radius", "an orthographic camera has no lens"],
+        ),
+        (
+            "orthographic_film",
+            with_camera("projection = \"orthographic\"\nfilm_size = [2.0, -1.0]").replace("fov = 40\n", ""),
+            vec![],
+            vec!["camera.film_size", "> 0", "got [2.0, -1.0]"],
+        ),
+        (
+            // Each side finite, a pixel's area not: the density of a ray's origin would be 0.
+            "orthographic_film_beyond_f32",
+            with_camera("projection = \"orthographic\"\nfilm_size = [3e38, 3e38]").replace("fov = 40\n", ""),
+            vec![],
+            vec!["camera.film_size", "beyond f32's range", "got [3e38, 3e38]"],
+        ),
+        (
+            "perspective_film_size",
+            with_camera("film_size = [2.0, 2.0]"),
+            vec![],
+            vec!["camera.film_size", "only with projection = \"orthographic\""],
+        ),
+        (
+            "projection_kind",
+            with_camera("projection = \"fisheye\""),
+            vec![],
+            vec!["projection = \"fisheye\"", "unknown variant `fisheye`", "orthographic"],
+        ),
+        (
             "blend_of_itself",
             with_white(
                 "white = { type = \"blend\", first = \"a\", second = \"b\" }\n\

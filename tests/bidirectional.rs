@@ -101,10 +101,15 @@ fn means_match_pt(label: &str, s: &mut Scene, a: &Accel, pt_spp: u32, passes: u3
 /// its mean unmeasurable), a floating rough (GGX) gold block, a quad light under the ceiling's place
 /// and a sphere light (area and cone sampling); no delta BSDF, so every strategy can make every path.
 fn strategy_room() -> Scene {
-    common::scene(
-        "[camera]\norigin = [0.0, 0.0, 0.9]\ntarget = [0.0, -0.2, 0.0]\nfov = 60\nresolution = [12, 12]\n\
-         [materials]\nwall = { type = \"diffuse\", reflectance = [0.7, 0.6, 0.5] }\n\
-         gold = { type = \"conductor\", preset = \"Au\", roughness = 0.3 }\n\
+    strategy_room_seen_by("fov = 60\n")
+}
+
+/// `strategy_room` seen by a camera that `camera` (whole lines) describes beside its place.
+fn strategy_room_seen_by(camera: &str) -> Scene {
+    common::scene(&format!(
+        "[camera]\norigin = [0.0, 0.0, 0.9]\ntarget = [0.0, -0.2, 0.0]\nresolution = [12, 12]\n{camera}\
+         [materials]\nwall = {{ type = \"diffuse\", reflectance = [0.7, 0.6, 0.5] }}\n\
+         gold = {{ type = \"conductor\", preset = \"Au\", roughness = 0.3 }}\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, -1.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"wall\"\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, -0.7, -1.0]\nedge_u = [2.0, 0.0, 0.0]\nedge_v = [0.0, 1.7, 0.0]\nmaterial = \"wall\"\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, -0.7, -0.7]\nedge_u = [0.0, 1.7, 0.0]\nedge_v = [0.0, 0.0, 1.7]\nmaterial = \"wall\"\n\
@@ -112,26 +117,41 @@ fn strategy_room() -> Scene {
          [[shapes]]\ntype = \"quad\"\ncorner = [-0.3, 0.98, -0.3]\nedge_u = [0.6, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.6]\n\
          material = \"wall\"\nemission = [4.0, 4.0, 4.0]\n\
          [[lights]]\ntype = \"sphere\"\ncenter = [0.6, -0.6, -0.5]\nradius = 0.15\nradiance = [3.0, 3.0, 3.0]\n",
-    )
+    ))
 }
 
 #[test]
 fn every_strategy_alone_has_the_path_tracers_mean_for_its_path_length() {
-    // Paths of exactly k edges: PT with max_depth k − 1 minus PT with max_depth k − 2, both from the
-    // same seed (the two share every random number up to the last bounce, so the difference is
-    // precise); each (s, t) with s + t − 1 = k, unweighted, must have the same mean.
-    let base = strategy_room();
+    every_strategy_alone_matches_pt(&strategy_room, 4);
+}
+
+/// The strategy test through an orthographic camera: its rays' direction is a delta, so a camera
+/// subpath's first vertex has a density per unit area of film (not per solid angle) and light tracing
+/// (t = 1) joins a vertex to the film point straight in front of it. Paths of 2 and 3 edges.
+#[test]
+fn every_strategy_alone_has_the_path_tracers_mean_through_an_orthographic_camera() {
+    let ortho = || strategy_room_seen_by("projection = \"orthographic\"\nfilm_size = [1.6, 1.6]\n");
+    assert_eq!(ortho().camera.ortho, Some([0.8, 0.8]));
+    every_strategy_alone_matches_pt(&ortho, 3);
+}
+
+/// Paths of exactly k edges (2 ≤ k ≤ `max_k`) in the scene `room` makes: PT with max_depth k − 1 minus
+/// PT with max_depth k − 2, both from the same seed (the two share every random number up to the last
+/// bounce, so the difference is precise); each (s, t) with s + t − 1 = k, unweighted, must have the
+/// same mean.
+fn every_strategy_alone_matches_pt(room: &dyn Fn() -> Scene, max_k: u32) {
+    let base = room();
     let a = Accel::new(&base).unwrap();
     let pt_upto = |depth: u32, seed: u64| {
-        let mut s = strategy_room();
+        let mut s = room();
         s.render.max_depth = depth;
         s.render.seed = seed;
         mean(&render_path(&s, &a, 4096, true).image)
     };
-    for k in 2..=4u32 {
+    for k in 2..=max_k {
         let diffs: Vec<f64> = (0..8).map(|seed| pt_upto(k - 1, seed) - pt_upto(k - 2, seed)).collect();
         let (pt, pt_e) = mean_and_error(&diffs);
-        let mut s = strategy_room();
+        let mut s = room();
         s.render.max_depth = k - 1;
         for sv in 0..=k {
             let t = k + 1 - sv;
@@ -144,219 +164,16 @@ fn every_strategy_alone_has_the_path_tracers_mean_for_its_path_length() {
     }
 }
 
-#[test]
-fn bdpt_and_vcm_are_bit_identical_on_1_and_2_threads() {
-    let (s, a) = small("cornell-glass.toml", 24);
-    let with_threads = |n: usize, opts: VcmOptions| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build()
-            .unwrap()
-            .install(|| iterate(&s, &a, &Setup::new(&s, &a, opts, None), 3).image)
-    };
-    for opts in [VcmOptions::bdpt(), VcmOptions::vcm()] {
-        let one = with_threads(1, opts);
-        let two = with_threads(2, opts);
-        assert!(mean(&one) > 0.0);
-        let same = one
-            .pixels
-            .iter()
-            .zip(&two.pixels)
-            .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits));
-        assert!(same, "{opts:?}: images differ between 1 and 2 threads");
-    }
-}
-
-/// What stands in the middle of `every_light`'s scene.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Ball {
-    None,
-    /// Smooth glass, under the lights PT can also see through it (no point, spot or distant light:
-    /// their caustics are beyond PT).
-    Glass,
-    /// Rough glass (GGX, α 0.3) under every light and with a point light inside: PT finds even the
-    /// point lights' caustics through it by next-event estimation at the glass, and BDPT's and VCM's
-    /// light subpaths cross it with the adjoint BSDF. The light inside makes paths that cross the glass
-    /// once, where an adjoint off by η² does not cancel between entering and leaving.
-    RoughGlass,
-    /// Plastic (a mirror coat over a diffuse base, nonlinear), under the lights PT can also see in its
-    /// coat: a vertex there is connected and merged by its base, and passed through by its mirror.
-    Plastic,
-    /// Rough plastic (a GGX coat, α 0.25, over a nonlinear base) under every light: its glossy lobe is
-    /// connected and merged like the base, so even the delta lights' highlights are PT's.
-    RoughPlastic,
-    /// Mitsuba's principled BSDF, partly transmitting (GGX, roughness 0.4: α 0.16) with a clear coat,
-    /// sheen and some metal, under every light and with the point light inside: its transmission's
-    /// adjoint is crossed once, and every lobe is connected and merged.
-    Principled,
-}
-
-/// An open scene with every kind of light (quad, sphere, point, spot, distant, constant sky) over
-/// diffuse and rough gold, with a glass ball or not. The MIS weights of each light kind must sum to
-/// one, so the means agree with PT.
-fn every_light(ball: Ball) -> Scene {
-    let sphere = |m: &str| {
-        format!("[[shapes]]\ntype = \"sphere\"\ncenter = [0.5, 0.35, 0.2]\nradius = 0.35\nmaterial = \"{m}\"\n")
-    };
-    let delta = "[[lights]]\ntype = \"point\"\nposition = [-1.0, 1.2, 0.8]\npower = [6.0, 6.0, 6.0]\n\
-                 [[lights]]\ntype = \"distant\"\ndirection = [0.3, -1.0, -0.4]\nirradiance = [0.8, 0.8, 0.8]\n\
-                 [[lights]]\ntype = \"spot\"\nposition = [0.9, 1.3, 0.6]\ntarget = [-0.5, 0.3, -0.3]\n\
-                 intensity = [3.0, 2.0, 1.0]\ncutoff_angle = 25.0\n";
-    let inside = "[[lights]]\ntype = \"point\"\nposition = [0.5, 0.35, 0.2]\npower = [2.0, 2.0, 2.0]\n";
-    let (ball, delta) = match ball {
-        Ball::None => (String::new(), delta.to_string()),
-        Ball::Glass => (sphere("glass"), String::new()),
-        Ball::RoughGlass => (sphere("frosted"), format!("{delta}{inside}")),
-        Ball::Plastic => (sphere("plastic"), String::new()),
-        Ball::RoughPlastic => (sphere("rough_plastic"), delta.to_string()),
-        Ball::Principled => (sphere("principled"), format!("{delta}{inside}")),
-    };
-    common::scene(&format!(
-        "[camera]\norigin = [0.0, 1.6, 2.6]\ntarget = [0.0, 0.3, 0.0]\nfov = 45\nresolution = [24, 24]\n\
-         [materials]\nm = {{ type = \"diffuse\", reflectance = [0.6, 0.5, 0.4] }}\n\
-         gold = {{ type = \"conductor\", preset = \"Au\", roughness = 0.2 }}\n\
-         glass = {{ type = \"dielectric\", ior = 1.5 }}\n\
-         frosted = {{ type = \"dielectric\", ior = 1.5, roughness = 0.3 }}\n\
-         plastic = {{ type = \"plastic\", reflectance = [0.1, 0.3, 0.5], ior = 3.0, nonlinear = true }}\n\
-         rough_plastic = {{ type = \"plastic\", reflectance = [0.1, 0.3, 0.5], ior = 2.0, nonlinear = true, roughness = 0.25 }}\n\
-         principled = {{ type = \"principled\", base_color = [0.8, 0.6, 0.4], roughness = 0.4, spec_trans = 0.6, eta = 1.4, \
-         metallic = 0.2, sheen = 0.5, clearcoat = 0.5 }}\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, -1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 1.5, 0.0]\nmaterial = \"m\"\n\
-         {ball}[[shapes]]\ntype = \"box\"\nmin = [-0.9, 0.0, -0.6]\nmax = [-0.3, 0.5, 0.0]\nmaterial = \"gold\"\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-0.4, 1.4, -1.0]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.4]\n\
-         material = \"m\"\nemission = [3.0, 3.0, 3.0]\n\
-         [[lights]]\ntype = \"sphere\"\ncenter = [1.0, 0.9, -0.8]\nradius = 0.12\nradiance = [6.0, 5.0, 4.0]\n\
-         {delta}[[lights]]\ntype = \"constant\"\nradiance = [0.2, 0.25, 0.3]\n",
-    ))
-}
-
-#[test]
-fn mis_weights_sum_to_one_for_every_kind_of_light() {
-    for ball in [Ball::None, Ball::Glass, Ball::RoughGlass, Ball::Plastic, Ball::RoughPlastic, Ball::Principled] {
-        let mut s = every_light(ball);
-        s.render.max_depth = 6;
-        let a = Accel::new(&s).unwrap();
-        means_match_pt(&format!("{ball:?}"), &mut s, &a, 256, 1024);
-    }
-}
-
-/// VCM with every choice of what it merges at the camera's first hit (`render.vcm.merge_primary`):
-/// where it does not merge, that strategy leaves every MIS sum (light tracing, the connections and light
-/// samples at the first hit, and the camera subpath's sums past it); merging only light that came
-/// through a delta BSDF there, the strategy is in a path's sums exactly when the vertex before the first
-/// hit is a delta BSDF (known to the camera subpath one vertex later). The means stay PT's, caustics seen
-/// directly (the glass ball's under the area lights) and the delta lights' light included.
-#[test]
-fn vcm_keeps_the_means_with_and_without_merging_at_the_first_hit() {
-    use caustica::scene::file::MergePrimary;
-    for ball in [Ball::None, Ball::Glass, Ball::RoughPlastic] {
-        let mut s = every_light(ball);
-        s.render.max_depth = 6;
-        let a = Accel::new(&s).unwrap();
-        let (pt, pt_e) = pt_mean(&mut s, &a, 256, 16);
-        for primary in [MergePrimary::All, MergePrimary::Caustics, MergePrimary::None] {
-            if ball != Ball::Glass && primary == MergePrimary::Caustics {
-                // Without glass no light vertex comes through a delta BSDF: the same as None.
-                continue;
-            }
-            s.render.vcm.merge_primary = primary;
-            let (m, e) = bidir_mean(&mut s, &a, VcmOptions::vcm(), 1024);
-            let sigma = (e * e + pt_e * pt_e).sqrt();
-            eprintln!(
-                "{ball:?} vcm merge_primary={primary:?}: {m:.5} ± {e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ",
-                (m - pt) / sigma
-            );
-            assert!(
-                (m - pt).abs() < 3.0 * sigma,
-                "{ball:?} merge_primary={primary:?}: mean {m} vs PT {pt} (σ {sigma})"
-            );
-        }
-    }
-}
-
-/// Merging only caustics at the camera's first hit (`merge_primary = "caustics"`) where that strategy
-/// carries weight: a point light's caustic under a smooth glass ball seen directly (light tracing and
-/// the first hit's merges are its only strategies, so BDPT is the reference, PT cannot see it) and a
-/// mirror wall the camera's first hits see much of the room in (paths whose second vertex is a delta
-/// BSDF, whose MIS sums must take the first hit's merge in one vertex late), besides a quad light's
-/// diffuse light. VCM's means with each `merge_primary` equal BDPT's.
-#[test]
-fn vcm_merging_only_caustics_at_the_first_hit_keeps_the_means() {
-    use caustica::scene::file::MergePrimary;
-    let mut s = common::scene(
-        "[camera]\norigin = [0.0, 1.2, 2.4]\ntarget = [0.0, 0.3, 0.0]\nfov = 45\nresolution = [24, 24]\n\
-         [materials]\nm = { type = \"diffuse\", reflectance = [0.6, 0.5, 0.4] }\n\
-         glass = { type = \"dielectric\", ior = 1.5 }\nchrome = { type = \"mirror\" }\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, -1.0]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 1.5, 0.0]\nmaterial = \"chrome\"\n\
-         [[shapes]]\ntype = \"sphere\"\ncenter = [0.1, 0.4, 0.1]\nradius = 0.4\nmaterial = \"glass\"\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-1.2, 1.4, 0.2]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.8]\n\
-         material = \"m\"\nemission = [6.0, 6.0, 6.0]\n\
-         [[lights]]\ntype = \"sphere\"\ncenter = [0.2, 1.6, 0.2]\nradius = 0.15\nradiance = [9.0, 9.0, 9.0]\n\
-         [render]\nmax_depth = 6\n[render.progressive]\nradius = 0.1\n",
-    );
-    let a = Accel::new(&s).unwrap();
-    let (pt, pt_e) = pt_mean(&mut s, &a, 1024, 16);
-    // Every iteration rendered with each setting from the same random numbers (merging draws none):
-    // the settings' differences are unbiased estimates of zero with a fraction of either's noise.
-    s.render.sampler = caustica::math::rng::Sampler::Independent;
-    let setup = Setup::new(&s, &a, VcmOptions::vcm(), None);
-    let kinds = [MergePrimary::All, MergePrimary::None, MergePrimary::Caustics];
-    let per_iteration: Vec<[f64; 3]> = (1..=1024)
-        .map(|i| {
-            kinds.map(|k| {
-                s.render.vcm.merge_primary = k;
-                mean(&iterate(&s, &a, &setup, i).image)
-            })
-        })
-        .collect();
-    let column = |f: &dyn Fn(&[f64; 3]) -> f64| mean_and_error(&per_iteration.iter().map(f).collect::<Vec<_>>());
-    let (all, all_e) = column(&|m| m[0]);
-    let sigma = (all_e * all_e + pt_e * pt_e).sqrt();
-    eprintln!(
-        "caustics seen directly: vcm (all) {all:.5} ± {all_e:.5}, PT {pt:.5} ± {pt_e:.5}: {:+.2}σ",
-        (all - pt) / sigma
-    );
-    assert!((all - pt).abs() < 3.0 * sigma, "merge_primary=all: mean {all} vs PT {pt} (σ {sigma})");
-    for (k, kind) in kinds.iter().enumerate().skip(1) {
-        let (d, d_e) = column(&|m| m[k] - m[0]);
-        let (m, _) = column(&|m| m[k]);
-        eprintln!(
-            "  merge_primary={kind:?}: {m:.5}, minus all's on the same numbers {d:+.6} ± {d_e:.6}: {:+.2}σ",
-            d / d_e
-        );
-        assert!(d.abs() < 3.0 * d_e, "merge_primary={kind:?}: {m} differs from all's {all} by {d} (σ {d_e})");
-    }
-}
-
-/// Light subpaths aimed at a specular shape (`render.vcm.aim`): a big quad light and a sphere light
-/// right above a rough gold plate that the camera sees them in, so paths found by the camera hitting
-/// the lights (s = 0) after the gold, by next-event estimation (s = 1) and by light subpaths (most of
-/// them aimed, here 0.9) all carry weight, and every one of their weights must use the aimed emission
-/// density for the means to stay PT's.
-#[test]
-fn aimed_light_subpaths_keep_the_means() {
-    let mut s = common::scene(
-        "[camera]\norigin = [0.0, 0.9, 2.2]\ntarget = [0.0, 0.2, 0.0]\nfov = 40\nresolution = [20, 20]\n\
-         [materials]\nm = { type = \"diffuse\", reflectance = [0.6, 0.6, 0.6] }\n\
-         gold = { type = \"conductor\", preset = \"Au\", roughness = 0.15 }\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-0.6, 0.05, 0.6]\nedge_u = [1.2, 0.0, 0.0]\nedge_v = [0.0, 0.5, -1.1]\nmaterial = \"gold\"\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-0.6, 1.0, -0.6]\nedge_u = [1.2, 0.0, 0.0]\nedge_v = [0.0, 0.0, 1.2]\n\
-         material = \"m\"\nemission = [2.0, 2.0, 2.0]\n\
-         [[lights]]\ntype = \"sphere\"\ncenter = [0.9, 0.6, -0.3]\nradius = 0.1\nradiance = [8.0, 8.0, 8.0]\n\
-         [render]\nmax_depth = 4\n[render.vcm]\naim = 0.9\n[render.progressive]\nradius = 0.02\n",
-    );
-    let a = Accel::new(&s).unwrap();
-    means_match_pt("aimed at gold", &mut s, &a, 256, 1024);
-}
-
 /// A fine black-and-white checkerboard under a quad light, seen from above (direct light only): the
 /// scene in which light tracing must land on the film where camera samples see it.
 fn checkerboard_from_above(camera_extra: &str) -> Scene {
+    checkerboard_seen_by(&format!("fov = 50\n{camera_extra}"))
+}
+
+/// `checkerboard_from_above` seen by a camera that `camera` (whole lines) describes beside its place.
+fn checkerboard_seen_by(camera: &str) -> Scene {
     let mut s = common::scene(&format!(
-        "[camera]\norigin = [0.0, 1.2, 0.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, -1.0]\nfov = 50\nresolution = [20, 20]\n{camera_extra}\
+        "[camera]\norigin = [0.0, 1.2, 0.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, -1.0]\nresolution = [20, 20]\n{camera}\
          [textures]\nchecks = {{ type = \"checkerboard\", color0 = [0.9, 0.9, 0.9], color1 = [0.02, 0.02, 0.02], scale = [7.0, 7.0] }}\n\
          [materials]\nfloor = {{ type = \"diffuse\", reflectance = \"checks\" }}\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, 0.0, 1.0]\nedge_u = [2.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -2.0]\nmaterial = \"floor\"\n\
@@ -437,6 +254,41 @@ fn bidirectional_means_hold_through_a_thin_lens() {
     assert_eq!(s.camera.lens_radius, 0.15);
     let a = Accel::new(&s).unwrap();
     means_match_pt("thin lens", &mut s, &a, 256, 1024);
+}
+
+/// BDPT's and VCM's means equal the path tracer's through an orthographic camera, every strategy
+/// weighted: camera subpaths start on the film with a density per unit area, light tracing joins each
+/// light vertex to the film point in front of it; glass (a caustic) and a rough gold panel.
+#[test]
+fn bidirectional_means_hold_through_an_orthographic_camera() {
+    let mut s = common::scene(
+        "[camera]\nprojection = \"orthographic\"\nfilm_size = [2.4, 1.8]\norigin = [0.0, 0.9, 2.2]\n\
+         target = [0.0, 0.2, 0.0]\nresolution = [20, 15]\n\
+         [materials]\nm = { type = \"diffuse\", reflectance = [0.6, 0.6, 0.6] }\n\
+         glass = { type = \"dielectric\", ior = 1.5 }\n\
+         gold = { type = \"conductor\", preset = \"Au\", roughness = 0.15 }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.3, 0.25, 0.6]\nradius = 0.25\nmaterial = \"glass\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.8, 0.05, -0.4]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.5, -0.3]\nmaterial = \"gold\"\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [-0.4, 1.2, -0.4]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.8]\npower = [20.0, 20.0, 20.0]\n\
+         [render]\nmax_depth = 5\n[render.progressive]\nradius = 0.02\n",
+    );
+    assert_eq!(s.camera.ortho, Some([1.2, 0.9]));
+    let a = Accel::new(&s).unwrap();
+    means_match_pt("orthographic", &mut s, &a, 256, 1024);
+}
+
+/// Light tracing through an orthographic camera lands each light vertex where the parallel ray that
+/// sees it starts: the checkerboard it makes must be the path tracer's, where the image of a film 10%
+/// wider (a light vertex landing 10% off the film's centre) differs by many times the noise. (A
+/// perspective camera's image of the same place would not do: the floor is parallel to the film.)
+#[test]
+fn light_tracing_lands_where_an_orthographic_camera_looks() {
+    let mut s = checkerboard_seen_by("projection = \"orthographic\"\nfilm_size = [1.3, 1.3]\n");
+    let a = Accel::new(&s).unwrap();
+    let mut wider = checkerboard_seen_by("projection = \"orthographic\"\nfilm_size = [1.43, 1.43]\n");
+    let wrong = pt_image(&mut wider, &a, 1);
+    light_tracing_matches_pt("orthographic", &mut s, &a, &wrong);
 }
 
 /// Light tracing splats through the pixel filter as camera samples are drawn through it: with a

@@ -220,8 +220,8 @@ pub fn camera_sees(
 /// power) arriving at `si` from `wo`, scattered by `mat` towards lens point `lens` (the pinhole for a
 /// pinhole camera), splatted with `add(pixel, value)` where it lands on the film, times `weight` of
 /// the link and divided by `norm` (the light paths it is one of). `weight` gets the unit direction to
-/// the lens and the density (per unit area at `si`) with which a camera path would reach `si`; a
-/// weight of 0 casts no ray. The lens point's density, 1 / (π r²), is the same for every strategy and
+/// the lens (for an orthographic camera, against the view direction) and the density (per unit area at
+/// `si`) with which a camera path would reach `si`; a weight of 0 casts no ray. The lens point's density, 1 / (π r²), is the same for every strategy and
 /// cancels against the aperture's area in the camera's importance, so neither appears.
 #[allow(clippy::too_many_arguments)]
 pub fn link_to_camera(
@@ -238,12 +238,10 @@ pub fn link_to_camera(
     mut add: impl FnMut(u32, crate::color::Rgb),
 ) {
     let cam = &scene.camera;
-    let Some((px, py)) = cam.film_position_from(lens, si.p) else {
+    let Some(link) = cam.link(lens, si.p) else {
         return;
     };
-    let to_cam = lens - si.p;
-    let dist2 = to_cam.length_squared();
-    let dir = to_cam / dist2.sqrt();
+    let dir = link.dir;
     if !si.can_scatter(mat, wo, dir) {
         return;
     }
@@ -251,17 +249,17 @@ pub fn link_to_camera(
     if f == crate::color::Rgb::ZERO {
         return;
     }
-    let pdf_dir = cam.pixel_pdf_dir(-dir);
-    let w = weight(dir, pdf_dir * dir.dot(si.ng).abs() / dist2);
+    let w = weight(dir, link.pdf * dir.dot(si.ng).abs() / link.dist2);
     if w == 0.0 {
         return;
     }
     c.rays += 1;
-    let seen = camera_sees(scene, tracer, si, lens, c);
+    let seen = camera_sees(scene, tracer, si, link.to, c);
     if seen == crate::color::Rgb::ZERO {
         return;
     }
-    let val = beta * f * seen * (w * pdf_dir / dist2 / norm);
+    let val = beta * f * seen * (w * link.pdf / link.dist2 / norm);
+    let (px, py) = link.film;
     cam.splat(px, py, |pixel, w| add(pixel, if w == 1.0 { val } else { val * w }));
 }
 

@@ -582,11 +582,11 @@ pub fn splat_photons(scene: &Scene, tracer: &dyn Tracer, maps: &PhotonMaps, whic
         let tint = PHOTON_TINTS[m];
         for i in 0..map.len() as u32 {
             let p = glam::Vec3::from_array(map.tree.position(i));
-            let Some((x, y)) = cam.project(p) else {
+            let Some(link) = cam.link(cam.origin, p) else {
                 continue;
             };
-            let d = p - cam.origin;
-            let mut r = Ray::new(cam.origin, d);
+            let (x, y) = link.film;
+            let mut r = Ray::new(link.to, p - link.to);
             r.tmax = 1.0 - 1e-3;
             if tracer.occluded(&r) {
                 continue;

@@ -977,7 +977,13 @@ impl Vcm<'_> {
             if cos_in <= 0.0 {
                 break;
             }
-            sp.d_vcm *= dist2 / cos_in;
+            // Per unit area at this vertex. An orthographic camera's rays do not spread: its density
+            // (per unit area of film) converts at the first hit without a distance.
+            if sp.len == 1 && cam.ortho.is_some() {
+                sp.d_vcm /= cos_in;
+            } else {
+                sp.d_vcm *= dist2 / cos_in;
+            }
             sp.d_vc /= cos_in;
             sp.s_vm /= cos_in;
             // Emission here ends the path at the light: the first hit's caustic merge (held back) is no

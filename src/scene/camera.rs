@@ -1,5 +1,6 @@
-//! Pinhole camera: `origin`, `target`, `up`, `fov` (degrees) along `fov_axis`, `resolution`, and the
-//! pixel reconstruction filter.
+//! The camera: `origin`, `target`, `up`, `resolution` and the pixel reconstruction filter; a pinhole
+//! (or thin lens) of field of view `fov` (degrees) along `fov_axis`, or an orthographic projection whose
+//! film is a rectangle of the scene (every ray parallel to the view direction).
 use crate::math::Ray;
 use crate::scene::file::FovAxis;
 use glam::Vec3;
@@ -260,6 +261,29 @@ pub struct Camera {
     pub lens_radius: f32,
     /// Distance from the lens to the plane in focus, along `forward`.
     pub focus_distance: f32,
+    /// An orthographic projection: half the film's width and height in scene units, the film centred on
+    /// `origin` in the plane facing `forward`, each ray leaving its film point along `forward` (None: the
+    /// pinhole or thin lens). Its rays' direction is a delta, so light tracing joins a surface point to
+    /// the film point in front of it, as to a distant light.
+    pub ortho: Option<[f32; 2]>,
+}
+
+/// Where light leaving a surface point reaches the camera (`Camera::link`).
+#[derive(Clone, Copy, Debug)]
+pub struct CameraLink {
+    /// Film position, in pixels.
+    pub film: (f32, f32),
+    /// The point the light reaches: the lens point, or for an orthographic camera the film point in
+    /// front of the surface point.
+    pub to: Vec3,
+    /// Unit direction from the surface point to `to`.
+    pub dir: Vec3,
+    /// The camera's importance per unit area at the surface point, before the surface's cosine (per
+    /// pixel of film), is `pdf / dist2`: a pinhole's `pixel_pdf_dir(-dir)` over the squared distance,
+    /// an orthographic camera's 1 / (a pixel's area in the scene) over 1. Times |cos θ| at the surface it
+    /// is the density with which a camera path reaches that point, per unit area.
+    pub pdf: f32,
+    pub dist2: f32,
 }
 
 impl Camera {
@@ -284,6 +308,47 @@ impl Camera {
             filter: PixelFilter::default(),
             lens_radius: 0.0,
             focus_distance: (target - origin).length(),
+            ortho: None,
+        }
+    }
+
+    /// An orthographic camera at `origin` looking at `target`, its film `size` (width, height) in scene
+    /// units.
+    pub fn orthographic(origin: Vec3, target: Vec3, up: Vec3, size: [f32; 2], res: [u32; 2]) -> Camera {
+        Camera { ortho: Some([0.5 * size[0], 0.5 * size[1]]), ..Camera::new(origin, target, up, 40.0, FovAxis::X, res) }
+    }
+
+    /// A pixel's area in the scene on an orthographic camera's film.
+    fn ortho_pixel_area(&self, half: [f32; 2]) -> f32 {
+        (2.0 * half[0] / self.width as f32) * (2.0 * half[1] / self.height as f32)
+    }
+
+    /// Where light leaving world point `p` reaches the camera through lens point `lens` (the pinhole, or
+    /// ignored for an orthographic camera), if `p` is in front of the camera and lands on the film.
+    pub fn link(&self, lens: Vec3, p: Vec3) -> Option<CameraLink> {
+        if let Some(half) = self.ortho {
+            let film = self.project(p)?;
+            let to = p - self.forward * (p - self.origin).dot(self.forward);
+            return Some(CameraLink {
+                film,
+                to,
+                dir: -self.forward,
+                pdf: 1.0 / self.ortho_pixel_area(half),
+                dist2: 1.0,
+            });
+        }
+        let film = self.film_position_from(lens, p)?;
+        let to_cam = lens - p;
+        let dist2 = to_cam.length_squared();
+        let dir = to_cam / dist2.sqrt();
+        Some(CameraLink { film, to: lens, dir, pdf: self.pixel_pdf_dir(-dir), dist2 })
+    }
+
+    /// The width in the scene of one pixel at distance `t` along camera ray direction `d`, seen face on.
+    pub fn pixel_width_at(&self, t: f32, d: Vec3) -> f32 {
+        match self.ortho {
+            Some(half) => 2.0 * half[0] / self.width as f32,
+            None => 2.0 * t * d.dot(self.forward) * self.tan_half[0] / self.width as f32,
         }
     }
 
@@ -385,10 +450,15 @@ impl Camera {
     }
 
     /// The pinhole's ray through film position (x, y) in pixels, (0,0) = top-left corner (from the
-    /// lens's centre when there is a lens: for aiming, not for rendering; see `sample_ray`).
+    /// lens's centre when there is a lens: for aiming, not for rendering; see `sample_ray`); an
+    /// orthographic camera's ray from that film point.
     pub fn ray(&self, x: f32, y: f32) -> Ray {
-        let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half[0];
-        let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half[1];
+        let sx = 2.0 * x / self.width as f32 - 1.0;
+        let sy = 1.0 - 2.0 * y / self.height as f32;
+        if let Some([hx, hy]) = self.ortho {
+            return Ray::new(self.origin + (sx * hx) * self.right + (sy * hy) * self.up, self.forward);
+        }
+        let (sx, sy) = (sx * self.tan_half[0], sy * self.tan_half[1]);
         Ray::new(self.origin, (self.forward + sx * self.right + sy * self.up).normalize())
     }
 
@@ -401,11 +471,16 @@ impl Camera {
     /// over one pixel (D²/cos³θ with D the unit-pixel plane's distance), 0 behind the camera. It is also
     /// the pixel's importance times cos θ: light tracing divides by it to land on the film. With a lens
     /// it is the same function of the ray's direction from whichever lens point it leaves (the film
-    /// maps linearly onto the plane of focus, seen from that point).
+    /// maps linearly onto the plane of focus, seen from that point). For an orthographic camera (whose
+    /// rays all run along `forward`) it is the density of the ray's origin per unit area of the film
+    /// plane: 1 / (a pixel's area in the scene).
     pub fn pixel_pdf_dir(&self, d: Vec3) -> f32 {
         let c = d.dot(self.forward);
         if c <= 0.0 {
             return 0.0;
+        }
+        if let Some(half) = self.ortho {
+            return 1.0 / self.ortho_pixel_area(half);
         }
         let dd = self.pixel_plane_distance();
         dd * dd / (c * c * c)
@@ -418,8 +493,10 @@ impl Camera {
         if z <= 0.0 {
             return None;
         }
-        let sx = d.dot(self.right) / z / self.tan_half[0];
-        let sy = d.dot(self.up) / z / self.tan_half[1];
+        let (sx, sy) = match self.ortho {
+            Some([hx, hy]) => (d.dot(self.right) / hx, d.dot(self.up) / hy),
+            None => (d.dot(self.right) / z / self.tan_half[0], d.dot(self.up) / z / self.tan_half[1]),
+        };
         let x = (sx + 1.0) * 0.5 * self.width as f32;
         let y = (1.0 - sy) * 0.5 * self.height as f32;
         (x >= 0.0 && y >= 0.0 && x < self.width as f32 && y < self.height as f32).then_some((x, y))
@@ -626,6 +703,33 @@ mod tests {
             let (px, py) = c.project(r.at(3.0)).unwrap();
             assert!((px - x).abs() < 1e-3 && (py - y).abs() < 1e-3);
         }
+    }
+
+    /// An orthographic camera: every ray runs along the view direction from its point of a film of the
+    /// given size centred on the origin ((0, 0) the top-left corner: up and to the left of the view),
+    /// `project` inverts `ray` at any depth, `link` joins a point to the film point straight in front
+    /// of it, and the density of a ray's origin over one pixel is 1 / (the pixel's area in the scene).
+    #[test]
+    fn orthographic_rays_are_parallel_and_project_back() {
+        let (o, t) = (Vec3::new(1.0, 2.0, 5.0), Vec3::new(1.0, 2.0, 0.0));
+        let c = Camera::orthographic(o, t, Vec3::Y, [4.0, 1.5], [40, 20]);
+        let corner = c.ray(0.0, 0.0);
+        assert!((corner.o - Vec3::new(-1.0, 2.75, 5.0)).length() < 1e-5, "{:?}", corner.o);
+        assert!((c.ray(40.0, 20.0).o - Vec3::new(3.0, 1.25, 5.0)).length() < 1e-5);
+        for (x, y) in [(0.5, 0.5), (20.0, 10.0), (37.3, 18.9)] {
+            let r = c.ray(x, y);
+            assert_eq!(r.d, c.forward);
+            for depth in [0.5, 3.0, 40.0] {
+                let (px, py) = c.project(r.at(depth)).unwrap();
+                assert!((px - x).abs() < 1e-3 && (py - y).abs() < 1e-3, "({x}, {y}) at {depth}: ({px}, {py})");
+                let l = c.link(Vec3::ZERO, r.at(depth)).unwrap();
+                assert!((l.to - r.o).length() < 1e-4 && l.dir == -c.forward && l.dist2 == 1.0);
+                assert!((l.pdf * (4.0 / 40.0) * (1.5 / 20.0) - 1.0).abs() < 1e-5);
+            }
+        }
+        assert!(c.project(o - c.forward).is_none(), "behind the film");
+        assert!(c.project(o + 3.0 * c.forward + 2.01 * c.right).is_none(), "beside the film");
+        assert_eq!(c.pixel_width_at(123.0, c.forward), 0.1);
     }
 
     /// A thin lens: every ray of a film position, whichever lens point it leaves, passes through the

@@ -7,6 +7,7 @@
 //! target = [0.0, 1.0, 0.0]
 //! fov = 39.3                 # degrees, along fov_axis ("x" default, or "y")
 //! resolution = [512, 512]
+//! # projection = "orthographic" with film_size = [w, h] in scene units instead of fov
 //!
 //! [materials]
 //! white = { type = "diffuse", reflectance = [0.8, 0.8, 0.8] }
@@ -61,10 +62,18 @@ pub struct CameraSpec {
     pub target: V3,
     #[serde(default = "default_up")]
     pub up: V3,
-    #[serde(default = "default_fov")]
-    pub fov: f32,
-    #[serde(default = "default_fov_axis")]
-    pub fov_axis: FovAxis,
+    /// `perspective` (the default: a pinhole, or a thin lens with an aperture) or `orthographic`.
+    #[serde(default, skip_serializing_if = "Projection::is_perspective")]
+    pub projection: Projection,
+    /// A perspective camera's field of view in degrees along `fov_axis` (default 40 along x).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fov: Option<f32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fov_axis: Option<FovAxis>,
+    /// An orthographic camera's film: its width and height in scene units, centred on `origin` (default:
+    /// Mitsuba's, 2 wide and as high as the resolution's aspect makes square pixels).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub film_size: Option<[f32; 2]>,
     #[serde(default = "default_resolution")]
     pub resolution: [u32; 2],
     /// Pixel reconstruction filter: `{ type = "box" }` (default), `{ type = "tent", radius = 1.0 }` or
@@ -88,11 +97,24 @@ fn is_box_filter(f: &crate::scene::camera::FilterSpec) -> bool {
 fn default_up() -> V3 {
     [0.0, 1.0, 0.0]
 }
-fn default_fov() -> f32 {
-    40.0
+/// The field of view of a perspective camera that does not give one, in degrees along x.
+pub const DEFAULT_FOV: f32 = 40.0;
+
+/// How the camera projects the scene onto its film.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Projection {
+    /// Rays from the pinhole (or a thin lens's aperture) through the film: a field of view.
+    #[default]
+    Perspective,
+    /// Parallel rays along the view direction, each from its point of a film of `film_size`.
+    Orthographic,
 }
-fn default_fov_axis() -> FovAxis {
-    FovAxis::X
+
+impl Projection {
+    fn is_perspective(&self) -> bool {
+        *self == Projection::Perspective
+    }
 }
 fn default_resolution() -> [u32; 2] {
     [512, 512]

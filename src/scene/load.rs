@@ -265,12 +265,30 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
     if up.length() == 0.0 || (t - o).normalize().cross(up.normalize()).length() < 1e-6 {
         return Err(cx.err("camera.up", "is zero or parallel to the view direction"));
     }
-    if !(c.fov > 0.0 && c.fov < 180.0) {
-        return Err(cx.err("camera.fov", format!("must be in (0, 180) degrees, got {}", c.fov)));
-    }
     let [w, h] = c.resolution;
     if w == 0 || h == 0 {
         return Err(cx.err("camera.resolution", "width and height must be ≥ 1"));
+    }
+    let ortho = c.projection == Projection::Orthographic;
+    if ortho {
+        for (key, given) in [("camera.fov", c.fov.is_some()), ("camera.fov_axis", c.fov_axis.is_some())] {
+            if given {
+                return Err(cx.err(key, "an orthographic camera has no field of view (its film_size sets the view)"));
+            }
+        }
+        if c.aperture_radius != 0.0 || c.focus_distance.is_some() {
+            let key = if c.aperture_radius != 0.0 { "camera.aperture_radius" } else { "camera.focus_distance" };
+            return Err(cx.err(key, "an orthographic camera has no lens (depth of field needs a perspective camera)"));
+        }
+    } else if c.film_size.is_some() {
+        return Err(cx.err(
+            "camera.film_size",
+            "is read only with projection = \"orthographic\" (a perspective camera has fov)",
+        ));
+    }
+    let fov = c.fov.unwrap_or(DEFAULT_FOV);
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(cx.err("camera.fov", format!("must be in (0, 180) degrees, got {fov}")));
     }
     let px = w as u64 * h as u64;
     if px > MAX_PIXELS {
@@ -279,7 +297,23 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
             format!("{w}×{h} needs about {} MiB of film; the limit is {MAX_PIXELS} pixels", px * 40 / (1 << 20)),
         ));
     }
-    let mut camera = Camera::new(o, t, up, c.fov, c.fov_axis, c.resolution);
+    let mut camera = if ortho {
+        // Mitsuba's default film: 2 wide, square pixels.
+        let size = c.film_size.unwrap_or([2.0, 2.0 * h as f32 / w as f32]);
+        let bad = |why: &str| cx.err("camera.film_size", format!("{why}, got {size:?}"));
+        if !size.iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err(bad("must be a width and a height > 0 in scene units"));
+        }
+        let camera = Camera::orthographic(o, t, up, size, c.resolution);
+        // Film points and a pixel's area (the density of a ray's origin) must be f32 numbers.
+        let corner = camera.ray(0.0, 0.0).o;
+        if !camera.pixel_pdf_dir(camera.forward).is_normal() || !corner.is_finite() {
+            return Err(bad("puts a pixel's area or the film's corners beyond f32's range"));
+        }
+        camera
+    } else {
+        Camera::new(o, t, up, fov, c.fov_axis.unwrap_or(FovAxis::X), c.resolution)
+    };
     // Each parameter's bounds: a reach a film sample can afford, and for the filters with negative lobes
     // a clearly positive integral however the film cuts them (`PixelFilter`'s weights stay bounded).
     let bounded: &[(&str, f32, std::ops::RangeInclusive<f32>, &str)] = match c.filter {

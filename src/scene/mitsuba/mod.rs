@@ -91,8 +91,10 @@ fn empty_file() -> SceneFile {
         origin: [0.0; 3],
         target: [0.0, 0.0, 1.0],
         up: [0.0, 1.0, 0.0],
-        fov: 40.0,
-        fov_axis: FovAxis::X,
+        projection: Projection::Perspective,
+        fov: Some(40.0),
+        fov_axis: Some(FovAxis::X),
+        film_size: None,
         resolution: [768, 576],
         // Mitsuba's film's default; replaced by what the film says.
         filter: crate::scene::camera::FilterSpec::Gaussian { stddev: crate::scene::camera::GAUSSIAN_STDDEV },
@@ -144,7 +146,8 @@ impl<'a> Cx<'a> {
         let thin_lens = match s.attr("type") {
             Some("perspective") => false,
             Some("thinlens") => true,
-            _ => return Err(s.error("sensor type not read (read: perspective, thinlens)")),
+            Some("orthographic") => return self.orthographic(s),
+            _ => return Err(s.error("sensor type not read (read: perspective, thinlens, orthographic)")),
         };
         let p = Props::new(s);
         if thin_lens {
@@ -165,11 +168,47 @@ impl<'a> Cx<'a> {
         if x.cross(y).dot(z) < 0.0 {
             return Err(s.error("the camera's to_world mirrors the image (a negative scale); caustica cannot"));
         }
-        let origin = m.w_axis.truncate();
-        let cam = &mut self.file.camera;
-        (cam.origin, cam.target, cam.up) = (origin.to_array(), (origin + z).to_array(), y.to_array());
+        self.place_camera(m.w_axis.truncate(), y, z);
         let (fov, fov_axis) = (p.float("fov")?, p.string("fov_axis")?);
         let focal = p.string("focal_length")?;
+        self.sensor_common(s, &p)?;
+        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, film, sampler (and for thinlens aperture_radius, focus_distance)")?;
+        let [w, h] = self.file.camera.resolution.map(|v| v as f32);
+        let (deg, axis) = match (fov, focal) {
+            (Some(_), Some(_)) => return Err(s.error("give `fov` or `focal_length`, not both")),
+            (Some(f), None) => (f, fov_axis.unwrap_or_else(|| "x".into())),
+            (None, f) => {
+                // 35 mm film equivalent, along the diagonal (Mitsuba's default 50 mm).
+                let f = f.unwrap_or_else(|| "50mm".into());
+                let mm: f32 =
+                    f.trim_end_matches("mm").trim().parse().map_err(|_| s.error(format!("focal_length `{f}`")))?;
+                ((36f32.hypot(24.0) / (2.0 * mm)).atan().to_degrees() * 2.0, "diagonal".into())
+            }
+        };
+        let half = (deg.to_radians() * 0.5).tan();
+        let cam = &mut self.file.camera;
+        let (fov, axis) = match axis.as_str() {
+            "x" => (deg, FovAxis::X),
+            "y" => (deg, FovAxis::Y),
+            "smaller" => (deg, if w <= h { FovAxis::X } else { FovAxis::Y }),
+            "larger" => (deg, if w >= h { FovAxis::X } else { FovAxis::Y }),
+            "diagonal" => ((half * w / w.hypot(h)).atan().to_degrees() * 2.0, FovAxis::X),
+            a => return Err(s.error(format!("fov_axis `{a}` (read: x, y, diagonal, smaller, larger)"))),
+        };
+        (cam.fov, cam.fov_axis) = (Some(fov), Some(axis));
+        Ok(())
+    }
+
+    /// The camera's place: `origin` (a sensor's `to_world` translation), the view direction `z` and up
+    /// `y` (its local axes, unit vectors).
+    fn place_camera(&mut self, origin: Vec3, y: Vec3, z: Vec3) {
+        let cam = &mut self.file.camera;
+        (cam.origin, cam.target, cam.up) = (origin.to_array(), (origin + z).to_array(), y.to_array());
+    }
+
+    /// What every sensor may hold besides its projection: clipping planes (warned about unless
+    /// Mitsuba's defaults), the film and the sampler.
+    fn sensor_common(&mut self, s: &Node, p: &Props) -> Result<(), SceneError> {
         for (key, default) in [("near_clip", 1e-2), ("far_clip", 1e4)] {
             if p.float(key)?.is_some_and(|v| v != default) {
                 self.warnings.push(format!("{}: sensor `{key}` is ignored (nothing is clipped)", s.file.display()));
@@ -193,29 +232,35 @@ impl<'a> Cx<'a> {
             sp.int("scramble_seed")?;
             sp.finish("sample_count, seed (the sampler type only changes the noise)")?;
         }
-        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, film, sampler (and for thinlens aperture_radius, focus_distance)")?;
+        Ok(())
+    }
+
+    /// Mitsuba's `orthographic` sensor: its film spans local x in [−1, 1] and y in [−1/aspect,
+    /// 1/aspect], scaled by `to_world` (which may scale x and y, to size the view, but not shear or
+    /// mirror), every ray along local z.
+    fn orthographic(&mut self, s: &Node) -> Result<(), SceneError> {
+        let p = Props::new(s);
+        let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+        let (sx, sy, sz) = (x.length(), y.length(), z.length());
+        if ![sx, sy, sz].iter().all(|l| l.is_finite() && *l > 0.0) {
+            return Err(s.error("the camera's to_world collapses an axis (a zero scale)"));
+        }
+        let (xn, yn, zn) = (x / sx, y / sy, z / sz);
+        if xn.dot(yn).abs() > 1e-3 || xn.dot(zn).abs() > 1e-3 || yn.dot(zn).abs() > 1e-3 {
+            return Err(s.error("the camera's to_world shears the film (its axes are not at right angles)"));
+        }
+        if xn.cross(yn).dot(zn) < 0.0 {
+            return Err(s.error("the camera's to_world mirrors the image (a negative scale); caustica cannot"));
+        }
+        self.place_camera(m.w_axis.truncate(), yn, zn);
+        self.sensor_common(s, &p)?;
+        p.finish("to_world, near_clip, far_clip, film, sampler")?;
         let [w, h] = self.file.camera.resolution.map(|v| v as f32);
-        let (deg, axis) = match (fov, focal) {
-            (Some(_), Some(_)) => return Err(s.error("give `fov` or `focal_length`, not both")),
-            (Some(f), None) => (f, fov_axis.unwrap_or_else(|| "x".into())),
-            (None, f) => {
-                // 35 mm film equivalent, along the diagonal (Mitsuba's default 50 mm).
-                let f = f.unwrap_or_else(|| "50mm".into());
-                let mm: f32 =
-                    f.trim_end_matches("mm").trim().parse().map_err(|_| s.error(format!("focal_length `{f}`")))?;
-                ((36f32.hypot(24.0) / (2.0 * mm)).atan().to_degrees() * 2.0, "diagonal".into())
-            }
-        };
-        let half = (deg.to_radians() * 0.5).tan();
         let cam = &mut self.file.camera;
-        (cam.fov, cam.fov_axis) = match axis.as_str() {
-            "x" => (deg, FovAxis::X),
-            "y" => (deg, FovAxis::Y),
-            "smaller" => (deg, if w <= h { FovAxis::X } else { FovAxis::Y }),
-            "larger" => (deg, if w >= h { FovAxis::X } else { FovAxis::Y }),
-            "diagonal" => ((half * w / w.hypot(h)).atan().to_degrees() * 2.0, FovAxis::X),
-            a => return Err(s.error(format!("fov_axis `{a}` (read: x, y, diagonal, smaller, larger)"))),
-        };
+        cam.projection = Projection::Orthographic;
+        (cam.fov, cam.fov_axis) = (None, None);
+        cam.film_size = Some([2.0 * sx, 2.0 * sy * h / w]);
         Ok(())
     }
 
