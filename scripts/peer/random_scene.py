@@ -450,6 +450,19 @@ if args.more:
         return line[:i] + f'<bsdf type="normalmap">{normal_map_texture()}{outer}</bsdf>' + line[j:]
 
     text = "\n".join(cylinder_extra(line) for line in text.split("\n"))
+
+    # An orthographic camera (caustica since session 44) for a quarter of the pinhole cameras, from a
+    # ninth stream so that the streams above stay as they were: the same place and view, a film 3 to
+    # 4.4 wide whose y scale differs from its x scale by up to 25% (pixels not square).
+    O = random.Random(args.seed * 1319 + 67)
+    if '<sensor type="perspective">' in text and O.random() < 0.25:
+        sx = O.uniform(1.5, 2.2)
+        sy = sx * O.uniform(0.8, 1.25)
+        text = text.replace('<sensor type="perspective">', '<sensor type="orthographic">', 1)
+        text = re.sub(r'<string name="fov_axis" value="\w+"/>', '', text, count=1)
+        text = re.sub(r'<float name="fov" value="[^"]*"/>', '', text, count=1)
+        text = text.replace('<transform name="to_world"><lookat',
+                            f'<transform name="to_world"><scale x="{f(sx)}" y="{f(sy)}"/><lookat', 1)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
