@@ -67,6 +67,11 @@ fn with_camera(lines: &str) -> String {
     GOOD.replace("resolution = [8, 8]", &format!("resolution = [8, 8]\n{lines}"))
 }
 
+/// `GOOD` with an orthographic camera (no `fov`) and `lines` added to it.
+fn orthographic(lines: &str) -> String {
+    with_camera(&format!("projection = \"orthographic\"\n{lines}")).replace("fov = 40\n", "")
+}
+
 fn dir() -> PathBuf {
     let d = std::env::temp_dir().join(format!("caustica-bad-input-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -295,20 +300,20 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "orthographic_lens",
-            with_camera("projection = \"orthographic\"\naperture_radius = 0.1").replace("fov = 40\n", ""),
+            orthographic("aperture_radius = 0.1"),
             vec![],
             vec!["camera.aperture_radius", "an orthographic camera has no lens"],
         ),
         (
             "orthographic_film",
-            with_camera("projection = \"orthographic\"\nfilm_size = [2.0, -1.0]").replace("fov = 40\n", ""),
+            orthographic("film_size = [2.0, -1.0]"),
             vec![],
             vec!["camera.film_size", "> 0", "got [2.0, -1.0]"],
         ),
         (
             // Each side finite, a pixel's area not: the density of a ray's origin would be 0.
             "orthographic_film_beyond_f32",
-            with_camera("projection = \"orthographic\"\nfilm_size = [3e38, 3e38]").replace("fov = 40\n", ""),
+            orthographic("film_size = [3e38, 3e38]"),
             vec![],
             vec!["camera.film_size", "beyond f32's range", "got [3e38, 3e38]"],
         ),

@@ -234,23 +234,29 @@ fn pt_image(s: &mut Scene, a: &Accel, seed: u64) -> Image {
     render_path(s, a, 8192, true).image
 }
 
-/// BDPT's and VCM's means equal the path tracer's through a thin lens, every strategy weighted: camera
-/// subpaths start at a lens point, light tracing joins a lens point of its own, glass (a caustic) and a
-/// rough gold panel in and out of focus.
-#[test]
-fn bidirectional_means_hold_through_a_thin_lens() {
-    let mut s = common::scene(
-        "[camera]\norigin = [0.0, 0.9, 2.2]\ntarget = [0.0, 0.2, 0.0]\nfov = 40\nresolution = [20, 20]\n\
-         aperture_radius = 0.15\nfocus_distance = 1.6\n\
-         [materials]\nm = { type = \"diffuse\", reflectance = [0.6, 0.6, 0.6] }\n\
-         glass = { type = \"dielectric\", ior = 1.5 }\n\
-         gold = { type = \"conductor\", preset = \"Au\", roughness = 0.15 }\n\
+/// Glass (a caustic) and a rough gold panel on a floor under a quad light, seen from (0, 0.9, 2.2) by a
+/// camera that `camera` (whole lines) describes beside its place.
+fn glass_and_gold_seen_by(camera: &str) -> Scene {
+    common::scene(&format!(
+        "[camera]\norigin = [0.0, 0.9, 2.2]\ntarget = [0.0, 0.2, 0.0]\n{camera}\
+         [materials]\nm = {{ type = \"diffuse\", reflectance = [0.6, 0.6, 0.6] }}\n\
+         glass = {{ type = \"dielectric\", ior = 1.5 }}\n\
+         gold = {{ type = \"conductor\", preset = \"Au\", roughness = 0.15 }}\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
          [[shapes]]\ntype = \"sphere\"\ncenter = [0.3, 0.25, 0.6]\nradius = 0.25\nmaterial = \"glass\"\n\
          [[shapes]]\ntype = \"quad\"\ncorner = [-0.8, 0.05, -0.4]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.5, -0.3]\nmaterial = \"gold\"\n\
          [[lights]]\ntype = \"quad\"\ncorner = [-0.4, 1.2, -0.4]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.8]\npower = [20.0, 20.0, 20.0]\n\
          [render]\nmax_depth = 5\n[render.progressive]\nradius = 0.02\n",
-    );
+    ))
+}
+
+/// BDPT's and VCM's means equal the path tracer's through a thin lens, every strategy weighted: camera
+/// subpaths start at a lens point, light tracing joins a lens point of its own, glass (a caustic) and a
+/// rough gold panel in and out of focus.
+#[test]
+fn bidirectional_means_hold_through_a_thin_lens() {
+    let mut s =
+        glass_and_gold_seen_by("fov = 40\nresolution = [20, 20]\naperture_radius = 0.15\nfocus_distance = 1.6\n");
     assert_eq!(s.camera.lens_radius, 0.15);
     let a = Accel::new(&s).unwrap();
     means_match_pt("thin lens", &mut s, &a, 256, 1024);
@@ -261,18 +267,8 @@ fn bidirectional_means_hold_through_a_thin_lens() {
 /// light vertex to the film point in front of it; glass (a caustic) and a rough gold panel.
 #[test]
 fn bidirectional_means_hold_through_an_orthographic_camera() {
-    let mut s = common::scene(
-        "[camera]\nprojection = \"orthographic\"\nfilm_size = [2.4, 1.8]\norigin = [0.0, 0.9, 2.2]\n\
-         target = [0.0, 0.2, 0.0]\nresolution = [20, 15]\n\
-         [materials]\nm = { type = \"diffuse\", reflectance = [0.6, 0.6, 0.6] }\n\
-         glass = { type = \"dielectric\", ior = 1.5 }\n\
-         gold = { type = \"conductor\", preset = \"Au\", roughness = 0.15 }\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-1.5, 0.0, 1.5]\nedge_u = [3.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -3.0]\nmaterial = \"m\"\n\
-         [[shapes]]\ntype = \"sphere\"\ncenter = [0.3, 0.25, 0.6]\nradius = 0.25\nmaterial = \"glass\"\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-0.8, 0.05, -0.4]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.5, -0.3]\nmaterial = \"gold\"\n\
-         [[lights]]\ntype = \"quad\"\ncorner = [-0.4, 1.2, -0.4]\nedge_u = [0.8, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.8]\npower = [20.0, 20.0, 20.0]\n\
-         [render]\nmax_depth = 5\n[render.progressive]\nradius = 0.02\n",
-    );
+    let mut s =
+        glass_and_gold_seen_by("projection = \"orthographic\"\nfilm_size = [2.4, 1.8]\nresolution = [20, 15]\n");
     assert_eq!(s.camera.ortho, Some([1.2, 0.9]));
     let a = Accel::new(&s).unwrap();
     means_match_pt("orthographic", &mut s, &a, 256, 1024);
