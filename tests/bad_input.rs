@@ -185,13 +185,21 @@ fn each_malformed_scene_gets_its_own_message() {
             vec![],
             vec!["lights[0].target", "no direction"],
         ),
-        // Anisotropic roughness (session 43): a number across the tangent, with a number along it, both > 0.
+        // Anisotropic roughness (session 43; textures since session 44): across the tangent a number > 0 or
+        // a texture, with a roughness along it that is not 0.
         (
-            "anisotropic_textured_roughness",
-            with_white("white = { type = \"mirror\", roughness = \"saw\", roughness_v = 0.3 }")
+            "anisotropic_unknown_texture",
+            with_white("white = { type = \"mirror\", roughness = \"saw\", roughness_v = \"grain\" }")
                 .replace("[materials]", "[textures]\nsaw = { type = \"checkerboard\" }\n\n[materials]"),
             vec![],
-            vec!["materials.white.roughness", "anisotropic roughness (`roughness_v`) needs a number `roughness`"],
+            vec!["materials.white.roughness_v", "`grain`"],
+        ),
+        (
+            "anisotropic_texture_on_smooth",
+            with_white("white = { type = \"conductor\", preset = \"Au\", roughness_v = \"saw\" }")
+                .replace("[materials]", "[textures]\nsaw = { type = \"checkerboard\" }\n\n[materials]"),
+            vec![],
+            vec!["materials.white.roughness_v", "needs both `roughness` and `roughness_v` > 0"],
         ),
         (
             "anisotropic_roughness_range",

@@ -198,8 +198,9 @@ fn normal_maps_xml_match_mitsuba() {
 /// Anisotropic roughness (`anisotropic.xml`): `alpha_u` along each surface's ∂p/∂u and `alpha_v` across
 /// it, on a turned rectangle, a sphere (along its longitude), a disk (radially), a cube's faces, an OBJ
 /// tile in rough glass, a PLY ball without texture coordinates (each triangle's first edge), a normal
-/// map over brushed gold and an anisotropic principled ball. Every mode: light paths and photons see the
-/// same frames.
+/// map over brushed gold and an anisotropic principled ball; since session 44 the floor's `alpha_v` a
+/// checkerboard and the cube's `alpha_u` an image. Every mode: light paths and photons see the same
+/// frames.
 #[test]
 fn anisotropic_roughness_xml_matches_mitsuba() {
     matches_mitsuba("anisotropic", 1024, 0.003);
@@ -763,7 +764,15 @@ fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let cases: [(&str, &[&str]); 12] = [
         ("orthographic", &["projection = \"orthographic\"", "film_size = [3.2"]),
         ("cylinder", &["type = \"cylinder\"", "radius = 0.3", "flip_normals = true", "roughness_v = 0.4"]),
-        ("anisotropic", &["roughness = 0.04", "roughness_v = 0.35", "roughness_v = 0.04"]),
+        (
+            "anisotropic",
+            &[
+                "roughness = 0.04",
+                "roughness_v = \"shapes[0]-alpha_v-as-weight\"",
+                "roughness = \"shapes[4]-alpha_u\"",
+                "roughness_v = 0.04",
+            ],
+        ),
         ("normalmap", &["type = \"normalmap\"", "two_sided = true", "normal_map = \"bumps\""]),
         ("showcase", &["two_sided = false", "type = \"thin_dielectric\""]),
         ("uv", &["type = \"box\"", "type = \"disk\"", "type = \"sphere\""]),
@@ -874,8 +883,8 @@ fn what_is_not_read_is_refused_naming_the_line() {
             r#"<bsdf type="roughconductor"><string name="distribution" value="phong"/></bsdf>"#,
             &["phong", "beckmann, ggx"],
         ),
-        // Anisotropic roughness (read since session 43): both or neither of alpha_u and alpha_v, not
-        // with alpha, numbers > 0.
+        // Anisotropic roughness (read since session 43; textures since session 44): both or neither of
+        // alpha_u and alpha_v, not with alpha, numbers > 0, grey.
         (
             "aniso-one",
             r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.1"/></bsdf>"#,
@@ -892,9 +901,14 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &["line 8", "must both be > 0 (got 0 and 0.3)"],
         ),
         (
-            "aniso-texture",
-            r#"<bsdf type="roughconductor"><texture type="checkerboard" name="alpha_u"/><float name="alpha_v" value="0.3"/></bsdf>"#,
-            &["line 8", "alpha_u"],
+            "aniso-colour",
+            r#"<bsdf type="roughconductor"><rgb name="alpha_u" value="0.1, 0.2, 0.3"/><float name="alpha_v" value="0.3"/></bsdf>"#,
+            &["line 8", "`alpha_u` must be one number or a texture"],
+        ),
+        (
+            "aniso-zero-beside-texture",
+            r#"<bsdf type="roughconductor"><float name="alpha_u" value="0"/><texture type="checkerboard" name="alpha_v"/></bsdf>"#,
+            &["line 8", "must both be > 0 (got 0 and a texture)"],
         ),
         // roughplastic's α is one number (Mitsuba precomputes its coat for it), a colour's α is refused,
         // and a dielectric reflects what its Fresnel says.

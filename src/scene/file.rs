@@ -147,9 +147,10 @@ pub enum MaterialSpec {
         roughness: Weight,
         /// Roughness across the surface's tangent (anisotropic; `roughness` then runs along the tangent,
         /// ∂p/∂u of the shape's texture coordinates or, on a mesh without them, its triangles' first edge,
-        /// as Mitsuba's `alpha_u` and `alpha_v`): a number, and `roughness` a number, both > 0.
+        /// as Mitsuba's `alpha_u` and `alpha_v`): a number > 0 or a texture (read as one number, as
+        /// `roughness` may be), with `roughness` not 0.
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        roughness_v: Option<f32>,
+        roughness_v: Option<Weight>,
         /// Microfacet distribution of a rough mirror: "ggx" (default) or "beckmann".
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
@@ -172,9 +173,10 @@ pub enum MaterialSpec {
         roughness: Weight,
         /// Roughness across the surface's tangent (anisotropic; `roughness` then runs along the tangent,
         /// ∂p/∂u of the shape's texture coordinates or, on a mesh without them, its triangles' first edge,
-        /// as Mitsuba's `alpha_u` and `alpha_v`): a number, and `roughness` a number, both > 0.
+        /// as Mitsuba's `alpha_u` and `alpha_v`): a number > 0 or a texture (read as one number, as
+        /// `roughness` may be), with `roughness` not 0.
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        roughness_v: Option<f32>,
+        roughness_v: Option<Weight>,
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
         #[serde(default = "yes", skip_serializing_if = "is_true")]
@@ -223,9 +225,10 @@ pub enum MaterialSpec {
         roughness: Weight,
         /// Roughness across the surface's tangent (anisotropic; `roughness` then runs along the tangent,
         /// ∂p/∂u of the shape's texture coordinates or, on a mesh without them, its triangles' first edge,
-        /// as Mitsuba's `alpha_u` and `alpha_v`): a number, and `roughness` a number, both > 0.
+        /// as Mitsuba's `alpha_u` and `alpha_v`): a number > 0 or a texture (read as one number, as
+        /// `roughness` may be), with `roughness` not 0.
         #[serde(default, skip_serializing_if = "Option::is_none")]
-        roughness_v: Option<f32>,
+        roughness_v: Option<Weight>,
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
     },

@@ -586,23 +586,26 @@ fn build_material(
             }
         }
     };
-    // The roughness across the tangent: `roughness` again unless `roughness_v` is given (anisotropic:
-    // both numbers > 0).
-    let across = |alpha: f32, map: Option<u32>, v: &Option<f32>| -> Result<f32, SceneError> {
-        let Some(v) = *v else {
-            return Ok(alpha);
+    // The roughness across the tangent and its texture: `roughness`'s again unless `roughness_v` is given
+    // (anisotropic: a number > 0 or a texture, with `roughness` not 0).
+    let across = |alpha: f32, map: Option<u32>, v: &Option<Weight>| -> Result<(f32, Option<u32>), SceneError> {
+        let Some(v) = v else {
+            return Ok((alpha, map));
         };
-        let v = unit("roughness_v", v)?;
-        if map.is_some() {
-            let msg = "an anisotropic roughness (`roughness_v`) needs a number `roughness`, not a texture";
-            return Err(cx.err(&format!("{key}.roughness"), msg));
-        }
+        let vkey = format!("{key}.roughness_v");
+        let (v, v_map) = match v {
+            Weight::Value(v) => (unit("roughness_v", *v)?, None),
+            Weight::Texture(name) => {
+                let t = texture_index(cx, &vkey, name, textures, "a roughness")?;
+                (textures.list[t as usize].max_value().max(MIN_ALPHA), Some(t))
+            }
+        };
         if alpha == 0.0 || v == 0.0 {
             let msg =
                 format!("an anisotropic roughness needs both `roughness` and `roughness_v` > 0 (got {alpha} and {v})");
-            return Err(cx.err(&format!("{key}.roughness_v"), msg));
+            return Err(cx.err(&vkey, msg));
         }
-        Ok(v)
+        Ok((v, v_map))
     };
     let sided = |bsdf: Material, two_sided: bool, maps: ParamMaps| SurfaceMaterial {
         two_sided,
@@ -640,11 +643,11 @@ fn build_material(
         MaterialSpec::Mirror { specular, roughness: r, roughness_v, distribution, two_sided } => {
             let (c, specular) = colour("specular", specular)?;
             let (alpha, alpha_map) = roughness(r)?;
-            let alpha_v = across(alpha, alpha_map, roughness_v)?;
+            let (alpha_v, alpha_v_map) = across(alpha, alpha_map, roughness_v)?;
             let fresnel = Fresnel::Constant(c);
             let bsdf =
                 Material::Conductor { fresnel, alpha, alpha_v, tangent: Vec3::ZERO, distribution: *distribution };
-            sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, tint: None })
+            sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, alpha_v: alpha_v_map, tint: None })
         }
         MaterialSpec::Conductor { preset, specular, eta, k, roughness: r, roughness_v, distribution, two_sided } => {
             let (fresnel, specular) = match (preset, specular, eta, k) {
@@ -670,10 +673,10 @@ fn build_material(
                 }
             };
             let (alpha, alpha_map) = roughness(r)?;
-            let alpha_v = across(alpha, alpha_map, roughness_v)?;
+            let (alpha_v, alpha_v_map) = across(alpha, alpha_map, roughness_v)?;
             let bsdf =
                 Material::Conductor { fresnel, alpha, alpha_v, tangent: Vec3::ZERO, distribution: *distribution };
-            sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, tint: None })
+            sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, alpha_v: alpha_v_map, tint: None })
         }
         MaterialSpec::Dielectric { ior, outside_ior, tint, .. }
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
@@ -681,10 +684,10 @@ fn build_material(
             let (tint, tint_map) = colour("tint", tint)?;
             if let MaterialSpec::Dielectric { roughness: r, roughness_v, distribution, .. } = spec {
                 let (alpha, alpha_map) = roughness(r)?;
-                let alpha_v = across(alpha, alpha_map, roughness_v)?;
+                let (alpha_v, alpha_v_map) = across(alpha, alpha_map, roughness_v)?;
                 let distribution = *distribution;
                 let bsdf = Material::Dielectric { ior, tint, alpha, alpha_v, tangent: Vec3::ZERO, distribution };
-                sided(bsdf, true, ParamMaps { tint: tint_map, alpha: alpha_map, specular: None })
+                sided(bsdf, true, ParamMaps { tint: tint_map, alpha: alpha_map, alpha_v: alpha_v_map, specular: None })
             } else {
                 sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })
             }

@@ -308,11 +308,15 @@ pub struct ParamMaps {
     /// A rough conductor's or dielectric's α, read as one number (Mitsuba's `eval_1`: a colour by its
     /// luminance) and kept at least `MIN_ALPHA`, as Mitsuba keeps it, so the surface stays rough.
     pub alpha: Option<u32>,
+    /// The α across the tangent (`alpha_v`), read the same way: `alpha`'s texture again on an isotropic
+    /// surface whose roughness is a texture, another (Mitsuba's textured `alpha_v`), or none where that
+    /// α is the material's own number.
+    pub alpha_v: Option<u32>,
 }
 
 impl ParamMaps {
     pub fn any(&self) -> bool {
-        self.specular.is_some() || self.tint.is_some() || self.alpha.is_some()
+        self.specular.is_some() || self.tint.is_some() || self.alpha.is_some() || self.alpha_v.is_some()
     }
 }
 
@@ -984,13 +988,21 @@ impl Material {
 
     /// This BSDF with a texel's values in place of its own colour (`specular`: a conductor's or a plastic
     /// coat's), transmittance (`tint`: a dielectric's) and roughness (`alpha`: a rough conductor's or
-    /// dielectric's, kept at least `MIN_ALPHA`), where given; parameters it does not have are ignored.
-    pub fn with_params(mut self, specular: Option<Rgb>, tint: Option<Rgb>, alpha: Option<f32>) -> Material {
-        // A texture gives one roughness (`ParamMaps::alpha`): isotropic.
+    /// dielectric's, along the tangent, and `alpha_v` across it, each kept at least `MIN_ALPHA`; a
+    /// principled BSDF's roughness is `alpha`), where given; parameters it does not have are ignored.
+    pub fn with_params(
+        mut self,
+        specular: Option<Rgb>,
+        tint: Option<Rgb>,
+        alpha: Option<f32>,
+        alpha_v: Option<f32>,
+    ) -> Material {
         let rough = |a: &mut f32, v: &mut f32| {
             if let Some(x) = alpha {
                 *a = x.max(MIN_ALPHA);
-                *v = *a;
+            }
+            if let Some(y) = alpha_v {
+                *v = y.max(MIN_ALPHA);
             }
         };
         match &mut self {
@@ -1026,7 +1038,8 @@ impl Material {
             }
             Material::Diffuse { .. } => {}
             Material::Mapped(m) => {
-                m.nested = Nested::new(m.nested.material().with_params(specular, tint, alpha)).unwrap_or(m.nested);
+                let nested = m.nested.material().with_params(specular, tint, alpha, alpha_v);
+                m.nested = Nested::new(nested).unwrap_or(m.nested);
             }
         }
         self

@@ -538,7 +538,7 @@ impl Scene {
             best = best.max(match m.texture {
                 Some(t) => self.textures[t as usize].max_value(),
                 // Each colour at its texture's largest value bounds what the surface reflects.
-                None => m.bsdf.with_params(most(m.maps.specular), most(m.maps.tint), None).albedo().max_element(),
+                None => m.bsdf.with_params(most(m.maps.specular), most(m.maps.tint), None, None).albedo().max_element(),
             });
             false
         });
@@ -690,8 +690,11 @@ impl Scene {
             return bsdf;
         }
         let colour = |t: Option<u32>| t.map(|t| self.textures[t as usize].eval(si.uv));
-        let alpha = m.maps.alpha.map(|t| material::mitsuba_luminance(self.textures[t as usize].eval(si.uv)));
-        bsdf.with_params(colour(m.maps.specular), colour(m.maps.tint), alpha)
+        let number = |t: Option<u32>| t.map(|t| material::mitsuba_luminance(self.textures[t as usize].eval(si.uv)));
+        let alpha = number(m.maps.alpha);
+        // An isotropic textured roughness reads its texture once for both.
+        let alpha_v = if m.maps.alpha_v == m.maps.alpha { alpha } else { number(m.maps.alpha_v) };
+        bsdf.with_params(colour(m.maps.specular), colour(m.maps.tint), alpha, alpha_v)
     }
 
     /// Radiance the surface at `si` emits towards `wo` (front side of triangles, outside of spheres).

@@ -888,28 +888,38 @@ impl<'a> Cx<'a> {
     }
 
     /// A rough conductor's or dielectric's roughness α (`alpha`, Mitsuba's default 0.1; a number or a
-    /// texture read as one number), or `alpha_u` and `alpha_v` (two numbers; anisotropic where they
-    /// differ: α along the surface's ∂p/∂u and the roughness across it), and microfacet distribution
-    /// (Mitsuba's default Beckmann).
+    /// texture read as one number), or `alpha_u` and `alpha_v` (each a number or a texture; anisotropic
+    /// where they differ: α along the surface's ∂p/∂u and the roughness across it), and microfacet
+    /// distribution (Mitsuba's default Beckmann).
     fn microfacet(
         &mut self,
         b: &'a Node,
         p: &Props<'a>,
         name: &str,
-    ) -> Result<(Weight, Option<f32>, crate::scene::material::Microfacet), SceneError> {
+    ) -> Result<(Weight, Option<Weight>, crate::scene::material::Microfacet), SceneError> {
         let distribution = microfacet_distribution(b, p)?;
         let alpha = self.scalar_prop(b, p, "alpha", name)?;
-        let (u, v) = (p.float("alpha_u")?, p.float("alpha_v")?);
+        let u = self.scalar_prop(b, p, "alpha_u", name)?;
+        let v = self.scalar_prop(b, p, "alpha_v", name)?;
         let (alpha, across) = match (alpha, u, v) {
             (Some(a), None, None) => (a, None),
             (Some(_), _, _) => return Err(b.error("give `alpha`, or `alpha_u` and `alpha_v`, not both")),
             (None, None, None) => (Weight::Value(0.1), None),
-            (None, Some(u), Some(v)) if u == v => (Weight::Value(u), None),
+            (None, Some(u), Some(v)) if u == v => (u, None),
             (None, Some(u), Some(v)) => {
-                if !(u > 0.0 && v > 0.0) {
-                    return Err(b.error(format!("`alpha_u` and `alpha_v` must both be > 0 (got {u} and {v})")));
+                let positive = |w: &Weight| match w {
+                    Weight::Value(x) => *x > 0.0,
+                    Weight::Texture(_) => true,
+                };
+                if !(positive(&u) && positive(&v)) {
+                    let show = |w: &Weight| match w {
+                        Weight::Value(x) => x.to_string(),
+                        Weight::Texture(_) => "a texture".into(),
+                    };
+                    let msg = format!("`alpha_u` and `alpha_v` must both be > 0 (got {} and {})", show(&u), show(&v));
+                    return Err(b.error(msg));
                 }
-                (Weight::Value(u), Some(v))
+                (u, Some(v))
             }
             (None, _, _) => return Err(b.error("give both `alpha_u` and `alpha_v` (or one `alpha`)")),
         };
