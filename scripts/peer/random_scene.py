@@ -463,6 +463,20 @@ if args.more:
         text = re.sub(r'<float name="fov" value="[^"]*"/>', '', text, count=1)
         text = text.replace('<transform name="to_world"><lookat',
                             f'<transform name="to_world"><scale x="{f(sx)}" y="{f(sy)}"/><lookat', 1)
+    # Textured anisotropic roughness (caustica since session 44), from a tenth stream, last: a third of
+    # the numbers `alpha_u` or `alpha_v` become a checkerboard of that number and another in [0.02, 0.5]
+    # (Mitsuba reads a texture there as one number, its `eval_1`).
+    X = random.Random(args.seed * 4327 + 71)
+
+    def textured_alpha(m):
+        if X.random() >= 1 / 3:
+            return m.group(0)
+        scale = X.choice([2, 3, 5, 8])
+        return (f'<texture type="checkerboard" name="{m.group(1)}"><rgb name="color0" value="{m.group(2)}"/>'
+                f'<rgb name="color1" value="{f(X.uniform(0.02, 0.5))}"/>'
+                f'<transform name="to_uv"><scale value="{scale}"/></transform></texture>')
+
+    text = re.sub(r'<float name="(alpha_[uv])" value="([^"]+)"/>', textured_alpha, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
