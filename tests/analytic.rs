@@ -31,6 +31,63 @@ fn furnace_box_is_le_over_one_minus_albedo_everywhere() {
     }
 }
 
+/// An orthographic camera 2 above a 1×1 diffuse square (ρ 0.5) under the sun straight down (E 2),
+/// framed by `fov` alone: its film is what that field of view spans at the target, 2 × tan(26.565°) × 2
+/// = 2 wide, so the square fills exactly the middle 8×8 of its 16×16 pixels. Every sample there reads
+/// ρ/π · E = 1/π and every other pixel is black: PT's samples exactly, light tracing alone (each light
+/// vertex joined to the film point above it) on average over the square, and nothing outside it.
+#[test]
+fn orthographic_camera_frames_a_lit_square_at_its_closed_form() {
+    let fov = 2.0 * 0.5f32.atan().to_degrees();
+    let mut scene = common::scene(&format!(
+        "[camera]\nprojection = \"orthographic\"\nfov = {fov}\norigin = [0.0, 2.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n\
+         up = [0.0, 0.0, -1.0]\nresolution = [16, 16]\n\
+         [materials]\nm = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.5, 0.0, -0.5]\nedge_u = [0.0, 0.0, 1.0]\nedge_v = [1.0, 0.0, 0.0]\nmaterial = \"m\"\n\
+         [[lights]]\ntype = \"distant\"\ndirection = [0.0, -1.0, 0.0]\nirradiance = [2.0, 2.0, 2.0]\n\
+         [render]\nmax_depth = 1\n"
+    ));
+    let half = scene.camera.ortho.expect("an orthographic camera");
+    assert!((half[0] - 1.0).abs() < 1e-5 && (half[1] - 1.0).abs() < 1e-5, "film {half:?}");
+    scene.render.sampler = caustica::math::rng::Sampler::Independent;
+    let accel = Accel::new(&scene).unwrap();
+    let expect = 1.0 / std::f32::consts::PI;
+    let check = |label: &str, img: &caustica::film::Image, tol: f32| {
+        for y in 0..16u32 {
+            for x in 0..16u32 {
+                let inside = (4..12).contains(&x) && (4..12).contains(&y);
+                let got = img.pixels[(y * 16 + x) as usize].x;
+                let want = if inside { expect } else { 0.0 };
+                assert!((got - want).abs() <= tol * expect, "{label}: pixel ({x}, {y}) {got} vs {want}");
+            }
+        }
+    };
+    check("PT", &render_path(&scene, &accel, 16, true).image, 1e-4);
+    // Light tracing alone, unweighted: each light vertex on the square lands on the pixel above it with
+    // the film's importance 1 / (a pixel's area); noisy, so held to its mean over the square.
+    use caustica::integrator::vcm::{iterate, Setup, VcmOptions};
+    let setup = Setup::new(&scene, &accel, VcmOptions { strategy: Some((2, 1)), ..VcmOptions::bdpt() }, None);
+    let n = 400;
+    let mut sum = vec![0.0f64; 256];
+    for i in 1..=n {
+        for (k, p) in iterate(&scene, &accel, &setup, i).image.pixels.iter().enumerate() {
+            sum[k] += p.x as f64 / n as f64;
+        }
+    }
+    let (mut inside, mut outside) = (0.0f64, 0.0f64);
+    for (k, v) in sum.iter().enumerate() {
+        let (x, y) = (k % 16, k / 16);
+        if (4..12).contains(&x) && (4..12).contains(&y) {
+            inside += v / 64.0;
+        } else {
+            outside += v;
+        }
+    }
+    eprintln!("light tracing: {inside:.5} over the square (expected {expect:.5}), {outside} outside");
+    assert!((inside / expect as f64 - 1.0).abs() < 0.01, "light tracing reads {inside}, expected {expect}");
+    assert_eq!(outside, 0.0);
+}
+
 #[test]
 fn point_light_over_diffuse_plane_matches_inverse_square_cosine_law() {
     let (rho, power, h) = (0.7f32, 100.0f32, 1.5f32);

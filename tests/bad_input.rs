@@ -301,10 +301,10 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["camera.aperture_radius", "3.3e38 puts the lens beyond f32's range"],
         ),
         (
-            "orthographic_fov",
-            with_camera("projection = \"orthographic\""),
+            "orthographic_fov_and_film",
+            with_camera("projection = \"orthographic\"\nfilm_size = [2.0, 2.0]"),
             vec![],
-            vec!["camera.fov", "an orthographic camera has no field of view"],
+            vec!["camera.fov", "takes `film_size` or `fov`", "not both"],
         ),
         (
             "orthographic_lens",

@@ -65,13 +65,16 @@ pub struct CameraSpec {
     /// `perspective` (the default: a pinhole, or a thin lens with an aperture) or `orthographic`.
     #[serde(default, skip_serializing_if = "Projection::is_perspective")]
     pub projection: Projection,
-    /// A perspective camera's field of view in degrees along `fov_axis` (default 40 along x).
+    /// A perspective camera's field of view in degrees along `fov_axis` (default 40 along x); on an
+    /// orthographic camera without `film_size`, the film it spans at the target.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fov: Option<f32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fov_axis: Option<FovAxis>,
     /// An orthographic camera's film: its width and height in scene units, centred on `origin` (default:
-    /// Mitsuba's, 2 wide and as high as the resolution's aspect makes square pixels).
+    /// the film `fov` spans at the target when a `fov` is given, so that a perspective scene switched to
+    /// orthographic keeps its framing there; else Mitsuba's, 2 wide and as high as the resolution's
+    /// aspect makes square pixels).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub film_size: Option<[f32; 2]>,
     #[serde(default = "default_resolution")]

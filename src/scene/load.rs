@@ -271,9 +271,13 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
     }
     let ortho = c.projection == Projection::Orthographic;
     if ortho {
-        for (key, given) in [("camera.fov", c.fov.is_some()), ("camera.fov_axis", c.fov_axis.is_some())] {
-            if given {
-                return Err(cx.err(key, "an orthographic camera has no field of view (its film_size sets the view)"));
+        if c.film_size.is_some() {
+            for (key, given) in [("camera.fov", c.fov.is_some()), ("camera.fov_axis", c.fov_axis.is_some())] {
+                if given {
+                    let msg = "an orthographic camera takes `film_size` or `fov` (the film that field of view spans \
+                               at the target), not both";
+                    return Err(cx.err(key, msg));
+                }
             }
         }
         if c.aperture_radius != 0.0 || c.focus_distance.is_some() {
@@ -298,8 +302,17 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         ));
     }
     let mut camera = if ortho {
-        // Mitsuba's default film: 2 wide, square pixels.
-        let size = c.film_size.unwrap_or([2.0, 2.0 * h as f32 / w as f32]);
+        // `film_size`; else the film a perspective camera's field of view spans at the target, when one
+        // is given (a perspective scene made orthographic keeps its framing there); else Mitsuba's
+        // default film, 2 wide with square pixels.
+        let size = match (c.film_size, c.fov) {
+            (Some(size), _) => size,
+            (None, Some(_)) => {
+                let pinhole = Camera::new(o, t, up, fov, c.fov_axis.unwrap_or(FovAxis::X), c.resolution);
+                pinhole.tan_half.map(|th| 2.0 * (t - o).length() * th)
+            }
+            (None, None) => [2.0, 2.0 * h as f32 / w as f32],
+        };
         let bad = |why: &str| cx.err("camera.film_size", format!("{why}, got {size:?}"));
         if !size.iter().all(|v| v.is_finite() && *v > 0.0) {
             return Err(bad("must be a width and a height > 0 in scene units"));
