@@ -338,6 +338,44 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["projection = \"fisheye\"", "unknown variant `fisheye`", "orthographic"],
         ),
         (
+            "spot_texture_unknown",
+            GOOD.replace(
+                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
+                "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\npower = [10.0, 10.0, 10.0]\ntexture = \"slide\"",
+            ),
+            vec![],
+            vec!["lights[0].texture", "`slide`"],
+        ),
+        (
+            "spot_texture_wide",
+            GOOD.replace(
+                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
+                "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\npower = [10.0, 10.0, 10.0]\ntexture = \"slide\"\ncutoff_angle = 90",
+            )
+            .replace("[materials]", "[textures]\nslide = { type = \"checkerboard\" }\n\n[materials]"),
+            vec![],
+            vec!["lights[0].cutoff_angle", "< 90 degrees, got 90"],
+        ),
+        (
+            "spot_up_along_axis",
+            GOOD.replace(
+                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
+                "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\npower = [10.0, 10.0, 10.0]\ntexture = \"slide\"",
+            )
+            .replace("[materials]", "[textures]\nslide = { type = \"checkerboard\" }\n\n[materials]"),
+            vec![],
+            vec!["lights[0].up", "along the spot's axis"],
+        ),
+        (
+            "spot_up_without_texture",
+            GOOD.replace(
+                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
+                "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\npower = [10.0, 10.0, 10.0]\nup = [1.0, 0.0, 0.0]",
+            ),
+            vec![],
+            vec!["lights[0].up", "this spot has none"],
+        ),
+        (
             "blend_of_itself",
             with_white(
                 "white = { type = \"blend\", first = \"a\", second = \"b\" }\n\

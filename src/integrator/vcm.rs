@@ -426,7 +426,9 @@ impl Aim {
         // light's own emission over its own density is the same for every direction it emits into
         // (cosine over cosine lobe, or uniform), but for a spot's falloff; the mixture divides by `ratio`.
         let ratio = self.ratio(e.origin, e.ray.d, new);
-        e.phi *= lights.falloff(e.light, e.ray.d) / old_falloff / ratio;
+        e.untinted *= lights.falloff(e.light, e.ray.d) / old_falloff / ratio;
+        // A spot's projected texture, read in the direction it now leaves along.
+        e.phi = e.untinted * lights.tint(e.light, e.ray.d);
         e.pdf_emit = e.pdf_emit / old * new * ratio;
         Some(e)
     }

@@ -533,7 +533,7 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     if falloff <= 0.0 {
         return None;
     }
-    let phi = lp.le * (falloff * cos_x * cos_y / dist2 * inv_p / (lp.pdf_area * p_sel));
+    let phi = lp.le * lights.tint(li, w) * (falloff * cos_x * cos_y / dist2 * inv_p / (lp.pdf_area * p_sel));
     let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w, lp.size) };
     let travelled = (o - lp.p).length();
     Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)), delta: lights.list[li].is_delta() })

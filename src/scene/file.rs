@@ -646,6 +646,15 @@ pub enum LightSpec {
         cutoff_angle: f32,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         beam_width: Option<f32>,
+        /// A texture projected along the spot (the name of a `[textures]` entry; Mitsuba's `texture`):
+        /// its square spans the cutoff cone's base, u running along `up` × the axis and v towards `up`;
+        /// the light in each direction is the intensity (or `power`'s, the slide left out) times the
+        /// texture there. Needs `cutoff_angle` < 90.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        texture: Option<String>,
+        /// Where the projected texture's v runs (default [0, 1, 0]; any vector off the axis).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        up: Option<V3>,
     },
     /// Spherical area light (visible, emits outward); give `power` or `radiance`.
     Sphere {

@@ -44,13 +44,40 @@ pub struct Spot {
     pub beam: f32,
     /// 1 − cos(cutoff), computed stably for narrow cones: the cone's solid angle over 2π.
     one_minus: f32,
+    /// A texture projected along the spot (Mitsuba's `texture`, a slide in front of the bulb): an index
+    /// into the scene's textures as the loader gives it, into `Lights::spot_textures` once built.
+    pub texture: Option<u32>,
+    /// The spot's own x and y axes (unit, across the axis): where the texture's u and v run.
+    pub frame: [Vec3; 2],
 }
 
 impl Spot {
     /// A cone around `axis` (any length but zero); `beam` ≤ `cutoff` ≤ π, in radians.
     pub fn new(axis: Vec3, cutoff: f32, beam: f32) -> Spot {
         let half = (0.5 * cutoff).sin();
-        Spot { axis: axis.normalize(), cutoff, beam, one_minus: 2.0 * half * half }
+        Spot {
+            axis: axis.normalize(),
+            cutoff,
+            beam,
+            one_minus: 2.0 * half * half,
+            texture: None,
+            frame: [Vec3::ZERO; 2],
+        }
+    }
+
+    /// This spot with texture `t` projected along it, its v running towards `up` (any vector off the
+    /// axis) and its u along up × axis, as Mitsuba's `lookat` places a spot's local x and y.
+    pub fn with_texture(self, t: u32, up: Vec3) -> Spot {
+        let x = up.cross(self.axis).normalize();
+        Spot { texture: Some(t), frame: [x, self.axis.cross(x)], ..self }
+    }
+
+    /// The texture coordinates of direction `w` (any length, inside the cone): Mitsuba's, 0.5 + 0.5 ·
+    /// (the direction's x and y over its z, in the spot's frame) / tan(cutoff), so that the texture's
+    /// square spans the cutoff cone's base.
+    pub fn uv(&self, w: Vec3) -> glam::Vec2 {
+        let z = w.dot(self.axis) * self.cutoff.tan();
+        glam::Vec2::new(0.5 + 0.5 * w.dot(self.frame[0]) / z, 0.5 + 0.5 * w.dot(self.frame[1]) / z)
     }
 
     /// Angle between the axis and direction `w` (any length), by atan2: exact for narrow cones, where the f32
@@ -155,6 +182,8 @@ pub struct Lights {
     pub sphere: (Vec3, f32),
     /// Index range [start, end) of the point and spot lights in `list` (`build` lists them together).
     points: (usize, usize),
+    /// The textures spots project (`Spot::texture`), copied from the scene's.
+    spot_textures: Vec<crate::scene::Texture>,
 }
 
 /// A point on a light seen from a reference point.
@@ -187,6 +216,9 @@ pub struct LightSample {
 pub struct EmittedRay {
     pub ray: Ray,
     pub phi: Rgb,
+    /// `phi` without a spot's projected texture (`Lights::tint`; `phi` itself for every other light):
+    /// what a change of direction rescales before the texture is read in the new one.
+    pub untinted: Rgb,
     /// The light it left (index in `Lights::list`).
     pub light: usize,
     /// Density of this ray, light choice included: area × solid angle (cosine lobe) for surfaces, solid
@@ -222,8 +254,20 @@ impl Lights {
         }
         let first_point = l.list.len();
         for p in points {
-            l.list.push(LightKind::Point { position: p.position, intensity: p.intensity, spot: p.spot });
-            l.power.push(p.power());
+            let mut spot = p.spot;
+            let mut power = p.power();
+            if let Some(s) = &mut spot {
+                if let Some(t) = s.texture {
+                    // Weighed by the slide's mean (a heuristic for the choice of light: what each photon
+                    // and light sample carries is the texture's value in its own direction).
+                    let tex = scene.textures[t as usize].clone();
+                    power *= tex.mean();
+                    s.texture = Some(l.spot_textures.len() as u32);
+                    l.spot_textures.push(tex);
+                }
+            }
+            l.list.push(LightKind::Point { position: p.position, intensity: p.intensity, spot });
+            l.power.push(power);
         }
         l.points = (first_point, l.list.len());
         for (si, shape) in scene.shapes.iter().enumerate() {
@@ -385,7 +429,7 @@ impl Lights {
                     wi,
                     dist,
                     p: *position,
-                    li: *intensity * (falloff / dist2),
+                    li: *intensity * self.tint(i, -wi) * (falloff / dist2),
                     pdf: p_sel,
                     delta: true,
                     // Emission picks this light by power, this sampler with p_sel.
@@ -581,9 +625,11 @@ impl Lights {
             let d = sampling::concentric_disk(u_pos);
             let o = c + s.wi * (2.0 * r) + (f.s * d[0] + f.t * d[1]) * r;
             let disc = PI * r * r;
+            let phi = s.li * (disc / s.pdf) / p_sel;
             return Some(EmittedRay {
                 ray: Ray::new(o, -s.wi),
-                phi: s.li * (disc / s.pdf) / p_sel,
+                phi,
+                untinted: phi,
                 light: i,
                 pdf_emit: p_sel * s.pdf / disc,
                 cos: 1.0,
@@ -597,9 +643,11 @@ impl Lights {
             // Inside the cone by construction (a direction rounded onto its edge has zero falloff).
             let d = s.sample(u_dir);
             let pdf = s.cone_density();
+            let untinted = *intensity * (s.falloff(d) / (pdf * p_sel));
             return Some(EmittedRay {
                 ray: Ray::new(*position, d),
-                phi: *intensity * (s.falloff(d) / (pdf * p_sel)),
+                phi: untinted * self.tint(i, d),
+                untinted,
                 light: i,
                 pdf_emit: p_sel * pdf,
                 cos: 1.0,
@@ -626,7 +674,7 @@ impl Lights {
             let cos = d.dot(lp.n);
             (Ray::new(offset_ray_origin(lp.p, lp.n, d, lp.size), d), p_sel * lp.pdf_area * cos / PI, cos)
         };
-        Some(EmittedRay { ray, phi, light: i, pdf_emit, cos, origin: lp.p, normal: lp.n, size: lp.size })
+        Some(EmittedRay { ray, phi, untinted: phi, light: i, pdf_emit, cos, origin: lp.p, normal: lp.n, size: lp.size })
     }
 
     /// Probability that a light is chosen by power (photon emission, and next-event estimation over
@@ -696,8 +744,19 @@ impl Lights {
         }
     }
 
+    /// The colour a spot's projected texture gives its light towards direction `w` (inside its cone):
+    /// the texture at `Spot::uv`; white for every other light.
+    pub fn tint(&self, i: usize, w: Vec3) -> Rgb {
+        match &self.list[i] {
+            LightKind::Point { spot: Some(s @ Spot { texture: Some(t), .. }), .. } => {
+                self.spot_textures[*t as usize].eval(s.uv(w))
+            }
+            _ => Rgb::ONE,
+        }
+    }
+
     /// Intensity of light `i` towards unit direction `w` over its intensity on the axis: a spot's
-    /// falloff, 1 for every other light.
+    /// falloff, 1 for every other light (a spot's texture apart: `tint`).
     pub fn falloff(&self, i: usize, w: Vec3) -> f32 {
         match &self.list[i] {
             LightKind::Point { spot: Some(s), .. } => s.falloff(w),

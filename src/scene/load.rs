@@ -225,10 +225,10 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
                 distant_keys.push(key);
             }
             LightSpec::Point { .. } | LightSpec::Spot { .. } => {
-                build_light(&cx, &key, spec, black, &mut shapes, &mut points)?;
+                build_light(&cx, &key, spec, black, &textures, &mut shapes, &mut points)?;
                 point_keys.push(key);
             }
-            _ => build_light(&cx, &key, spec, black, &mut shapes, &mut points)?,
+            _ => build_light(&cx, &key, spec, black, &textures, &mut shapes, &mut points)?,
         }
     }
     let bounds = scene_bounds(&shapes, &points);
@@ -1245,6 +1245,7 @@ fn build_light(
     key: &str,
     spec: &LightSpec,
     black: u32,
+    textures: &Textures,
     shapes: &mut Vec<Shape>,
     points: &mut Vec<PointLight>,
 ) -> Result<(), SceneError> {
@@ -1254,7 +1255,7 @@ fn build_light(
             let intensity = power / (4.0 * std::f32::consts::PI);
             points.push(PointLight { position: Vec3::from_array(*position), intensity, spot: None });
         }
-        LightSpec::Spot { position, direction, target, intensity, power, cutoff_angle, beam_width } => {
+        LightSpec::Spot { position, direction, target, intensity, power, cutoff_angle, beam_width, texture, up } => {
             let position = Vec3::from_array(*position);
             let axis = match (direction, target) {
                 (Some(d), None) => Vec3::from_array(*d),
@@ -1276,7 +1277,26 @@ fn build_light(
             };
             let cutoff = angle("cutoff_angle", *cutoff_angle, (0.0, 180.0), "(")?;
             let beam = angle("beam_width", beam_width.unwrap_or(0.75 * cutoff_angle), (0.0, *cutoff_angle), "[")?;
-            let spot = Spot::new(axis, cutoff, beam);
+            let mut spot = Spot::new(axis, cutoff, beam);
+            match texture {
+                Some(name) => {
+                    let t = texture_named(cx, &format!("{key}.texture"), name, textures)?;
+                    if *cutoff_angle >= 90.0 {
+                        let msg = format!("a projected texture needs cutoff_angle < 90 degrees, got {cutoff_angle}");
+                        return Err(cx.err(&format!("{key}.cutoff_angle"), msg));
+                    }
+                    let up = Vec3::from_array(up.unwrap_or([0.0, 1.0, 0.0]));
+                    let off_axis = up.cross(axis.normalize()).length();
+                    if !up.is_finite() || off_axis.is_nan() || off_axis <= 1e-6 {
+                        return Err(cx.err(&format!("{key}.up"), "is zero or along the spot's axis"));
+                    }
+                    spot = spot.with_texture(t, up);
+                }
+                None if up.is_some() => {
+                    return Err(cx.err(&format!("{key}.up"), "orients a projected texture; this spot has none"));
+                }
+                None => {}
+            }
             let intensity = match (intensity, power) {
                 (Some(i), None) => cx.colour(&format!("{key}.intensity"), *i, None)?,
                 (None, Some(p)) => cx.colour(&format!("{key}.power"), *p, None)? / spot.solid_angle(),

@@ -1055,7 +1055,7 @@ impl<'a> Cx<'a> {
         Ok(name)
     }
 
-    fn emitter(&mut self, e: &Node) -> Result<(), SceneError> {
+    fn emitter(&mut self, e: &'a Node) -> Result<(), SceneError> {
         let p = Props::new(e);
         match e.attr("type") {
             Some("point") => {
@@ -1078,6 +1078,27 @@ impl<'a> Cx<'a> {
                 let cutoff_angle = p.float("cutoff_angle")?.unwrap_or(20.0);
                 let beam_width = p.float("beam_width")?.unwrap_or(0.75 * cutoff_angle).min(cutoff_angle);
                 let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+                // A projected texture (Mitsuba's `texture`, a bitmap or another varying texture) runs
+                // along the spot's local x and y: its `up` is to_world's y, which must not scale or shear.
+                let (texture, up) =
+                    match self.colour_or_node(&p, "texture", &format!("lights[{}]", self.file.lights.len()))? {
+                        None => (None, None),
+                        Some(Valued::Rgb(_)) => {
+                            return Err(e.error(
+                                "a spot's `texture` must be a texture that varies (Mitsuba refuses a constant too)",
+                            ))
+                        }
+                        Some(Valued::Texture(t, fallback)) => {
+                            let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+                            let unit = [x, y, z].iter().all(|a| (a.length() - 1.0).abs() < 1e-3);
+                            if !unit || x.dot(y).abs() > 1e-3 || x.cross(y).dot(z) < 0.0 {
+                                return Err(e.error(
+                                    "a spot with a `texture` needs a to_world that only rotates and translates",
+                                ));
+                            }
+                            (Some(self.texture(t, &fallback)?), Some(y.to_array()))
+                        }
+                    };
                 self.file.lights.push(LightSpec::Spot {
                     position: m.transform_point3(Vec3::ZERO).to_array(),
                     direction: Some(m.transform_vector3(Vec3::Z).to_array()),
@@ -1086,6 +1107,8 @@ impl<'a> Cx<'a> {
                     power: None,
                     cutoff_angle,
                     beam_width: Some(beam_width),
+                    texture,
+                    up,
                 });
             }
             Some("constant") => {
@@ -1112,7 +1135,7 @@ impl<'a> Cx<'a> {
             _ => return Err(e.error(format!("emitter type not read (read: {EMITTERS})"))),
         }
         p.finish(
-            "intensity, position, to_world (point); intensity, cutoff_angle, beam_width, to_world (spot); irradiance, direction, to_world (directional); radiance \
+            "intensity, position, to_world (point); intensity, cutoff_angle, beam_width, texture, to_world (spot); irradiance, direction, to_world (directional); radiance \
              (constant); filename, scale, to_world (envmap)",
         )
     }
