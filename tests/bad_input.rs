@@ -67,6 +67,14 @@ fn with_camera(lines: &str) -> String {
     GOOD.replace("resolution = [8, 8]", &format!("resolution = [8, 8]\n{lines}"))
 }
 
+/// `GOOD` with its point light a spot straight down, `lines` (`\n`-separated) added to it.
+fn with_spot(lines: &str) -> String {
+    GOOD.replace(
+        "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
+        &format!("type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\npower = [10.0, 10.0, 10.0]\n{lines}"),
+    )
+}
+
 /// `GOOD` with an orthographic camera (no `fov`) and `lines` added to it.
 fn orthographic(lines: &str) -> String {
     with_camera(&format!("projection = \"orthographic\"\n{lines}")).replace("fov = 40\n", "")
@@ -339,39 +347,27 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "spot_texture_unknown",
-            GOOD.replace(
-                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
-                "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\npower = [10.0, 10.0, 10.0]\ntexture = \"slide\"",
-            ),
+            with_spot("texture = \"slide\""),
             vec![],
             vec!["lights[0].texture", "`slide`"],
         ),
         (
             "spot_texture_wide",
-            GOOD.replace(
-                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
-                "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\npower = [10.0, 10.0, 10.0]\ntexture = \"slide\"\ncutoff_angle = 90",
-            )
+            with_spot("texture = \"slide\"\ncutoff_angle = 90")
             .replace("[materials]", "[textures]\nslide = { type = \"checkerboard\" }\n\n[materials]"),
             vec![],
             vec!["lights[0].cutoff_angle", "< 90 degrees, got 90"],
         ),
         (
             "spot_up_along_axis",
-            GOOD.replace(
-                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
-                "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\npower = [10.0, 10.0, 10.0]\ntexture = \"slide\"",
-            )
+            with_spot("texture = \"slide\"")
             .replace("[materials]", "[textures]\nslide = { type = \"checkerboard\" }\n\n[materials]"),
             vec![],
             vec!["lights[0].up", "along the spot's axis"],
         ),
         (
             "spot_up_without_texture",
-            GOOD.replace(
-                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
-                "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\npower = [10.0, 10.0, 10.0]\nup = [1.0, 0.0, 0.0]",
-            ),
+            with_spot("up = [1.0, 0.0, 0.0]"),
             vec![],
             vec!["lights[0].up", "this spot has none"],
         ),

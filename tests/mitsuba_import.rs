@@ -620,6 +620,30 @@ fn thin_lens_matches_mitsuba_pixel_by_pixel() {
     pixels_match_mitsuba("thinlens", &check, &wrong);
 }
 
+/// A `lookat` without `up` takes Mitsuba's: the first axis of its `coordinate_system` of the view
+/// direction (Duff et al.'s orthonormal basis), not +y. Mitsuba 3.9.1's to_world for this lookat (read off
+/// `mi.load_string`) has its local y (the camera's up) at (0.99674, 0.0522412, −0.0614794); with +y the
+/// image came out turned by about 90° (found by random scene 1287, a spot aimed that way: its projected
+/// texture turned).
+#[test]
+fn lookat_without_up_is_mitsubas() {
+    let d = tmp("lookat-up");
+    let xml = r#"<scene version="3.0.0">
+  <sensor type="perspective"><float name="fov" value="30"/>
+    <transform name="to_world"><lookat origin="-0.02034, 2.669, -0.7385" target="0.1462, 0, -0.3064"/></transform>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+  </sensor>
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform><bsdf type="diffuse"/></shape>
+  <emitter type="point"><point name="position" x="0" y="1" z="0"/></emitter>
+</scene>"#;
+    let scene = load_scene_with(&write(&d, "lookat.xml", xml), &[]).unwrap();
+    let want = glam::Vec3::new(0.99674, 0.0522412, -0.0614794);
+    assert!((scene.camera.up - want).length() < 1e-4, "camera up {:?}, Mitsuba's {want:?}", scene.camera.up);
+    let forward = glam::Vec3::new(0.0614794, -0.98528, 0.159513);
+    assert!((scene.camera.forward - forward).length() < 1e-4, "{:?}", scene.camera.forward);
+    let _ = std::fs::remove_dir_all(d);
+}
+
 /// A spot light projecting a texture (`spot-texture.xml`, session 44): Mitsuba's uv of a direction, 0.5 +
 /// 0.5 · (x, y) / (z tan cutoff) in the spot's frame, the frame turned by the lookat's tilted `up`, the
 /// texture's colour times the falloff; every 16×16 block within 4% and the means within 0.3%, and every

@@ -477,6 +477,26 @@ if args.more:
                 f'<transform name="to_uv"><scale value="{scale}"/></transform></texture>')
 
     text = re.sub(r'<float name="(alpha_[uv])" value="([^"]+)"/>', textured_alpha, text)
+
+    # Spots projecting a texture (caustica since session 44), from an eleventh stream, last: half the
+    # spots throw label.png (bilinear or nearest) or a checkerboard of two colours.
+    P = random.Random(args.seed * 9257 + 83)
+
+    def slide(m):
+        if P.random() >= 0.5:
+            return m.group(0)
+        if P.random() < 0.5:
+            filt = P.choice(["bilinear", "nearest"])
+            tex = (f'<texture type="bitmap" name="texture"><string name="filename" value="label.png"/>'
+                   f'<string name="filter_type" value="{filt}"/></texture>')
+        else:
+            c0 = ", ".join(f(P.uniform(0.1, 1.0)) for _ in range(3))
+            c1 = ", ".join(f(P.uniform(0.1, 1.0)) for _ in range(3))
+            tex = (f'<texture type="checkerboard" name="texture"><rgb name="color0" value="{c0}"/>'
+                   f'<rgb name="color1" value="{c1}"/><transform name="to_uv"><scale value="{P.choice([2, 3, 4])}"/></transform></texture>')
+        return m.group(0)[:-len("</emitter>")] + tex + "</emitter>"
+
+    text = re.sub(r'<emitter type="spot">(?:(?!</emitter>).)*</emitter>', slide, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

@@ -345,6 +345,16 @@ fn vec_attr(n: &Node, key: &str) -> Result<Vec3, SceneError> {
     }
 }
 
+/// The first axis of Mitsuba's `coordinate_system(n)` for the unit `n` of `d` (Duff et al. 2017, "Building
+/// an orthonormal basis, revisited"): what a `lookat` without `up` takes as its up.
+fn basis_up(d: glam::DVec3) -> Vec3 {
+    let n = d.normalize_or_zero();
+    let sign = 1f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    glam::DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x).as_vec3()
+}
+
 fn op_matrix(op: &Node) -> Result<Mat4, SceneError> {
     Ok(match op.tag.as_str() {
         "translate" => Mat4::from_translation(Vec3::from_array(xyz(op, 0.0)?)),
@@ -373,8 +383,10 @@ fn op_matrix(op: &Node) -> Result<Mat4, SceneError> {
         }
         "lookat" => {
             let (o, t) = (vec_attr(op, "origin")?, vec_attr(op, "target")?);
-            let up = if op.attr("up").is_some() { vec_attr(op, "up")? } else { Vec3::Y };
             let dir = (t - o).normalize_or_zero();
+            // Without `up`, Mitsuba's: the first axis of its `coordinate_system` of the view direction
+            // (Duff et al.'s orthonormal basis, in f64 as Mitsuba's parser takes it), not +y.
+            let up = if op.attr("up").is_some() { vec_attr(op, "up")? } else { basis_up((t - o).as_dvec3()) };
             let left = up.cross(dir).normalize_or_zero();
             if dir == Vec3::ZERO || left == Vec3::ZERO {
                 return Err(op.error("origin equals target, or up is parallel to the view"));
