@@ -221,8 +221,9 @@ pub fn camera_sees(
 /// pinhole camera), splatted with `add(pixel, value)` where it lands on the film, times `weight` of
 /// the link and divided by `norm` (the light paths it is one of). `weight` gets the unit direction to
 /// the lens (for an orthographic camera, against the view direction) and the density (per unit area at
-/// `si`) with which a camera path would reach `si`; a weight of 0 casts no ray. The lens point's density, 1 / (π r²), is the same for every strategy and
-/// cancels against the aperture's area in the camera's importance, so neither appears.
+/// `si`) with which a camera path would reach `si`; a weight of 0 casts no ray. The lens point's
+/// density, 1 / (π r²), is the same for every strategy and cancels against the aperture's area in the
+/// camera's importance, so neither appears.
 #[allow(clippy::too_many_arguments)]
 pub fn link_to_camera(
     scene: &crate::scene::Scene,

@@ -326,16 +326,11 @@ impl Camera {
     /// Where light leaving world point `p` reaches the camera through lens point `lens` (the pinhole, or
     /// ignored for an orthographic camera), if `p` is in front of the camera and lands on the film.
     pub fn link(&self, lens: Vec3, p: Vec3) -> Option<CameraLink> {
-        if let Some(half) = self.ortho {
+        if self.ortho.is_some() {
             let film = self.project(p)?;
             let to = p - self.forward * (p - self.origin).dot(self.forward);
-            return Some(CameraLink {
-                film,
-                to,
-                dir: -self.forward,
-                pdf: 1.0 / self.ortho_pixel_area(half),
-                dist2: 1.0,
-            });
+            let pdf = self.pixel_pdf_dir(self.forward);
+            return Some(CameraLink { film, to, dir: -self.forward, pdf, dist2: 1.0 });
         }
         let film = self.film_position_from(lens, p)?;
         let to_cam = lens - p;

@@ -690,7 +690,7 @@ impl Scene {
             return bsdf;
         }
         let colour = |t: Option<u32>| t.map(|t| self.textures[t as usize].eval(si.uv));
-        let number = |t: Option<u32>| t.map(|t| material::mitsuba_luminance(self.textures[t as usize].eval(si.uv)));
+        let number = |t: Option<u32>| colour(t).map(material::mitsuba_luminance);
         let alpha = number(m.maps.alpha);
         // An isotropic textured roughness reads its texture once for both.
         let alpha_v = if m.maps.alpha_v == m.maps.alpha { alpha } else { number(m.maps.alpha_v) };
