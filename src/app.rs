@@ -262,7 +262,11 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     let mesh_bytes: usize =
         scene.shapes.iter().map(|s| if let Geometry::Mesh(m) = &s.geometry { m.bytes() } else { 0 }).sum();
     println!("scene       {}", a.scene.display());
-    println!("camera      {}×{}", scene.camera.width, scene.camera.height);
+    let window = match scene.camera.window {
+        Some((at, film)) => format!(", the window at ({}, {}) of a {}×{} film", at[0], at[1], film[0], film[1]),
+        None => String::new(),
+    };
+    println!("camera      {}×{}{window}", scene.camera.width, scene.camera.height);
     println!("shapes      {} ({} triangles, {} analytic spheres)", scene.shapes.len(), tris, spheres);
     for s in &scene.shapes {
         let kind = match &s.geometry {

@@ -334,6 +334,18 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["camera.film_size", "beyond f32's range", "got [3e38, 3e38]"],
         ),
         (
+            "crop_off_the_film",
+            with_camera("crop = [2, 0, 7, 8]"),
+            vec![],
+            vec!["camera.crop", "[2, 0, 7, 8]", "inside the 8×8 film", "x + width ≤ 8"],
+        ),
+        (
+            "crop_empty",
+            with_camera("crop = [0, 0, 0, 8]"),
+            vec![],
+            vec!["camera.crop", "at least one pixel"],
+        ),
+        (
             "perspective_film_size",
             with_camera("film_size = [2.0, 2.0]"),
             vec![],

@@ -287,6 +287,51 @@ fn light_tracing_lands_where_an_orthographic_camera_looks() {
     light_tracing_matches_pt("orthographic", &mut s, &a, &wrong);
 }
 
+/// A crop window of the film (TOML `camera.crop`, Mitsuba's film crop) through a pinhole, a thin lens
+/// and an orthographic camera: the path tracer's crop must show what the same pixels of the whole film
+/// show (held pixel by pixel to the window of a whole-film render, within 1.5× their noise, where the
+/// window one pixel to the right differs by more than 3× it), and light tracing must land in the crop
+/// where its camera samples look (`light_tracing_matches_pt`, against the crop one pixel to the right).
+#[test]
+fn a_crop_window_shows_the_whole_films_pixels_and_light_tracing_lands_in_it() {
+    let cameras = [
+        ("pinhole", "fov = 50\n"),
+        ("thin lens", "fov = 50\naperture_radius = 0.05\nfocus_distance = 1.1\n"),
+        ("orthographic", "projection = \"orthographic\"\nfilm_size = [1.3, 1.3]\n"),
+    ];
+    let window = |img: &Image, [x0, y0, w, h]: [u32; 4]| {
+        let mut out = Image::new(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                out.set(x, y, img.get(x0 + x, y0 + y));
+            }
+        }
+        out
+    };
+    let sq = |x: &Image, y: &Image| {
+        let sum: f64 = x.pixels.iter().zip(&y.pixels).map(|(p, q)| (*p - *q).length_squared() as f64).sum();
+        sum / (x.pixels.len() * 3) as f64
+    };
+    let crop = [5, 3, 12, 14];
+    for (label, camera) in cameras {
+        let mut whole = checkerboard_seen_by(camera);
+        let a = Accel::new(&whole).unwrap();
+        let mut cropped = checkerboard_seen_by(&format!("{camera}crop = {crop:?}\n"));
+        assert_eq!((cropped.camera.width, cropped.camera.height), (12, 14));
+        let (w1, w2) = (pt_image(&mut whole, &a, 1), pt_image(&mut whole, &a, 2));
+        let (c1, c2) = (pt_image(&mut cropped, &a, 3), pt_image(&mut cropped, &a, 4));
+        let noise = sq(&window(&w1, crop), &window(&w2, crop)) / 2.0 + sq(&c1, &c2) / 2.0;
+        let got = sq(&c1, &window(&w1, crop));
+        let shifted = sq(&c1, &window(&w1, [crop[0] + 1, crop[1], crop[2], crop[3]]));
+        eprintln!("crop, {label}: PT vs the whole film's window MSE {got:.3e}, noise {noise:.3e}; one pixel off {shifted:.3e}");
+        assert!(got < 1.5 * noise, "crop, {label}: MSE {got} against the whole film's window, noise {noise}");
+        assert!(shifted > 3.0 * noise, "crop, {label}: the shifted window should differ: {shifted}");
+        let mut off = checkerboard_seen_by(&format!("{camera}crop = [6, 3, 12, 14]\n"));
+        let wrong = pt_image(&mut off, &a, 1);
+        light_tracing_matches_pt(&format!("crop, {label}"), &mut cropped, &a, &wrong);
+    }
+}
+
 /// Light tracing splats through the pixel filter as camera samples are drawn through it: with a
 /// Gaussian, a tent and a Mitchell filter (negative lobes) it matches the path tracer's image with the
 /// same filter, where splatting as a box would render the box-filtered image.

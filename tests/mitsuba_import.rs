@@ -620,6 +620,21 @@ fn thin_lens_matches_mitsuba_pixel_by_pixel() {
     pixels_match_mitsuba("thinlens", &check, &wrong);
 }
 
+/// Mitsuba's film crop, held to Mitsuba pixel by pixel: `crop.xml` renders the 44 × 30 pixels at (34,
+/// 10) of `filter.xml`'s 96 × 72 film (Gaussian filter, the crop's edges treated as the film's). The
+/// whole film's centre in its place, or the window one pixel to the right, must miss by more than twice
+/// caustica's noise.
+#[test]
+fn a_crop_window_matches_mitsuba_pixel_by_pixel() {
+    let px = |s: &Scene| 2.0 * s.camera.tan_half[0] / s.camera.width as f32;
+    let wrong: Vec<Variant> = vec![
+        ("the window at the film's centre".into(), Box::new(|s: &mut Scene| s.camera.centre = [0.0, 0.0])),
+        ("the window one pixel to the right".into(), Box::new(move |s: &mut Scene| s.camera.centre[0] += px(s))),
+    ];
+    let check = |s: &Scene| assert_eq!((s.camera.width, s.camera.height), (44, 30));
+    pixels_match_mitsuba("crop", &check, &wrong);
+}
+
 /// A `lookat` without `up` takes Mitsuba's: the first axis of its `coordinate_system` of the view
 /// direction (Duff et al.'s orthonormal basis), not +y. Mitsuba 3.9.1's to_world for this lookat (read off
 /// `mi.load_string`) has its local y (the camera's up) at (0.99674, 0.0522412, −0.0614794); with +y the
@@ -1158,6 +1173,20 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "serialized-name",
             r#"<scene version="3.0.0"><shape type="serialized"><string name="filename" value="m.obj"/></shape></scene>"#,
             "must end in .serialized, got `m.obj`",
+        ),
+        (
+            "crop-off-film",
+            &panel_with(
+                "<rfilter type=\"box\"/>",
+                "<integer name=\"crop_offset_x\" value=\"4\"/><integer name=\"crop_width\" value=\"5\"/>",
+            ),
+            "the crop window (crop_offset_x 4, crop_offset_y 0, crop_width 5, crop_height 8) must hold at least one \
+             pixel and lie on the 8×8 film",
+        ),
+        (
+            "crop-negative",
+            &panel_with("<rfilter type=\"box\"/>", "<integer name=\"crop_offset_y\" value=\"-1\"/>"),
+            "crop_offset_y must be ≥ 0, got -1",
         ),
         (
             "sensor-kind",

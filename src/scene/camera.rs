@@ -266,6 +266,11 @@ pub struct Camera {
     /// pinhole or thin lens). Its rays' direction is a delta, so light tracing joins a surface point to
     /// the film point in front of it, as to a distant light.
     pub ortho: Option<[f32; 2]>,
+    /// Where the film's centre lies off the view axis, in the units of `tan_half` (or of `ortho`): the
+    /// film is a crop window of a larger one centred on the axis (`crop`); [0, 0] without a crop.
+    pub centre: [f32; 2],
+    /// For a crop window: its offset on the whole film and that film's size, in pixels (for reports).
+    pub window: Option<([u32; 2], [u32; 2])>,
 }
 
 /// Where light leaving a surface point reaches the camera (`Camera::link`).
@@ -309,6 +314,8 @@ impl Camera {
             lens_radius: 0.0,
             focus_distance: (target - origin).length(),
             ortho: None,
+            centre: [0.0, 0.0],
+            window: None,
         }
     }
 
@@ -316,6 +323,29 @@ impl Camera {
     /// units.
     pub fn orthographic(origin: Vec3, target: Vec3, up: Vec3, size: [f32; 2], res: [u32; 2]) -> Camera {
         Camera { ortho: Some([0.5 * size[0], 0.5 * size[1]]), ..Camera::new(origin, target, up, 40.0, FovAxis::X, res) }
+    }
+
+    /// The same camera rendering only the window of `size` pixels at `offset` (from the top-left corner)
+    /// of its film: each pixel of the new film sees exactly what the same pixel of the window saw, so the
+    /// image is that window of the whole one (Mitsuba's film crop). The caller checks that the window
+    /// lies on the film.
+    pub fn crop(self, offset: [u32; 2], size: [u32; 2]) -> Camera {
+        let (full, new) = ([self.width as f32, self.height as f32], [size[0] as f32, size[1] as f32]);
+        let half = self.ortho.unwrap_or(self.tan_half);
+        let half_new = [half[0] * new[0] / full[0], half[1] * new[1] / full[1]];
+        // The window's centre on the film, from −1 to 1 across it (y up).
+        let mid =
+            [(2.0 * offset[0] as f32 + new[0]) / full[0] - 1.0, 1.0 - (2.0 * offset[1] as f32 + new[1]) / full[1]];
+        let centre = [self.centre[0] + mid[0] * half[0], self.centre[1] + mid[1] * half[1]];
+        let (tan_half, ortho) = match self.ortho {
+            Some(_) => (self.tan_half, Some(half_new)),
+            None => (half_new, None),
+        };
+        let whole = match self.window {
+            Some((at, film)) => ([at[0] + offset[0], at[1] + offset[1]], film),
+            None => (offset, [self.width, self.height]),
+        };
+        Camera { tan_half, ortho, centre, width: size[0], height: size[1], window: Some(whole), ..self }
     }
 
     /// A pixel's area in the scene on an orthographic camera's film.
@@ -450,10 +480,11 @@ impl Camera {
     pub fn ray(&self, x: f32, y: f32) -> Ray {
         let sx = 2.0 * x / self.width as f32 - 1.0;
         let sy = 1.0 - 2.0 * y / self.height as f32;
+        let [cx, cy] = self.centre;
         if let Some([hx, hy]) = self.ortho {
-            return Ray::new(self.origin + (sx * hx) * self.right + (sy * hy) * self.up, self.forward);
+            return Ray::new(self.origin + (sx * hx + cx) * self.right + (sy * hy + cy) * self.up, self.forward);
         }
-        let (sx, sy) = (sx * self.tan_half[0], sy * self.tan_half[1]);
+        let (sx, sy) = (sx * self.tan_half[0] + cx, sy * self.tan_half[1] + cy);
         Ray::new(self.origin, (self.forward + sx * self.right + sy * self.up).normalize())
     }
 
@@ -488,9 +519,10 @@ impl Camera {
         if z <= 0.0 {
             return None;
         }
+        let [cx, cy] = self.centre;
         let (sx, sy) = match self.ortho {
-            Some([hx, hy]) => (d.dot(self.right) / hx, d.dot(self.up) / hy),
-            None => (d.dot(self.right) / z / self.tan_half[0], d.dot(self.up) / z / self.tan_half[1]),
+            Some([hx, hy]) => ((d.dot(self.right) - cx) / hx, (d.dot(self.up) - cy) / hy),
+            None => ((d.dot(self.right) / z - cx) / self.tan_half[0], (d.dot(self.up) / z - cy) / self.tan_half[1]),
         };
         let x = (sx + 1.0) * 0.5 * self.width as f32;
         let y = (1.0 - sy) * 0.5 * self.height as f32;

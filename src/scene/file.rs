@@ -79,6 +79,11 @@ pub struct CameraSpec {
     pub film_size: Option<[f32; 2]>,
     #[serde(default = "default_resolution")]
     pub resolution: [u32; 2],
+    /// Render only a window of the film: `[x, y, width, height]` in pixels of `resolution`, from its
+    /// top-left corner (Mitsuba's film crop). The image is `width` × `height`, each pixel what the same
+    /// pixel of the whole film shows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crop: Option<[u32; 4]>,
     /// Pixel reconstruction filter: `{ type = "box" }` (default), `{ type = "tent", radius = 1.0 }` or
     /// `{ type = "gaussian", stddev = 0.5 }` (Mitsuba's film's default).
     #[serde(default, skip_serializing_if = "is_box_filter")]

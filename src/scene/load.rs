@@ -294,11 +294,13 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
     if !(fov > 0.0 && fov < 180.0) {
         return Err(cx.err("camera.fov", format!("must be in (0, 180) degrees, got {fov}")));
     }
-    let px = w as u64 * h as u64;
+    // The film holds the crop window's pixels only.
+    let [fw, fh] = c.crop.map_or([w, h], |[_, _, cw, ch]| [cw, ch]);
+    let px = fw as u64 * fh as u64;
     if px > MAX_PIXELS {
         return Err(cx.err(
             "camera.resolution",
-            format!("{w}×{h} needs about {} MiB of film; the limit is {MAX_PIXELS} pixels", px * 40 / (1 << 20)),
+            format!("{fw}×{fh} needs about {} MiB of film; the limit is {MAX_PIXELS} pixels", px * 40 / (1 << 20)),
         ));
     }
     let mut camera = if ortho {
@@ -345,6 +347,18 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         let (lo, hi) = (range.start(), range.end());
         return Err(cx.err(key, format!("must be in [{lo}, {hi}]{unit}, got {value}")));
     }
+    if let Some([x, y, cw, ch]) = c.crop {
+        if cw == 0 || ch == 0 || x as u64 + cw as u64 > w as u64 || y as u64 + ch as u64 > h as u64 {
+            return Err(cx.err(
+                "camera.crop",
+                format!(
+                    "[x, y, width, height] = [{x}, {y}, {cw}, {ch}] must be a window of at least one pixel \
+                     inside the {w}×{h} film (x + width ≤ {w}, y + height ≤ {h})"
+                ),
+            ));
+        }
+        camera = camera.crop([x, y], [cw, ch]);
+    }
     camera.filter = PixelFilter::new(c.filter);
     if !(c.aperture_radius.is_finite() && c.aperture_radius >= 0.0) {
         return Err(cx.err(
@@ -366,7 +380,8 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
             cx.err("camera.aperture_radius", format!("{:e} puts the lens beyond f32's range", c.aperture_radius))
         );
     }
-    let corner = camera.forward + camera.tan_half[0] * camera.right + camera.tan_half[1] * camera.up;
+    let reach = [0, 1].map(|i| camera.tan_half[i] + camera.centre[i].abs());
+    let corner = camera.forward + reach[0] * camera.right + reach[1] * camera.up;
     if camera.lens_radius > 0.0 && !(camera.origin + corner * camera.focus_distance).is_finite() {
         let f = camera.focus_distance;
         return Err(cx.err("camera.focus_distance", format!("{f:e} puts the plane of focus beyond f32's range")));

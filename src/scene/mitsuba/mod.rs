@@ -96,6 +96,7 @@ fn empty_file() -> SceneFile {
         fov_axis: Some(FovAxis::X),
         film_size: None,
         resolution: [768, 576],
+        crop: None,
         // Mitsuba's film's default; replaced by what the film says.
         filter: crate::scene::camera::FilterSpec::Gaussian { stddev: crate::scene::camera::GAUSSIAN_STDDEV },
         aperture_radius: 0.0,
@@ -277,7 +278,29 @@ impl<'a> Cx<'a> {
                     .ok_or_else(|| f.error(format!("width and height must be in [1, {}], got {v}", u32::MAX)))
             })
         };
-        self.file.camera.resolution = [dim(p.int("width")?, 768)?, dim(p.int("height")?, 576)?];
+        let [w, h] = [dim(p.int("width")?, 768)?, dim(p.int("height")?, 576)?];
+        self.file.camera.resolution = [w, h];
+        // A crop window: its size defaults to the whole film, its offset to 0; Mitsuba refuses one that
+        // leaves the film, and so does caustica (it also refuses an empty one, which Mitsuba renders as
+        // an image of no pixels).
+        let keys = ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"];
+        let given = keys.iter().map(|k| p.int(k)).collect::<Result<Vec<_>, _>>()?;
+        if given.iter().any(Option::is_some) {
+            let defaults = [0, 0, w as i64, h as i64];
+            let mut window = [0u32; 4];
+            for (i, key) in keys.iter().enumerate() {
+                let v = given[i].unwrap_or(defaults[i]);
+                window[i] = u32::try_from(v).map_err(|_| f.error(format!("{key} must be ≥ 0, got {v}")))?;
+            }
+            let [x, y, cw, ch] = window;
+            if cw == 0 || ch == 0 || x as u64 + cw as u64 > w as u64 || y as u64 + ch as u64 > h as u64 {
+                return Err(f.error(format!(
+                    "the crop window (crop_offset_x {x}, crop_offset_y {y}, crop_width {cw}, crop_height {ch}) \
+                     must hold at least one pixel and lie on the {w}×{h} film"
+                )));
+            }
+            self.file.camera.crop = Some(window);
+        }
         for key in ["pixel_format", "component_format", "file_format"] {
             p.string(key)?;
         }
@@ -322,7 +345,7 @@ impl<'a> Cx<'a> {
                 spec
             }
         };
-        p.finish("width, height, rfilter, pixel_format, component_format, file_format (crops are not read)")
+        p.finish("width, height, crop_offset_x, crop_offset_y, crop_width, crop_height, rfilter, pixel_format, component_format, file_format")
     }
 
     fn integrator(&mut self, n: &Node) -> Result<(), SceneError> {
