@@ -340,6 +340,12 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["camera.crop", "[2, 0, 7, 8]", "inside the 8×8 film", "x + width ≤ 8"],
         ),
         (
+            "principal_point_offset_far",
+            with_camera("principal_point_offset = [2000.0, 0.0]"),
+            vec![],
+            vec!["camera.principal_point_offset", "within ±1000", "[2000.0, 0.0]"],
+        ),
+        (
             "crop_empty",
             with_camera("crop = [0, 0, 0, 8]"),
             vec![],

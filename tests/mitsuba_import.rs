@@ -635,6 +635,21 @@ fn a_crop_window_matches_mitsuba_pixel_by_pixel() {
     pixels_match_mitsuba("crop", &check, &wrong);
 }
 
+/// Mitsuba's principal point offset, held to Mitsuba pixel by pixel: `shift.xml` moves `filter.xml`'s
+/// film by 0.15 of its width and −0.1 of its height (each pixel sees what the pixel that far to its right
+/// and above it saw). Without the shift, or with its vertical part the other way, caustica's image must
+/// miss by more than twice its noise.
+#[test]
+fn a_principal_point_offset_matches_mitsuba_pixel_by_pixel() {
+    let up = |s: &Scene| 2.0 * 0.1 * s.camera.tan_half[1];
+    let wrong: Vec<Variant> = vec![
+        ("no shift".into(), Box::new(|s: &mut Scene| s.camera.centre = [0.0, 0.0])),
+        ("the vertical shift the other way".into(), Box::new(move |s: &mut Scene| s.camera.centre[1] -= 2.0 * up(s))),
+    ];
+    let check = |s: &Scene| assert!(s.camera.centre[0] > 0.0 && s.camera.centre[1] > 0.0, "{:?}", s.camera.centre);
+    pixels_match_mitsuba("shift", &check, &wrong);
+}
+
 /// A `lookat` without `up` takes Mitsuba's: the first axis of its `coordinate_system` of the view
 /// direction (Duff et al.'s orthonormal basis), not +y. Mitsuba 3.9.1's to_world for this lookat (read off
 /// `mi.load_string`) has its local y (the camera's up) at (0.99674, 0.0522412, −0.0614794); with +y the
@@ -1182,6 +1197,14 @@ fn what_is_not_read_is_refused_naming_the_line() {
             ),
             "the crop window (crop_offset_x 4, crop_offset_y 0, crop_width 5, crop_height 8) must hold at least one \
              pixel and lie on the 8×8 film",
+        ),
+        (
+            "thinlens-principal-point",
+            &panel_with(
+                "type=\"perspective\">",
+                "type=\"thinlens\"><float name=\"aperture_radius\" value=\"0.1\"/><float name=\"principal_point_offset_x\" value=\"0.1\"/>",
+            ),
+            "<float name=\"principal_point_offset_x\">: not supported inside <sensor type=\"thinlens\">",
         ),
         (
             "crop-negative",

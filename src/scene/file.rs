@@ -84,6 +84,11 @@ pub struct CameraSpec {
     /// pixel of the whole film shows.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crop: Option<[u32; 4]>,
+    /// Shifts the film in its plane (a shift lens; Mitsuba's perspective `principal_point_offset_x`,
+    /// `_y`): `[x, y]` in film widths and heights, each pixel then seeing what the pixel x film widths to
+    /// its right and y film heights below saw. The view axis stays where it was (no keystone).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub principal_point_offset: Option<[f32; 2]>,
     /// Pixel reconstruction filter: `{ type = "box" }` (default), `{ type = "tent", radius = 1.0 }` or
     /// `{ type = "gaussian", stddev = 0.5 }` (Mitsuba's film's default).
     #[serde(default, skip_serializing_if = "is_box_filter")]

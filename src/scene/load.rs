@@ -347,6 +347,15 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         let (lo, hi) = (range.start(), range.end());
         return Err(cx.err(key, format!("must be in [{lo}, {hi}]{unit}, got {value}")));
     }
+    if let Some(shift) = c.principal_point_offset {
+        if !shift.iter().all(|v| v.is_finite() && v.abs() <= 1e3) {
+            return Err(cx.err(
+                "camera.principal_point_offset",
+                format!("must be two numbers within ±1000 film widths and heights, got {shift:?}"),
+            ));
+        }
+        camera = camera.shift(shift);
+    }
     if let Some([x, y, cw, ch]) = c.crop {
         if cw == 0 || ch == 0 || x as u64 + cw as u64 > w as u64 || y as u64 + ch as u64 > h as u64 {
             return Err(cx.err(

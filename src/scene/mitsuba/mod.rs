@@ -97,6 +97,7 @@ fn empty_file() -> SceneFile {
         film_size: None,
         resolution: [768, 576],
         crop: None,
+        principal_point_offset: None,
         // Mitsuba's film's default; replaced by what the film says.
         filter: crate::scene::camera::FilterSpec::Gaussian { stddev: crate::scene::camera::GAUSSIAN_STDDEV },
         aperture_radius: 0.0,
@@ -172,8 +173,15 @@ impl<'a> Cx<'a> {
         self.place_camera(m.w_axis.truncate(), y, z);
         let (fov, fov_axis) = (p.float("fov")?, p.string("fov_axis")?);
         let focal = p.string("focal_length")?;
+        if !thin_lens {
+            // Mitsuba's thin lens does not read a principal point (it refuses the property).
+            let shift = [p.float("principal_point_offset_x")?, p.float("principal_point_offset_y")?];
+            if shift.iter().any(Option::is_some) {
+                self.file.camera.principal_point_offset = Some(shift.map(|v| v.unwrap_or(0.0)));
+            }
+        }
         self.sensor_common(s, &p)?;
-        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, film, sampler (and for thinlens aperture_radius, focus_distance)")?;
+        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, film, sampler (for perspective principal_point_offset_x, principal_point_offset_y; for thinlens aperture_radius, focus_distance)")?;
         let [w, h] = self.file.camera.resolution.map(|v| v as f32);
         let (deg, axis) = match (fov, focal) {
             (Some(_), Some(_)) => return Err(s.error("give `fov` or `focal_length`, not both")),
