@@ -27,7 +27,9 @@ half the twosided ones (the one they had is then their back), a texture for the 
 rectangle and sphere emitters (a checkerboard, sky.exr or label.png), a normal map (bumps.exr) over
 the BSDF of about a third of the shapes with texture coordinates, and an anisotropic roughness
 (alpha_u and alpha_v) for about three in five rough conductors and dielectrics and an `anisotropic`
-for half the principled BSDFs, not on a cylinder; and for half the cylinders a normal map or anisotropy.
+for half the principled BSDFs, not on a cylinder; and for half the cylinders a normal map or anisotropy;
+an orthographic camera, textured alpha_u/alpha_v, spots projecting a texture; a crop window of a larger
+film, and a principal point offset on a pinhole camera.
 """
 import argparse
 import os
@@ -497,6 +499,23 @@ if args.more:
         return m.group(0)[:-len("</emitter>")] + tex + "</emitter>"
 
     text = re.sub(r'<emitter type="spot">(?:(?!</emitter>).)*</emitter>', slide, text)
+    # A crop window (caustica since session 45) for a third of the scenes, from a twelfth stream, last:
+    # the film 1.2 to 2 times as large each way, the image its 64 x 48 window somewhere on it; and for
+    # half the pinhole cameras a principal point offset of up to 0.3 of the film each way.
+    Q = random.Random(args.seed * 7717 + 89)
+    if Q.random() < 1 / 3:
+        k = Q.uniform(1.2, 2.0)
+        fw, fh = round(w * k), round(h * k)
+        ox, oy = Q.randint(0, fw - w), Q.randint(0, fh - h)
+        text = text.replace(f'<integer name="width" value="{w}"/><integer name="height" value="{h}"/>',
+                            f'<integer name="width" value="{fw}"/><integer name="height" value="{fh}"/>'
+                            f'<integer name="crop_offset_x" value="{ox}"/><integer name="crop_offset_y" value="{oy}"/>'
+                            f'<integer name="crop_width" value="{w}"/><integer name="crop_height" value="{h}"/>', 1)
+    if '<sensor type="perspective">' in text and Q.random() < 0.5:
+        px, py = Q.uniform(-0.3, 0.3), Q.uniform(-0.3, 0.3)
+        text = text.replace('<sensor type="perspective">', '<sensor type="perspective">'
+                            f'<float name="principal_point_offset_x" value="{f(px)}"/>'
+                            f'<float name="principal_point_offset_y" value="{f(py)}"/>', 1)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
