@@ -127,6 +127,12 @@ fn each_malformed_scene_gets_its_own_message() {
     negative.pixels[1] = glam::Vec3::new(1.0, -0.5, 1.0);
     caustica::output::write_exr(&d.join("negative.exr"), &negative).unwrap();
     std::fs::write(d.join("nouv.obj"), "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n").unwrap();
+    let ply = |props: &str, rows: &str| {
+        format!("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{props}element face 1\nproperty list uchar int vertex_indices\nend_header\n{rows}3 0 2 1\n")
+    };
+    let rgb = "property float r\nproperty float g\nproperty float b\n";
+    std::fs::write(d.join("bright.ply"), ply(rgb, "-1 0 -1 0.5 0.5 0.5\n1 0 -1 0.5 1.5 0.5\n0 0 1 0 0 0\n")).unwrap();
+    std::fs::write(d.join("red.ply"), ply("property uchar red\n", "-1 0 -1 9\n1 0 -1 9\n0 0 1 9\n")).unwrap();
     let cases: Vec<(&str, String, Vec<&str>, Vec<&str>)> = vec![
         ("syntax", GOOD.replace("fov = 40", "fov = = 40"), vec![], vec!["line 5"]),
         ("unknown_key", GOOD.replace("fov = 40", "fovv = 40"), vec![], vec!["unknown field `fovv`", "line 5"]),
@@ -470,6 +476,34 @@ fn each_malformed_scene_gets_its_own_message() {
             GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\""),
             vec![],
             vec!["shapes[0].emission", "unknown texture `glow`"],
+        ),
+        (
+            "vertex_colors_none",
+            with_white("white = { type = \"diffuse\", reflectance = \"vc\" }")
+                .replace("[materials]", "[textures]\nvc = { type = \"vertex_color\" }\n\n[materials]"),
+            vec![],
+            vec!["shapes[0].material", "`white` reads vertex colours", "this shape has none"],
+        ),
+        (
+            "vertex_colors_bright",
+            with_shape("type = \"mesh\"\nfile = \"bright.ply\"")
+                .replace("reflectance = [0.5, 0.5, 0.5]", "reflectance = \"vc\"")
+                .replace("[materials]", "[textures]\nvc = { type = \"vertex_color\" }\n\n[materials]"),
+            vec![],
+            vec!["shapes[0]", "vertex 1's colour [0.5, 1.5, 0.5]", "leaves [0, 1]"],
+        ),
+        (
+            "vertex_colors_red_only",
+            with_shape("type = \"mesh\"\nfile = \"red.ply\""),
+            vec![],
+            vec!["red.ply", "has `red` but no `green`"],
+        ),
+        (
+            "vertex_colors_emitted",
+            GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"vc\"")
+                .replace("[materials]", "[textures]\nvc = { type = \"vertex_color\" }\n\n[materials]"),
+            vec![],
+            vec!["shapes[0].emission", "`vc` is a vertex_color texture", "not as an emitter's radiance"],
         ),
         (
             "emission_negative_texture",

@@ -426,6 +426,19 @@ pub enum TextureSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         matrix: Option<[[f32; 3]; 2]>,
     },
+    /// The colours of the hit mesh's vertices, interpolated across each triangle, times `scale`
+    /// (default 1): a PLY's `red`/`green`/`blue` (8-bit values scaled to [0, 1]) or a `.serialized`
+    /// mesh's colours. Every shape whose material reads it must be such a mesh, its colours times
+    /// `scale` within [0, 1].
+    #[serde(rename = "vertex_color")]
+    VertexColor {
+        #[serde(default = "one", skip_serializing_if = "is_one")]
+        scale: f32,
+    },
+}
+
+fn is_one(x: &f32) -> bool {
+    *x == 1.0
 }
 
 fn checker0() -> V3 {

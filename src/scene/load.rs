@@ -527,6 +527,12 @@ fn build_texture(cx: &Ctx, key: &str, spec: &TextureSpec, dir: &Path) -> Result<
             let to_uv = uv_map(cx, key, *scale, *offset, *matrix)?;
             Texture::Bitmap { file: file.clone(), width, height, texels, to_uv, bilinear: *bilinear }
         }
+        TextureSpec::VertexColor { scale } => {
+            if !(scale.is_finite() && *scale >= 0.0) {
+                return Err(cx.err(&format!("{key}.scale"), format!("must be a finite number ≥ 0, got {scale}")));
+            }
+            Texture::VertexColor { scale: *scale }
+        }
     })
 }
 
@@ -946,11 +952,52 @@ fn texture_named(cx: &Ctx, key: &str, name: &str, textures: &Textures) -> Result
     })
 }
 
+/// Refuses vertex colours (texture `t`, named `name`, for the field `key`) where `what` has no mesh hit
+/// to read them at.
+fn not_vertex_colors(
+    cx: &Ctx,
+    key: &str,
+    name: &str,
+    textures: &Textures,
+    t: u32,
+    what: &str,
+) -> Result<(), SceneError> {
+    if let Texture::VertexColor { .. } = textures.list[t as usize] {
+        let msg = format!("`{name}` is a vertex_color texture, read on materials only, not as {what}");
+        return Err(cx.err(key, msg));
+    }
+    Ok(())
+}
+
+/// The first vertex-colour texture material `m` reads, through its blends (depth-bounded).
+fn vertex_color_read(materials: &[SurfaceMaterial], textures: &[Texture], m: u32, depth: usize) -> Option<u32> {
+    let mat = &materials[m as usize];
+    let maps = &mat.maps;
+    let mut own =
+        [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, mat.normal_map].into_iter().flatten();
+    let weight = mat.blend.and_then(|b| match b.weight {
+        crate::scene::material::BlendWeight::Texture(t) => Some(t),
+        _ => None,
+    });
+    if let Some(t) = own.find(|&t| matches!(textures[t as usize], Texture::VertexColor { .. })) {
+        return Some(t);
+    }
+    if let Some(t) = weight.filter(|&t| matches!(textures[t as usize], Texture::VertexColor { .. })) {
+        return Some(t);
+    }
+    let b = mat.blend?;
+    if depth >= MAX_BLEND_DEPTH {
+        return None;
+    }
+    vertex_color_read(materials, textures, b.first, depth + 1)
+        .or_else(|| vertex_color_read(materials, textures, b.second, depth + 1))
+}
+
 /// A texture as an error names it: `name`, and the image file it was read from.
 fn texture_label(name: &str, t: &Texture) -> String {
     match t {
         Texture::Bitmap { file, .. } => format!("`{name}` ({file})"),
-        Texture::Checkerboard { .. } => format!("`{name}`"),
+        Texture::Checkerboard { .. } | Texture::VertexColor { .. } => format!("`{name}`"),
     }
 }
 
@@ -1004,6 +1051,7 @@ fn build_shape(
             Some(Reflectance::Colour(c)) => Ok((cx.colour(&field, *c, None)?, None)),
             Some(Reflectance::Texture(name)) => {
                 let t = texture_named(cx, &field, name, textures)?;
+                not_vertex_colors(cx, &field, name, textures, t, "an emitter's radiance")?;
                 let low = textures.list[t as usize].min_value();
                 if low.is_nan() || low < 0.0 {
                     let label = texture_label(name, &textures.list[t as usize]);
@@ -1080,6 +1128,32 @@ fn build_shape(
         ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
             push(out.shapes, mesh, false, transform, lookup(material)?, emission(e, out.textures)?, false)?;
+        }
+    }
+    // Vertex colours are read off the hit mesh: it must have them, each within [0, 1] times the
+    // texture's scale (a reflectance, a weight, a roughness).
+    for s in &out.shapes[first..] {
+        let Some(t) = vertex_color_read(out.materials, &out.textures.list, s.material, 0) else { continue };
+        let Texture::VertexColor { scale } = out.textures.list[t as usize] else { continue };
+        let name = &out.names[s.material as usize];
+        let colors = match &s.geometry {
+            Geometry::Mesh(m) => m.colors.as_ref(),
+            Geometry::Sphere { .. } => None,
+        };
+        let Some(colors) = colors else {
+            let msg = format!("`{name}` reads vertex colours (a vertex_color texture), and this shape has none");
+            return Err(cx.err(&format!("{key}.material"), msg));
+        };
+        if let Some((i, c)) = colors
+            .iter()
+            .enumerate()
+            .find(|(_, c)| !(c.is_finite() && c.min_element() >= 0.0 && c.max_element() * scale <= 1.0))
+        {
+            let msg = format!(
+                "vertex {i}'s colour {:?} times the vertex_color texture's scale {scale} leaves [0, 1] (`{name}` reads it)",
+                c.to_array()
+            );
+            return Err(cx.err(key, msg));
         }
     }
     // A normal map is read along the texture's u: a mesh without texture coordinates has none.
@@ -1305,6 +1379,7 @@ fn build_light(
             match texture {
                 Some(name) => {
                     let t = texture_named(cx, &format!("{key}.texture"), name, textures)?;
+                    not_vertex_colors(cx, &format!("{key}.texture"), name, textures, t, "a spot's projected texture")?;
                     if *cutoff_angle >= 90.0 {
                         let msg = format!("a projected texture needs cutoff_angle < 90 degrees, got {cutoff_angle}");
                         return Err(cx.err(&format!("{key}.cutoff_angle"), msg));

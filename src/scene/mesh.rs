@@ -18,6 +18,9 @@ pub struct TriMesh {
     /// bottom-up v is flipped on load), when the file has them; without them a hit's uv is its
     /// barycentric coordinates.
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// Per-vertex colours, when the file has them (a PLY's `red`/`green`/`blue` or `r`/`g`/`b`, 8- and
+    /// 16-bit integers scaled to [0, 1]; a `.serialized` mesh's), read by a `vertex_color` texture.
+    pub colors: Option<Vec<Vec3>>,
 }
 
 impl TriMesh {
@@ -37,6 +40,22 @@ impl TriMesh {
             }
             None => glam::Vec2::new(u, v),
         }
+    }
+
+    /// The vertex colours interpolated at point `p` of triangle `i` (by its barycentric coordinates,
+    /// from the areas `p` makes with the triangle's edges); black without colours.
+    pub fn color_at(&self, i: usize, p: Vec3) -> Vec3 {
+        let Some(c) = &self.colors else { return Vec3::ZERO };
+        let [a, b, cc] = self.triangle(i);
+        let n = (b - a).cross(cc - a);
+        let nn = n.length_squared();
+        if nn == 0.0 || !nn.is_finite() {
+            return c[self.indices[i][0] as usize];
+        }
+        let u = (p - a).cross(cc - a).dot(n) / nn;
+        let v = (b - a).cross(p - a).dot(n) / nn;
+        let [i0, i1, i2] = self.indices[i];
+        c[i0 as usize] * (1.0 - u - v) + c[i1 as usize] * u + c[i2 as usize] * v
     }
 
     /// ∂p/∂u on triangle `i`: from its texture coordinates where it has them (and they span an area),
@@ -148,6 +167,7 @@ impl TriMesh {
             + self.indices.len() * 12
             + self.normals.as_ref().map_or(0, |n| n.len() * 12)
             + self.uvs.as_ref().map_or(0, |t| t.len() * 8)
+            + self.colors.as_ref().map_or(0, |c| c.len() * 12)
     }
 }
 
@@ -245,7 +265,7 @@ fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> 
         // An object with no faces (points, lines, an empty group) has nothing to render.
         if !indices.is_empty() {
             out.push(LoadedMesh {
-                mesh: TriMesh { positions, indices, normals, uvs },
+                mesh: TriMesh { positions, indices, normals, uvs, colors: None },
                 mtl_diffuse,
                 mtl_texture,
                 mtl_error: mtl_error.clone(),
@@ -263,10 +283,12 @@ struct PlyVertex {
     p: [f32; 3],
     n: [f32; 3],
     uv: [f32; 2],
+    c: [f32; 3],
 }
 
-/// PLY vertex property names and their slot: 0–2 position, 3–5 normal, 6–7 texture coordinates.
-const PLY_SLOTS: [(&str, usize); 12] = [
+/// PLY vertex property names and their slot: 0–2 position, 3–5 normal, 6–7 texture coordinates, 8–10
+/// colour.
+const PLY_SLOTS: [(&str, usize); 18] = [
     ("x", 0),
     ("y", 1),
     ("z", 2),
@@ -279,6 +301,12 @@ const PLY_SLOTS: [(&str, usize); 12] = [
     ("t", 7),
     ("texture_u", 6),
     ("texture_v", 7),
+    ("red", 8),
+    ("green", 9),
+    ("blue", 10),
+    ("r", 8),
+    ("g", 9),
+    ("b", 10),
 ];
 
 impl PlyVertex {
@@ -286,7 +314,8 @@ impl PlyVertex {
         match slot {
             0..=2 => self.p[slot] = x,
             3..=5 => self.n[slot - 3] = x,
-            _ => self.uv[slot - 6] = x,
+            6..=7 => self.uv[slot - 6] = x,
+            _ => self.c[slot - 8] = x,
         }
     }
 }
@@ -300,6 +329,9 @@ impl ply_rs_bw::ply::PropertyAccess for PlyVertex {
         let v = match prop {
             P::Float(v) => v,
             P::Double(v) => v as f32,
+            // Colours as 8- or 16-bit integers (scaled once the mesh is read).
+            P::UChar(v) => v as f32,
+            P::UShort(v) => v as f32,
             _ => return,
         };
         if let Some(&(_, slot)) = PLY_SLOTS.iter().find(|(k, _)| k == key) {
@@ -341,6 +373,7 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
     let vdef = header.elements.get("vertex").ok_or("PLY has no `vertex` element")?;
     let has_normals = want_normals && vdef.properties.contains_key("nx");
     let has_uvs = ["u", "s", "texture_u"].iter().any(|k| vdef.properties.contains_key(*k));
+    let color_scale = ply_color_scale(vdef)?;
     for k in ["x", "y", "z"] {
         if !vdef.properties.contains_key(k) {
             return Err(format!("PLY vertex element has no `{k}` property"));
@@ -387,6 +420,7 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
     let positions: Vec<Vec3> = verts.iter().map(|v| Vec3::from_array(v.p)).collect();
     let normals = has_normals.then(|| verts.iter().map(|v| Vec3::from_array(v.n).normalize_or_zero()).collect());
     let uvs = has_uvs.then(|| verts.iter().map(|v| v.uv).collect());
+    let colors = color_scale.map(|k| verts.iter().map(|v| Vec3::from_array(v.c) * k).collect());
     let mut indices = Vec::with_capacity(faces.len());
     for f in &faces {
         if f.0.len() < 3 {
@@ -396,7 +430,34 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
             indices.push([f.0[0], f.0[k], f.0[k + 1]]);
         }
     }
-    Ok(TriMesh { positions, indices, normals, uvs })
+    Ok(TriMesh { positions, indices, normals, uvs, colors })
+}
+
+/// Whether a PLY's vertices have colours, and what scales them to [0, 1]: 1/255 for 8-bit integers,
+/// 1/65535 for 16-bit ones, 1 for floats (read as they are). All three of red, green and blue (or r, g,
+/// b) or none; another integer type is refused. (Mitsuba 3.9.1 keeps 8-bit colours as 0 to 255, with a
+/// warning that it expects [0, 1]; caustica scales them, as the file means them.)
+fn ply_color_scale(vdef: &ply_rs_bw::ply::ElementDef) -> Result<Option<f32>, String> {
+    use ply_rs_bw::ply::{PropertyType, ScalarType};
+    let names = [["red", "green", "blue"], ["r", "g", "b"]];
+    let Some(set) = names.iter().find(|set| set.iter().any(|k| vdef.properties.contains_key(*k))) else {
+        return Ok(None);
+    };
+    let mut scale = None;
+    for k in set {
+        let p = vdef.properties.get(*k).ok_or_else(|| format!("PLY vertex colour has `{}` but no `{k}`", set[0]))?;
+        let s = match &p.data_type {
+            PropertyType::Scalar(ScalarType::UChar) => 1.0 / 255.0,
+            PropertyType::Scalar(ScalarType::UShort) => 1.0 / 65535.0,
+            PropertyType::Scalar(ScalarType::Float | ScalarType::Double) => 1.0,
+            t => return Err(format!("PLY vertex colour `{k}` is {t:?} (read: uchar, ushort, float, double)")),
+        };
+        if scale.is_some_and(|x| x != s) {
+            return Err(format!("PLY vertex colours {set:?} are not all of one type"));
+        }
+        scale = Some(s);
+    }
+    Ok(scale)
 }
 
 /// A `.serialized` file's mark and the versions read (Mitsuba 0.4 to 3 write 4; 3 lacks the mesh name).
@@ -407,8 +468,8 @@ const SERIALIZED_MARK: u16 = 0x041C;
 /// 8 vertex colours, 0x2000 double precision), the mesh's name (version 4, NUL-terminated), vertex and
 /// triangle counts (u64), positions, then normals, texture coordinates and colours as the flags say,
 /// then u32 vertex indices; the file ends with each mesh's offset (u64; u32 in version 3) and their
-/// count (u32). As Mitsuba 3 reads it: texture coordinates as stored, colours and the face-normals
-/// flag ignored (the `face_normals` parameter decides).
+/// count (u32). As Mitsuba 3 reads it: texture coordinates and colours as stored, the face-normals flag
+/// ignored (the `face_normals` parameter decides).
 pub fn parse_serialized(bytes: &[u8], index: u32, want_normals: bool) -> Result<TriMesh, String> {
     let u32_at = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap()));
     let version_at = |at: usize| -> Result<u16, String> {
@@ -492,16 +553,14 @@ pub fn parse_serialized(bytes: &[u8], index: u32, want_normals: bool) -> Result<
     } else {
         None
     };
-    if flags & 8 != 0 {
-        floats(3, "vertex colours")?;
-    }
+    let colors = if flags & 8 != 0 { Some(vec3s(floats(3, "vertex colours")?)) } else { None };
     let raw = take(nf * 12, "triangles")?;
     let indices = raw
         .chunks_exact(12)
         .map(|c| std::array::from_fn(|k| u32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
         .collect();
     let normals = normals.filter(|_| want_normals).map(|ns| ns.into_iter().map(|n| n.normalize_or_zero()).collect());
-    Ok(TriMesh { positions, indices, normals, uvs })
+    Ok(TriMesh { positions, indices, normals, uvs, colors })
 }
 
 /// The fewest bytes one binary record of `def` can take: its scalars, and the count of each list.
@@ -539,7 +598,7 @@ fn parse_ascii_payload(
             return Err(format!("PLY element `{name}`: header says {} lines, file has {}", def.count, chunk.len()));
         }
         if name == "vertex" {
-            // Unused properties (normals when shading is flat, confidence, colour …) are skipped unparsed.
+            // Unused properties (normals when shading is flat, confidence, intensity …) are skipped unparsed.
             let slot_of = |k: &String| {
                 PLY_SLOTS.iter().find(|(name, _)| name == k).map(|&(_, s)| s).filter(|s| normals || !(3..6).contains(s))
             };
@@ -588,6 +647,7 @@ pub fn quad(corner: Vec3, eu: Vec3, ev: Vec3) -> TriMesh {
         positions: vec![corner, corner + eu, corner + eu + ev, corner + ev],
         indices: vec![[0, 1, 2], [0, 2, 3]],
         normals: None,
+        colors: None,
         uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
     }
 }
@@ -921,6 +981,41 @@ mod tests {
         assert_eq!(m.positions.len(), 4);
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
         assert!((m.total_area() - 1.0).abs() < 1e-6);
+    }
+
+    /// Vertex colours: 8-bit (ASCII) and 16-bit (binary) integers scaled to [0, 1], floats kept, both
+    /// naming conventions; `color_at` interpolates by the point's barycentric coordinates (the centroid
+    /// reads the mean, a corner its own colour).
+    #[test]
+    fn ply_vertex_colours_are_read_and_interpolated() {
+        let head = |fmt: &str, props: &str| {
+            format!("ply\nformat {fmt} 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{props}element face 1\nproperty list uchar int vertex_indices\nend_header\n")
+        };
+        let rgb8 = "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+        let text = head("ascii", rgb8) + "0 0 0 255 0 51\n1 0 0 0 255 0\n0 1 0 0 0 204\n3 0 1 2\n";
+        let m = parse_ply(text.as_bytes(), false).unwrap();
+        let c = m.colors.as_ref().expect("colours");
+        assert!((c[0] - Vec3::new(1.0, 0.0, 0.2)).abs().max_element() < 1e-6, "{c:?}");
+        let mid = m.color_at(0, Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.0));
+        assert!((mid - Vec3::splat(1.0 / 3.0)).abs().max_element() < 1e-5, "{mid:?}");
+        assert!((m.color_at(0, Vec3::new(0.0, 1.0, 0.0)) - Vec3::new(0.0, 0.0, 0.8)).abs().max_element() < 1e-5);
+        let rgb16 = "property ushort r\nproperty ushort g\nproperty ushort b\n";
+        let mut bin = head("binary_little_endian", rgb16).into_bytes();
+        for (p, c) in
+            [([0f32, 0.0, 0.0], [65535u16, 0, 0]), ([1.0, 0.0, 0.0], [0, 65535, 0]), ([0.0, 1.0, 0.0], [0, 0, 13107])]
+        {
+            p.iter().for_each(|x| bin.extend(x.to_le_bytes()));
+            c.iter().for_each(|x| bin.extend(x.to_le_bytes()));
+        }
+        bin.push(3);
+        [0i32, 1, 2].iter().for_each(|i| bin.extend(i.to_le_bytes()));
+        let m = parse_ply(&bin, false).unwrap();
+        assert!((m.colors.as_ref().unwrap()[2] - Vec3::new(0.0, 0.0, 0.2)).abs().max_element() < 1e-6);
+        let floats = "property float r\nproperty float g\nproperty float b\n";
+        let text = head("ascii", floats) + "0 0 0 0.5 2 0\n1 0 0 0 0 0\n0 1 0 0 0 0\n3 0 1 2\n";
+        assert_eq!(parse_ply(text.as_bytes(), false).unwrap().colors.unwrap()[0], Vec3::new(0.5, 2.0, 0.0));
+        let none = head("ascii", "") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        assert!(parse_ply(none.as_bytes(), false).unwrap().colors.is_none());
     }
 
     #[test]

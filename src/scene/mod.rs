@@ -597,7 +597,7 @@ impl Scene {
     fn blend_weight(&self, b: &material::Blend, si: &SurfaceHit, wo: Vec3) -> f32 {
         let w = match b.weight {
             material::BlendWeight::Value(w) => w,
-            material::BlendWeight::Texture(t) => material::mitsuba_luminance(self.textures[t as usize].eval(si.uv)),
+            material::BlendWeight::Texture(t) => material::mitsuba_luminance(self.texture_at(t, si)),
             material::BlendWeight::Side => return if wo.dot(si.ng) <= 0.0 { 1.0 } else { 0.0 },
         };
         if w.is_nan() {
@@ -660,7 +660,7 @@ impl Scene {
         if s == Vec3::ZERO {
             return ns;
         }
-        let c = self.textures[t as usize].eval(si.uv) * 2.0 - Vec3::ONE;
+        let c = self.texture_at(t, si) * 2.0 - Vec3::ONE;
         // normalize_or_zero gives zero for a zero or non-finite normal too.
         let n = (s * c.x + ns.cross(s) * c.y + ns * c.z).normalize_or_zero();
         if n == Vec3::ZERO {
@@ -673,15 +673,13 @@ impl Scene {
     /// `bsdf`, material `m`'s BSDF, with its textures read at `si`.
     fn textured_bsdf(&self, m: &SurfaceMaterial, bsdf: Material, si: &SurfaceHit) -> Material {
         let bsdf = match (m.texture, bsdf) {
-            (Some(t), Material::Diffuse { .. }) => {
-                Material::Diffuse { reflectance: self.textures[t as usize].eval(si.uv) }
-            }
+            (Some(t), Material::Diffuse { .. }) => Material::Diffuse { reflectance: self.texture_at(t, si) },
             (Some(t), Material::Plastic { specular, ior, nonlinear, rough, .. }) => {
-                let diffuse = self.textures[t as usize].eval(si.uv);
+                let diffuse = self.texture_at(t, si);
                 Material::Plastic { diffuse, specular, ior, nonlinear, rough }
             }
             (Some(t), Material::Principled(mut p)) => {
-                p.base = self.textures[t as usize].eval(si.uv);
+                p.base = self.texture_at(t, si);
                 Material::Principled(p)
             }
             (_, bsdf) => bsdf,
@@ -689,12 +687,24 @@ impl Scene {
         if !m.maps.any() {
             return bsdf;
         }
-        let colour = |t: Option<u32>| t.map(|t| self.textures[t as usize].eval(si.uv));
+        let colour = |t: Option<u32>| t.map(|t| self.texture_at(t, si));
         let number = |t: Option<u32>| colour(t).map(material::mitsuba_luminance);
         let alpha = number(m.maps.alpha);
         // An isotropic textured roughness reads its texture once for both.
         let alpha_v = if m.maps.alpha_v == m.maps.alpha { alpha } else { number(m.maps.alpha_v) };
         bsdf.with_params(colour(m.maps.specular), colour(m.maps.tint), alpha, alpha_v)
+    }
+
+    /// Texture `t`'s value at hit `si`: at its uv, or for vertex colours the hit mesh's, interpolated.
+    #[inline]
+    pub fn texture_at(&self, t: u32, si: &SurfaceHit) -> Rgb {
+        match &self.textures[t as usize] {
+            texture::Texture::VertexColor { scale } => match &self.shapes[si.shape as usize].geometry {
+                Geometry::Mesh(m) => m.color_at(si.prim as usize, si.p) * *scale,
+                Geometry::Sphere { .. } => Rgb::ZERO,
+            },
+            tex => tex.eval(si.uv),
+        }
     }
 
     /// Radiance the surface at `si` emits towards `wo` (front side of triangles, outside of spheres).

@@ -22,6 +22,11 @@ pub enum Texture {
     Checkerboard { color0: Rgb, color1: Rgb, to_uv: UvMap },
     /// Linear RGB texels, row 0 at v = 0; bilinear (or nearest) lookup with texel centres at (i + ½)/size.
     Bitmap { file: String, width: u32, height: u32, texels: Vec<Rgb>, to_uv: UvMap, bilinear: bool },
+    /// The hit mesh's vertex colours, interpolated, times `scale` (Mitsuba's `mesh_attribute`
+    /// `vertex_color`). It needs the hit, not its uv: the scene reads it (`Scene::texture_at`); `eval`
+    /// alone gives `scale` (white), and the loader checks the colours of every mesh that reads it lie in
+    /// [0, 1], the bounds `min_value` and `max_value` give.
+    VertexColor { scale: f32 },
 }
 
 /// uv' = (a·u + b·v + c, d·u + e·v + f).
@@ -70,6 +75,7 @@ impl Texture {
                 }
                 self::bilinear(x - 0.5, y - 0.5, at)
             }
+            Texture::VertexColor { scale } => Rgb::splat(*scale),
         }
     }
 
@@ -77,7 +83,7 @@ impl Texture {
     pub fn hash_into(&self, h: &mut sha2::Sha256) {
         use sha2::Digest;
         match self {
-            Texture::Checkerboard { .. } => h.update(format!("{self:?}")),
+            Texture::Checkerboard { .. } | Texture::VertexColor { .. } => h.update(format!("{self:?}")),
             Texture::Bitmap { width, height, texels, to_uv, bilinear, .. } => {
                 h.update(format!("bitmap {width} {height} {to_uv:?} {bilinear}"));
                 crate::scene::hash_vec3s(h, texels);
@@ -96,6 +102,8 @@ impl Texture {
                 let n = texels.len().max(1) as f64;
                 Rgb::new((sum[0] / n) as f32, (sum[1] / n) as f32, (sum[2] / n) as f32)
             }
+            // Not read on emitters (refused there); the middle of its range.
+            Texture::VertexColor { scale } => Rgb::splat(0.5 * scale),
         }
     }
 
@@ -104,6 +112,7 @@ impl Texture {
         match self {
             Texture::Checkerboard { color0, color1, .. } => color0.min_element().min(color1.min_element()),
             Texture::Bitmap { texels, .. } => texels.iter().map(|t| t.min_element()).fold(f32::INFINITY, f32::min),
+            Texture::VertexColor { scale } => scale.min(0.0),
         }
     }
 
@@ -112,6 +121,7 @@ impl Texture {
         match self {
             Texture::Checkerboard { color0, color1, .. } => color0.max_element().max(color1.max_element()),
             Texture::Bitmap { texels, .. } => texels.iter().map(|t| t.max_element()).fold(0.0, f32::max),
+            Texture::VertexColor { scale } => scale.max(0.0),
         }
     }
 }

@@ -1076,10 +1076,22 @@ impl<'a> Cx<'a> {
                     matrix,
                 }
             }
-            _ => return Err(t.error("texture type not read (read: bitmap, checkerboard)")),
+            Some("mesh_attribute") => {
+                // The hit mesh's attribute, interpolated, times `scale`: caustica reads the vertex colours.
+                let attr = p.string("name")?.ok_or_else(|| t.error("a `mesh_attribute` needs a `name`"))?;
+                if attr != "vertex_color" {
+                    return Err(t.error(format!("mesh attribute `{attr}` is not read (read: vertex_color)")));
+                }
+                if matrix.is_some() {
+                    return Err(t.error("a `mesh_attribute` texture has no `to_uv` (Mitsuba refuses it too)"));
+                }
+                TextureSpec::VertexColor { scale: p.float("scale")?.unwrap_or(1.0) }
+            }
+            _ => return Err(t.error("texture type not read (read: bitmap, checkerboard, mesh_attribute)")),
         };
         p.finish(
-            "filename, filter_type, wrap_mode = repeat, raw, to_uv (bitmap); color0, color1, to_uv (checkerboard)",
+            "filename, filter_type, wrap_mode = repeat, raw, to_uv (bitmap); color0, color1, to_uv (checkerboard); \
+             name = vertex_color, scale (mesh_attribute)",
         )?;
         self.file.textures.insert(name.clone(), spec);
         self.done.insert(t as *const Node, name.clone());
