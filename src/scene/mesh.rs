@@ -818,7 +818,7 @@ mod tests {
 
     /// Both versions of Mitsuba's serialized format, single and double precision, several meshes found
     /// through the end-of-file offsets (u32 in version 3, u64 in 4); normals kept only when asked for and
-    /// normalised, texture coordinates as stored, colours skipped; damaged files refused with what is
+    /// normalised, texture coordinates and colours as stored; damaged files refused with what is
     /// wrong, a count the data cannot back refused without allocating for it.
     #[test]
     fn serialized_meshes_read_as_mitsuba_writes_them() {
@@ -829,7 +829,7 @@ mod tests {
             // Normals (unnormalised in the file), uvs and colours, in double precision.
             let mut extra = [0.0, 0.0, 2.0].repeat(4);
             extra.extend([0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0]);
-            extra.extend([0.5; 12]);
+            extra.extend([0.5, 0.25, 0.125].repeat(4));
             let b = serialized_mesh(version, 0x2000 | 1 | 2 | 8, &quad, &extra, &[0, 1, 2, 0, 2, 3]);
             let mut file = a.clone();
             file.extend(&b);
@@ -849,6 +849,8 @@ mod tests {
             assert_eq!(m1.positions[2], Vec3::new(1.0, 1.0, 1.0));
             assert_eq!(m1.normals.as_ref().unwrap()[3], Vec3::Z);
             assert_eq!(m1.uvs.as_ref().unwrap()[2], [1.0, 1.0]);
+            assert_eq!(m1.colors.as_ref().unwrap()[3], Vec3::new(0.5, 0.25, 0.125));
+            assert!(m0.colors.is_none());
             assert!(parse_serialized(&file, 1, false).unwrap().normals.is_none());
             let past = parse_serialized(&file, 2, true).unwrap_err();
             assert!(past.contains("holds 2 meshes"), "{past}");
