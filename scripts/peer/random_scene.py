@@ -10,7 +10,7 @@ roughconductor by named metal or eta/k, dielectric, thindielectric, roughdielect
 random subset of its weights, and blendbsdf, mask and twosided around those), lit by one or two of
 area rectangle, area sphere, point, spot, directional, constant and envmap (at most one of the last
 two). Random max_depth (2 to unlimited), hide_emitters, box, tent or Gaussian filter; 64 x 48 pixels.
-The files it names (ball.ply, tile.obj, tile.mtl, label.png, sky.exr) are tests/mitsuba's; the
+The files it names (ball.ply, colored-ball.ply, tile.obj, tile.mtl, label.png, sky.exr) are tests/mitsuba's; the
 caller copies them beside OUT. --no-blend leaves out blendbsdf, mask and twosided (Mitsuba 3.9.1's
 own blends are biased where caustica's are not: see the README). --area-lights draws the lights from
 area rectangle, area sphere, constant and envmap only: no point, spot or distant light, whose light
@@ -29,7 +29,7 @@ the BSDF of about a third of the shapes with texture coordinates, and an anisotr
 (alpha_u and alpha_v) for about three in five rough conductors and dielectrics and an `anisotropic`
 for half the principled BSDFs, not on a cylinder; and for half the cylinders a normal map or anisotropy;
 an orthographic camera, textured alpha_u/alpha_v, spots projecting a texture; a crop window of a larger
-film, and a principal point offset on a pinhole camera.
+film, and a principal point offset on a pinhole camera; vertex colours on half the PLY balls.
 """
 import argparse
 import os
@@ -516,6 +516,32 @@ if args.more:
         text = text.replace('<sensor type="perspective">', '<sensor type="perspective">'
                             f'<float name="principal_point_offset_x" value="{f(px)}"/>'
                             f'<float name="principal_point_offset_y" value="{f(py)}"/>', 1)
+    # Vertex colours (caustica since session 45), from a thirteenth stream, last: half the PLY balls
+    # become colored-ball.ply (float colours), and the colour of their diffuse reflectance, principled
+    # base colour, conductor's specular reflectance or dielectric's transmittance becomes its vertex
+    # colours times a scale in [0.5, 1] (Mitsuba's plastics cannot read a mesh_attribute).
+    V = random.Random(args.seed * 6151 + 97)
+
+    def colored(line):
+        if 'value="ball.ply"' not in line or V.random() >= 0.5:
+            return line
+        line = line.replace('value="ball.ply"', 'value="colored-ball.ply"', 1)
+        # Which colour of which BSDF (the first such colour after its opening tag, no BSDF between).
+        reads = {"diffuse": "reflectance", "principled": "base_color", "conductor": "specular_reflectance",
+                 "roughconductor": "specular_reflectance", "dielectric": "specular_transmittance",
+                 "roughdielectric": "specular_transmittance", "thindielectric": "specular_transmittance"}
+
+        def attr(m):
+            return (f'{m.group(1)}<texture type="mesh_attribute" name="{m.group(3)}">'
+                    f'<string name="name" value="vertex_color"/><float name="scale" value="{f(V.uniform(0.5, 1.0))}"/></texture>')
+
+        def one(m):
+            if reads.get(m.group(2)) != m.group(3):
+                return m.group(0)
+            return attr(m)
+        return re.sub(r'(<bsdf type="(\w+)">(?:(?!<bsdf).)*?)<rgb name="(\w+)" value="[^"]*"/>', one, line)
+
+    text = "\n".join(colored(line) for line in text.split("\n"))
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
