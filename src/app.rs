@@ -270,7 +270,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     println!("shapes      {} ({} triangles, {} analytic spheres)", scene.shapes.len(), tris, spheres);
     for s in &scene.shapes {
         let kind = match &s.geometry {
-            Geometry::Mesh(m) => format!("mesh, {} triangles", m.indices.len()),
+            Geometry::Mesh(m) => {
+                format!("mesh, {} triangles{}", m.indices.len(), if m.colors.is_some() { ", colours" } else { "" })
+            }
             Geometry::Sphere { radius, .. } => format!("sphere r={radius}"),
         };
         println!(

@@ -82,6 +82,10 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
     }
     let sensor = sensor.ok_or_else(|| root.error("has no <sensor> (perspective or thinlens)"))?;
     cx.sensor(sensor)?;
+    // A particle tracer or 0.6's bidirectional path tracer renders as caustica's BDPT: one pass a sample.
+    if cx.file.render.mode == Mode::Bdpt {
+        cx.file.render.progressive.passes = cx.file.render.spp;
+    }
     cx.warnings.extend(props::take_notes());
     Ok(Converted { file: cx.file, warnings: cx.warnings })
 }
@@ -298,7 +302,8 @@ impl<'a> Cx<'a> {
             let mut window = [0u32; 4];
             for (i, key) in keys.iter().enumerate() {
                 let v = given[i].unwrap_or(defaults[i]);
-                window[i] = u32::try_from(v).map_err(|_| f.error(format!("{key} must be ≥ 0, got {v}")))?;
+                window[i] =
+                    u32::try_from(v).map_err(|_| f.error(format!("{key} must be in [0, {}], got {v}", u32::MAX)))?;
             }
             let [x, y, cw, ch] = window;
             if cw == 0 || ch == 0 || x as u64 + cw as u64 > w as u64 || y as u64 + ch as u64 > h as u64 {
@@ -314,7 +319,13 @@ impl<'a> Cx<'a> {
         }
         p.boolean("banner")?;
         p.boolean("high_quality_edges")?;
-        p.boolean("sample_border")?;
+        if p.boolean("sample_border")? == Some(true) {
+            // Only the edge pixels of a filter wider than a pixel differ.
+            self.warnings.push(format!(
+                "{}: film `sample_border` is ignored (the film's edge pixels are filtered from samples on the film)",
+                f.file.display()
+            ));
+        }
         // Mitsuba's film filters with a Gaussian unless told otherwise.
         use crate::scene::camera::{
             FilterSpec, GAUSSIAN_STDDEV, LANCZOS_LOBES, LANCZOS_LOBES_RANGE, MITCHELL_BC, TENT_RADIUS,
@@ -406,9 +417,29 @@ impl<'a> Cx<'a> {
                     r.photons.caustic = c.max(0) as u64;
                 }
             }
-            _ => return Err(n.error("not read (read: path, volpath without media, direct; 0.6's photonmapper, sppm)")),
+            Some("ptracer" | "bdpt") => {
+                // Mitsuba 3's particle tracer (light paths joined to the camera, and emitters seen
+                // directly) and 0.6's BDPT estimate what `path` does, with other noise: caustica renders
+                // them with its BDPT, whose strategies include light tracing.
+                r.mode = Mode::Bdpt;
+                if let Some(d) = p.int("max_depth")? {
+                    r.max_depth = depth(d)?;
+                }
+                if let Some(d) = p.int("rr_depth")? {
+                    r.rr_depth = (d.max(1) - 1) as u32;
+                }
+                r.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
+                p.int("samples_per_pass")?;
+                p.boolean("light_image")?;
+                p.boolean("sample_direct")?;
+            }
+            _ => {
+                return Err(n.error(
+                    "not read (read: path, volpath without media, direct, ptracer; 0.6's photonmapper, sppm, bdpt)",
+                ))
+            }
         }
-        p.finish("max_depth, rr_depth, hide_emitters (photonmapper/sppm: photon counts, max_passes, alpha)")
+        p.finish("max_depth, rr_depth, hide_emitters (photonmapper/sppm: photon counts, max_passes, alpha; ptracer: samples_per_pass; bdpt: lightImage, sampleDirect)")
     }
 
     fn shape(&mut self, n: &'a Node) -> Result<(), SceneError> {
