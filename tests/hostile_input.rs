@@ -448,6 +448,8 @@ const ASSETS: &[(&str, &str)] = &[
     ("green.spd", "spectra.xml"),
     ("sky.exr", "textured-light.xml"),
     ("bumps.exr", "normalmap.xml"),
+    ("colored-ball.ply", "vertexcolor.xml"),
+    ("colored-tile.ply", "vertexcolor.xml"),
 ];
 
 proptest! {

@@ -1149,8 +1149,12 @@ fn build_shape(
             .enumerate()
             .find(|(_, c)| !(c.is_finite() && c.min_element() >= 0.0 && c.max_element() * scale <= 1.0))
         {
+            let from = match spec {
+                ShapeSpec::Mesh { file, .. } => format!("{file}: "),
+                _ => String::new(),
+            };
             let msg = format!(
-                "vertex {i}'s colour {:?} times the vertex_color texture's scale {scale} leaves [0, 1] (`{name}` reads it)",
+                "{from}vertex {i}'s colour {:?} times the vertex_color texture's scale {scale} leaves [0, 1] (`{name}` reads it)",
                 c.to_array()
             );
             return Err(cx.err(key, msg));
