@@ -969,28 +969,28 @@ fn not_vertex_colors(
     Ok(())
 }
 
-/// The first vertex-colour texture material `m` reads, through its blends (depth-bounded).
-fn vertex_color_read(materials: &[SurfaceMaterial], textures: &[Texture], m: u32, depth: usize) -> Option<u32> {
+/// The largest scale of the vertex-colour textures material `m` reads (through its blends,
+/// depth-bounded), if it reads any.
+fn vertex_color_scale(materials: &[SurfaceMaterial], textures: &[Texture], m: u32, depth: usize) -> Option<f32> {
     let mat = &materials[m as usize];
     let maps = &mat.maps;
-    let mut own =
-        [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, mat.normal_map].into_iter().flatten();
     let weight = mat.blend.and_then(|b| match b.weight {
         crate::scene::material::BlendWeight::Texture(t) => Some(t),
         _ => None,
     });
-    if let Some(t) = own.find(|&t| matches!(textures[t as usize], Texture::VertexColor { .. })) {
-        return Some(t);
+    let own = [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, mat.normal_map, weight];
+    let mut most = own.into_iter().flatten().fold(None, |most: Option<f32>, t| match textures[t as usize] {
+        Texture::VertexColor { scale } => Some(most.map_or(scale, |m| m.max(scale))),
+        _ => most,
+    });
+    if let Some(b) = mat.blend.filter(|_| depth < MAX_BLEND_DEPTH) {
+        for next in [b.first, b.second] {
+            if let Some(scale) = vertex_color_scale(materials, textures, next, depth + 1) {
+                most = Some(most.map_or(scale, |m| m.max(scale)));
+            }
+        }
     }
-    if let Some(t) = weight.filter(|&t| matches!(textures[t as usize], Texture::VertexColor { .. })) {
-        return Some(t);
-    }
-    let b = mat.blend?;
-    if depth >= MAX_BLEND_DEPTH {
-        return None;
-    }
-    vertex_color_read(materials, textures, b.first, depth + 1)
-        .or_else(|| vertex_color_read(materials, textures, b.second, depth + 1))
+    most
 }
 
 /// A texture as an error names it: `name`, and the image file it was read from.
@@ -1133,8 +1133,7 @@ fn build_shape(
     // Vertex colours are read off the hit mesh: it must have them, each within [0, 1] times the
     // texture's scale (a reflectance, a weight, a roughness).
     for s in &out.shapes[first..] {
-        let Some(t) = vertex_color_read(out.materials, &out.textures.list, s.material, 0) else { continue };
-        let Texture::VertexColor { scale } = out.textures.list[t as usize] else { continue };
+        let Some(scale) = vertex_color_scale(out.materials, &out.textures.list, s.material, 0) else { continue };
         let name = &out.names[s.material as usize];
         let colors = match &s.geometry {
             Geometry::Mesh(m) => m.colors.as_ref(),
