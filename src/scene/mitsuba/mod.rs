@@ -378,8 +378,12 @@ impl<'a> Cx<'a> {
             }
         };
         match n.attr("type") {
-            Some("path") | Some("volpath") | Some("volpathmis") => {
-                r.mode = Mode::Path;
+            Some(kind @ ("path" | "volpath" | "volpathmis" | "ptracer" | "bdpt")) => {
+                // Mitsuba 3's particle tracer (light paths joined to the camera, and emitters seen
+                // directly) and 0.6's BDPT estimate what `path` does, with other noise: caustica renders
+                // them with its BDPT, whose strategies include light tracing.
+                let light_paths = matches!(kind, "ptracer" | "bdpt");
+                r.mode = if light_paths { Mode::Bdpt } else { Mode::Path };
                 if let Some(d) = p.int("max_depth")? {
                     r.max_depth = depth(d)?;
                 }
@@ -387,6 +391,11 @@ impl<'a> Cx<'a> {
                     r.rr_depth = (d.max(1) - 1) as u32;
                 }
                 r.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
+                if light_paths {
+                    p.int("samples_per_pass")?;
+                    p.boolean("light_image")?;
+                    p.boolean("sample_direct")?;
+                }
             }
             Some("direct") => {
                 r.mode = Mode::Path;
@@ -416,22 +425,6 @@ impl<'a> Cx<'a> {
                 if let Some(c) = p.int("caustic_photons")? {
                     r.photons.caustic = c.max(0) as u64;
                 }
-            }
-            Some("ptracer" | "bdpt") => {
-                // Mitsuba 3's particle tracer (light paths joined to the camera, and emitters seen
-                // directly) and 0.6's BDPT estimate what `path` does, with other noise: caustica renders
-                // them with its BDPT, whose strategies include light tracing.
-                r.mode = Mode::Bdpt;
-                if let Some(d) = p.int("max_depth")? {
-                    r.max_depth = depth(d)?;
-                }
-                if let Some(d) = p.int("rr_depth")? {
-                    r.rr_depth = (d.max(1) - 1) as u32;
-                }
-                r.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
-                p.int("samples_per_pass")?;
-                p.boolean("light_image")?;
-                p.boolean("sample_direct")?;
             }
             _ => {
                 return Err(n.error(
