@@ -31,11 +31,20 @@ fn with_white(line: &str) -> String {
     GOOD.replace("white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }", line)
 }
 
+/// `scene` with a `[textures]` table of `lines` (whole `name = { … }` lines) before its materials.
+fn with_textures(scene: String, lines: &str) -> String {
+    scene.replace("[materials]", &format!("[textures]\n{lines}\n\n[materials]"))
+}
+
 /// `GOOD` with its material `white` a normal map (a checkerboard of normals, `saw`) over a material `d`
 /// that `rest` (whole lines) defines; `extra` ends white's table (`, key = value`).
 fn normal_mapped(extra: &str, rest: &str) -> String {
-    with_white(&format!("white = {{ type = \"normalmap\", normal_map = \"saw\", material = \"d\"{extra} }}\n{rest}"))
-        .replace("[materials]", "[textures]\nsaw = { type = \"checkerboard\" }\n\n[materials]")
+    with_textures(
+        with_white(&format!(
+            "white = {{ type = \"normalmap\", normal_map = \"saw\", material = \"d\"{extra} }}\n{rest}"
+        )),
+        "saw = { type = \"checkerboard\" }",
+    )
 }
 
 /// `GOOD` with its quad's type and geometry (the lines before its material) replaced by `shape`.
@@ -203,15 +212,13 @@ fn each_malformed_scene_gets_its_own_message() {
         // a texture, with a roughness along it that is not 0.
         (
             "anisotropic_unknown_texture",
-            with_white("white = { type = \"mirror\", roughness = \"saw\", roughness_v = \"grain\" }")
-                .replace("[materials]", "[textures]\nsaw = { type = \"checkerboard\" }\n\n[materials]"),
+            with_textures(with_white("white = { type = \"mirror\", roughness = \"saw\", roughness_v = \"grain\" }"), "saw = { type = \"checkerboard\" }"),
             vec![],
             vec!["materials.white.roughness_v", "`grain`"],
         ),
         (
             "anisotropic_texture_on_smooth",
-            with_white("white = { type = \"conductor\", preset = \"Au\", roughness_v = \"saw\" }")
-                .replace("[materials]", "[textures]\nsaw = { type = \"checkerboard\" }\n\n[materials]"),
+            with_textures(with_white("white = { type = \"conductor\", preset = \"Au\", roughness_v = \"saw\" }"), "saw = { type = \"checkerboard\" }"),
             vec![],
             vec!["materials.white.roughness_v", "needs both `roughness` and `roughness_v` > 0"],
         ),
@@ -377,15 +384,13 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "spot_texture_wide",
-            with_spot("texture = \"slide\"\ncutoff_angle = 90")
-            .replace("[materials]", "[textures]\nslide = { type = \"checkerboard\" }\n\n[materials]"),
+            with_textures(with_spot("texture = \"slide\"\ncutoff_angle = 90"), "slide = { type = \"checkerboard\" }"),
             vec![],
             vec!["lights[0].cutoff_angle", "< 90 degrees, got 90"],
         ),
         (
             "spot_up_along_axis",
-            with_spot("texture = \"slide\"")
-            .replace("[materials]", "[textures]\nslide = { type = \"checkerboard\" }\n\n[materials]"),
+            with_textures(with_spot("texture = \"slide\""), "slide = { type = \"checkerboard\" }"),
             vec![],
             vec!["lights[0].up", "along the spot's axis"],
         ),
@@ -451,8 +456,7 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "normalmap_in_blend",
-            with_white("white = { type = \"blend\", first = \"m\", second = \"d\" }\nm = { type = \"normalmap\", normal_map = \"saw\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }")
-                .replace("[materials]", "[textures]\nsaw = { type = \"checkerboard\" }\n\n[materials]"),
+            with_textures(with_white("white = { type = \"blend\", first = \"m\", second = \"d\" }\nm = { type = \"normalmap\", normal_map = \"saw\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"), "saw = { type = \"checkerboard\" }"),
             vec![],
             vec!["materials.white.first", "`m` has a normal map"],
         ),
@@ -479,16 +483,17 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "vertex_colors_none",
-            with_white("white = { type = \"diffuse\", reflectance = \"vc\" }")
-                .replace("[materials]", "[textures]\nvc = { type = \"vertex_color\" }\n\n[materials]"),
+            with_textures(with_white("white = { type = \"diffuse\", reflectance = \"vc\" }"), "vc = { type = \"vertex_color\" }"),
             vec![],
             vec!["shapes[0].material", "`white` reads vertex colours", "this shape has none"],
         ),
         (
             "vertex_colors_bright",
-            with_shape("type = \"mesh\"\nfile = \"bright.ply\"")
-                .replace("reflectance = [0.5, 0.5, 0.5]", "reflectance = \"vc\"")
-                .replace("[materials]", "[textures]\nvc = { type = \"vertex_color\" }\n\n[materials]"),
+            with_textures(
+                with_shape("type = \"mesh\"\nfile = \"bright.ply\"")
+                    .replace("reflectance = [0.5, 0.5, 0.5]", "reflectance = \"vc\""),
+                "vc = { type = \"vertex_color\" }",
+            ),
             vec![],
             vec!["shapes[0]", "vertex 1's colour [0.5, 1.5, 0.5]", "leaves [0, 1]"],
         ),
@@ -500,16 +505,15 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "vertex_colors_emitted",
-            GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"vc\"")
-                .replace("[materials]", "[textures]\nvc = { type = \"vertex_color\" }\n\n[materials]"),
+            with_textures(GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"vc\""), "vc = { type = \"vertex_color\" }"),
             vec![],
             vec!["shapes[0].emission", "`vc` is a vertex_color texture", "not as an emitter's radiance"],
         ),
         (
             "emission_negative_texture",
-            GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\"").replace(
-                "[materials]",
-                "[textures]\nglow = { type = \"bitmap\", file = \"negative.exr\" }\n\n[materials]",
+            with_textures(
+                GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\""),
+                "glow = { type = \"bitmap\", file = \"negative.exr\" }",
             ),
             vec![],
             vec!["shapes[0].emission", "texture `glow` (negative.exr) reaches -0.5", "≥ 0"],
