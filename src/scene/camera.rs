@@ -333,10 +333,16 @@ impl Camera {
         Camera { centre, ..self }
     }
 
+    /// Whether the crop window `[x, y, width, height]` holds at least one pixel and lies on a film of
+    /// `film` pixels (what `crop` needs).
+    pub fn window_fits([x, y, w, h]: [u32; 4], film: [u32; 2]) -> bool {
+        w > 0 && h > 0 && x as u64 + w as u64 <= film[0] as u64 && y as u64 + h as u64 <= film[1] as u64
+    }
+
     /// The same camera rendering only the window of `size` pixels at `offset` (from the top-left corner)
     /// of its film: each pixel of the new film sees exactly what the same pixel of the window saw, so the
     /// image is that window of the whole one (Mitsuba's film crop). The caller checks that the window
-    /// lies on the film.
+    /// lies on the film (`window_fits`).
     pub fn crop(self, offset: [u32; 2], size: [u32; 2]) -> Camera {
         let (full, new) = ([self.width as f32, self.height as f32], [size[0] as f32, size[1] as f32]);
         let half = self.ortho.unwrap_or(self.tan_half);

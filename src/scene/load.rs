@@ -357,7 +357,7 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         camera = camera.shift(shift);
     }
     if let Some([x, y, cw, ch]) = c.crop {
-        if cw == 0 || ch == 0 || x as u64 + cw as u64 > w as u64 || y as u64 + ch as u64 > h as u64 {
+        if !Camera::window_fits([x, y, cw, ch], [w, h]) {
             return Err(cx.err(
                 "camera.crop",
                 format!(

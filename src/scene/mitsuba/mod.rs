@@ -306,7 +306,7 @@ impl<'a> Cx<'a> {
                     u32::try_from(v).map_err(|_| f.error(format!("{key} must be in [0, {}], got {v}", u32::MAX)))?;
             }
             let [x, y, cw, ch] = window;
-            if cw == 0 || ch == 0 || x as u64 + cw as u64 > w as u64 || y as u64 + ch as u64 > h as u64 {
+            if !crate::scene::camera::Camera::window_fits(window, [w, h]) {
                 return Err(f.error(format!(
                     "the crop window (crop_offset_x {x}, crop_offset_y {y}, crop_width {cw}, crop_height {ch}) \
                      must hold at least one pixel and lie on the {w}×{h} film"
