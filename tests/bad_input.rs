@@ -476,6 +476,27 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["shapes[0].material", "`white` has a normal map, which needs texture coordinates"],
         ),
         (
+            "bumpmap_of_checkerboard",
+            with_textures(with_white("white = { type = \"bumpmap\", height = \"saw\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"), "saw = { type = \"checkerboard\" }"),
+            vec![],
+            vec!["materials.white.height", "`saw` has no gradient"],
+        ),
+        (
+            "bumpmap_infinite_scale",
+            with_textures(with_white("white = { type = \"bumpmap\", height = \"h\", scale = inf, material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"), "h = { type = \"bitmap\", file = \"negative.exr\" }"),
+            vec![],
+            vec!["materials.white.scale", "number inf is not finite"],
+        ),
+        (
+            "bumpmap_without_uv",
+            with_textures(with_white("white = { type = \"bumpmap\", height = \"h\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"), "h = { type = \"bitmap\", file = \"negative.exr\" }").replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+                "type = \"mesh\"\nfile = \"nouv.obj\"",
+            ),
+            vec![],
+            vec!["shapes[0].material", "`white` has a bump map, which needs texture coordinates"],
+        ),
+        (
             "emission_unknown_texture",
             GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\""),
             vec![],

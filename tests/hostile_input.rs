@@ -344,6 +344,7 @@ const XML_TYPES: &[&str] = &[
     "plastic",
     "roughplastic",
     "normalmap",
+    "bumpmap",
     "gaussian",
     "tent",
     "mitchell",
@@ -391,6 +392,10 @@ const XML_EXTRAS: &[&str] = &[
     // tangent plane, over a sphere and, mirrored, over a rectangle seen from behind.
     r#"<bsdf type="normalmap" id="nm9"><texture type="checkerboard" name="normalmap"><rgb name="color0" value="0.5"/><rgb name="color1" value="0.5, 0.5, 0"/></texture><bsdf type="diffuse"/></bsdf><shape type="sphere"><ref id="nm9"/></shape>"#,
     r#"<bsdf type="twosided" id="nm8"><bsdf type="normalmap"><texture type="checkerboard" name="normalmap"><rgb name="color0" value="1, 0.5, 0.5"/><rgb name="color1" value="0.5, 0.5, 0"/></texture><bsdf type="conductor"/></bsdf></bsdf><shape type="rectangle"><transform name="to_world"><rotate x="1" angle="180"/></transform><ref id="nm8"/></shape>"#,
+    // Bump maps bent beyond f32 (a height scaled by 1e30, on a sphere whose poles have no ∂p/∂v) and
+    // pressed in hard, mirrored, on a rectangle seen from behind.
+    r#"<bsdf type="bumpmap" id="bm9"><texture type="bitmap"><string name="filename" value="height.png"/></texture><float name="scale" value="1e30"/><bsdf type="diffuse"/></bsdf><shape type="sphere"><ref id="bm9"/></shape>"#,
+    r#"<bsdf type="twosided" id="bm8"><bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="height.png"/><boolean name="raw" value="true"/></texture><float name="scale" value="-1e5"/><bsdf type="roughconductor"/></bsdf></bsdf><shape type="rectangle"><transform name="to_world"><rotate x="1" angle="180"/></transform><ref id="bm8"/></shape>"#,
     r#"<shape type="sphere"><ref id="nowhere"/></shape>"#,
     r#"<shape type="sphere"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="ball.ply"/></texture></bsdf></shape>"#,
 ];
@@ -448,6 +453,7 @@ const ASSETS: &[(&str, &str)] = &[
     ("green.spd", "spectra.xml"),
     ("sky.exr", "textured-light.xml"),
     ("bumps.exr", "normalmap.xml"),
+    ("height.png", "bumpmap.xml"),
     ("colored-ball.ply", "vertexcolor.xml"),
     ("colored-tile.ply", "vertexcolor.xml"),
 ];

@@ -195,6 +195,36 @@ fn normal_maps_xml_match_mitsuba() {
     every_mode_means_match_mitsuba("normalmap");
 }
 
+/// Bump maps (`bumpmap.xml`, Mitsuba's `bumpmap`): a non-square raw height image under a diffuse floor
+/// (tiled by `to_uv`), a rough gold ball inside `twosided`, a turned cube of anisotropic brushed silver
+/// and a card with a negative scale, and an sRGB colour image read by luminance under a plastic tile.
+/// The normal bends by the height's gradient along ∂p/∂u and ∂p/∂v (a sphere's and a mesh's as
+/// Mitsuba's); the rest is the normal map's. Every mode: light paths and photons see the same normals.
+#[test]
+fn bump_maps_xml_match_mitsuba() {
+    matches_mitsuba("bumpmap", 1024, 0.003);
+    every_mode_means_match_mitsuba("bumpmap");
+}
+
+/// A bump map whose height turns its texture coordinates is warned of, naming the line: Mitsuba 3.9.1's
+/// `eval_1_grad` scales by the image's size after `to_uv`'s turn (not the texture's derivative on a
+/// non-square image; caustica bends by the derivative). `bumpmap.xml`'s own (a scale) is not.
+#[test]
+fn a_bump_map_with_turned_texture_coordinates_is_warned_of() {
+    let converted = caustica::scene::mitsuba::convert(&dir().join("bumpmap.xml")).unwrap();
+    assert!(!converted.warnings.iter().any(|w| w.contains("bumpmap")), "{:?}", converted.warnings);
+    let d = tmp("bump-turned");
+    let text = std::fs::read_to_string(dir().join("bumpmap.xml"))
+        .unwrap()
+        .replace(r#"<scale x="3" y="2"/></transform>"#, r#"<rotate z="1" angle="30"/></transform>"#);
+    let path = write(&d, "turned.xml", &text);
+    let converted = caustica::scene::mitsuba::convert(&path).unwrap();
+    let turned: Vec<&String> = converted.warnings.iter().filter(|w| w.contains("bumpmap")).collect();
+    assert_eq!(turned.len(), 1, "{:?}", converted.warnings);
+    assert!(turned[0].contains("turned.xml: line 24") && turned[0].contains("to_uv"), "{}", turned[0]);
+    let _ = std::fs::remove_dir_all(d);
+}
+
 /// Anisotropic roughness (`anisotropic.xml`): `alpha_u` along each surface's ∂p/∂u and `alpha_v` across
 /// it, on a turned rectangle, a sphere (along its longitude), a disk (radially), a cube's faces, an OBJ
 /// tile in rough glass, a PLY ball without texture coordinates (each triangle's first edge), a normal
@@ -1156,9 +1186,34 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &["line 8", "`flip_invalid_normals` false is not supported"],
         ),
         (
-            "bumpmap",
-            r#"<bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="bumps.exr"/></texture><bsdf type="diffuse"/></bsdf>"#,
-            &["line 8", "bumpmap is not read", "a normalmap"],
+            "bumpmap-checkerboard",
+            r#"<bsdf type="bumpmap"><texture type="checkerboard"/><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "a bumpmap's height must be a bitmap", "a checkerboard has none"],
+        ),
+        (
+            "bumpmap-no-texture",
+            r#"<bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "needs exactly one texture, its height (found 0)"],
+        ),
+        (
+            "bumpmap-two-textures",
+            r#"<bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="a.png"/></texture><texture type="bitmap"><string name="filename" value="b.png"/></texture><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "needs exactly one texture, its height (found 2)"],
+        ),
+        (
+            "bumpmap-in-blend",
+            r#"<bsdf type="blendbsdf"><bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="a.png"/></texture><bsdf type="diffuse"/></bsdf><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "a bumpmap inside a blendbsdf"],
+        ),
+        (
+            "bumpmap-over-normalmap",
+            r#"<bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="a.png"/></texture><bsdf type="normalmap"><texture type="bitmap" name="normalmap"><string name="filename" value="a.png"/></texture><bsdf type="diffuse"/></bsdf></bsdf>"#,
+            &["line 8", "a `normalmap` under a bumpmap"],
+        ),
+        (
+            "bumpmap-unshadowed",
+            r#"<bsdf type="bumpmap"><boolean name="use_shadowing_function" value="false"/><texture type="bitmap"><string name="filename" value="a.png"/></texture><bsdf type="diffuse"/></bsdf>"#,
+            &["line 8", "`use_shadowing_function` false is not supported"],
         ),
         (
             "normalmap-two",

@@ -274,6 +274,20 @@ pub enum MaterialSpec {
         #[serde(default)]
         two_sided: bool,
     },
+    /// Another of the `[materials]`, by name, under a bump map (Mitsuba's `bumpmap`): the surface as
+    /// if displaced along its shading normal by `scale` (default 1) times the `height` texture's value
+    /// (a bitmap, read by luminance; use `raw = true` for heights stored as numbers, not colours), of
+    /// which only the gradient along the texture's u and v counts. It bends the normal the material is
+    /// taken about, with everything a normal map does (`normalmap`'s reflection, shadowing, `two_sided`
+    /// and restrictions); a bump map of a checkerboard is refused (it has no gradient).
+    Bumpmap {
+        height: String,
+        #[serde(default = "one")]
+        scale: f32,
+        material: String,
+        #[serde(default)]
+        two_sided: bool,
+    },
     /// Mitsuba's `principled` BSDF (Burley's "Disney" model as Mitsuba 3 writes it): `base_color` (a
     /// colour or a texture, default ½) and `roughness` (a number or a texture read by luminance,
     /// default ½) and, each a number in [0, 1] defaulting to 0: `metallic`, `spec_trans`
@@ -335,7 +349,7 @@ impl MaterialSpec {
             MaterialSpec::Principled { base_color, roughness, .. } => t(base_color) || w(roughness),
             MaterialSpec::Blend { weight, .. } => w(weight),
             MaterialSpec::Sides { .. } | MaterialSpec::Null => false,
-            MaterialSpec::Normalmap { .. } => true,
+            MaterialSpec::Normalmap { .. } | MaterialSpec::Bumpmap { .. } => true,
         }
     }
 }

@@ -6,7 +6,7 @@ use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
 use crate::scene::light::{Lights, PointLight, Spot};
 use crate::scene::material::{
-    conductor_preset, BlendWeight, Fresnel, Mapped, Material, Nested, ParamMaps, Principled, RoughCoat,
+    conductor_preset, BlendWeight, Fresnel, Mapped, Material, Nested, NormalMap, ParamMaps, Principled, RoughCoat,
     SurfaceMaterial, MIN_ALPHA,
 };
 use crate::scene::mesh::{self, TriMesh};
@@ -817,14 +817,16 @@ fn build_material(
             SurfaceMaterial::blend(BlendWeight::Side, named("front", front)?, named("back", back)?)
         }
         // Filled in by `apply_normal_maps` once every material is built.
-        MaterialSpec::Normalmap { .. } => SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO }),
+        MaterialSpec::Normalmap { .. } | MaterialSpec::Bumpmap { .. } => {
+            SurfaceMaterial::new(Material::Diffuse { reflectance: Rgb::ZERO })
+        }
     })
 }
 
-/// Each `normalmap` material becomes the material it names with the normal map added (built after
-/// every material, as it may name one listed later). A normal map of a normal map, and one on a
-/// blend's or a side material's own materials (the normal is perturbed before a blend picks), are
-/// refused.
+/// Each `normalmap` or `bumpmap` material becomes the material it names with the normal map or bump
+/// map added (built after every material, as it may name one listed later). A normal map of a normal
+/// map, and one on a blend's or a side material's own materials (the normal is perturbed before a
+/// blend picks), are refused; so is a bump map whose height has no gradient.
 fn apply_normal_maps(
     cx: &Ctx,
     file: &SceneFile,
@@ -832,15 +834,34 @@ fn apply_normal_maps(
     textures: &Textures,
     materials: &mut [SurfaceMaterial],
 ) -> Result<(), SceneError> {
-    let mapped: Vec<bool> = file.materials.values().map(|m| matches!(m, MaterialSpec::Normalmap { .. })).collect();
+    let mapped: Vec<bool> = file
+        .materials
+        .values()
+        .map(|m| matches!(m, MaterialSpec::Normalmap { .. } | MaterialSpec::Bumpmap { .. }))
+        .collect();
     for (i, (name, spec)) in file.materials.iter().enumerate() {
-        let MaterialSpec::Normalmap { normal_map, material, two_sided } = spec else { continue };
         let key = format!("materials.{name}");
+        let (map, material, two_sided) = match spec {
+            MaterialSpec::Normalmap { normal_map, material, two_sided } => (
+                NormalMap::Image(texture_named(cx, &format!("{key}.normal_map"), normal_map, textures)?),
+                material,
+                two_sided,
+            ),
+            MaterialSpec::Bumpmap { height, scale, material, two_sided } => {
+                let t = texture_named(cx, &format!("{key}.height"), height, textures)?;
+                if textures.list[t as usize].gradient(glam::Vec2::ZERO).is_none() {
+                    let msg =
+                        format!("`{height}` has no gradient to bend the normal by (a bump map's height is a bitmap)");
+                    return Err(cx.err(&format!("{key}.height"), msg));
+                }
+                (NormalMap::Bump { height: t, scale: *scale }, material, two_sided)
+            }
+            _ => continue,
+        };
         let j = material_named(cx, &format!("{key}.material"), material, index)?;
         if mapped[j as usize] {
             return Err(cx.err(&format!("{key}.material"), format!("`{material}` has a normal map already")));
         }
-        let t = texture_named(cx, &format!("{key}.normal_map"), normal_map, textures)?;
         let inner = &materials[j as usize];
         if inner.blend.is_some() {
             let msg =
@@ -857,7 +878,7 @@ fn apply_normal_maps(
         }
         let bsdf = Material::Mapped(Mapped { normal: Vec3::ZERO, mirror_back: *two_sided, nested });
         let two_sided = *two_sided || inner.two_sided;
-        materials[i] = SurfaceMaterial { bsdf, two_sided, normal_map: Some(t), ..inner.clone() };
+        materials[i] = SurfaceMaterial { bsdf, two_sided, normal_map: Some(map), ..inner.clone() };
     }
     for (name, spec) in &file.materials {
         let fields = match spec {
@@ -978,7 +999,8 @@ fn vertex_color_scale(materials: &[SurfaceMaterial], textures: &[Texture], m: u3
         crate::scene::material::BlendWeight::Texture(t) => Some(t),
         _ => None,
     });
-    let own = [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, mat.normal_map, weight];
+    let normal = mat.normal_map.map(NormalMap::texture);
+    let own = [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, normal, weight];
     let mut most = own.into_iter().flatten().fold(None, |most: Option<f32>, t| match textures[t as usize] {
         Texture::VertexColor { scale } => Some(most.map_or(scale, |m| m.max(scale))),
         _ => most,
@@ -1159,12 +1181,14 @@ fn build_shape(
             return Err(cx.err(key, msg));
         }
     }
-    // A normal map is read along the texture's u: a mesh without texture coordinates has none.
+    // A normal map is read along the texture's u, a bump map's gradient along u and v: a mesh without
+    // texture coordinates has none.
     for s in &out.shapes[first..] {
-        let mapped = out.materials[s.material as usize].normal_map.is_some();
-        if mapped && matches!(&s.geometry, Geometry::Mesh(m) if m.uvs.is_none()) {
+        let map = out.materials[s.material as usize].normal_map;
+        if map.is_some() && matches!(&s.geometry, Geometry::Mesh(m) if m.uvs.is_none()) {
             let name = &out.names[s.material as usize];
-            let msg = format!("`{name}` has a normal map, which needs texture coordinates, and this mesh has none");
+            let kind = if let Some(NormalMap::Bump { .. }) = map { "a bump map" } else { "a normal map" };
+            let msg = format!("`{name}` has {kind}, which needs texture coordinates, and this mesh has none");
             return Err(cx.err(&format!("{key}.material"), msg));
         }
     }

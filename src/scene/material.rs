@@ -290,10 +290,31 @@ pub struct SurfaceMaterial {
     /// Textures for the BSDF's other parameters.
     pub maps: ParamMaps,
     pub blend: Option<Blend>,
-    /// Index into `Scene::textures`: a tangent-space normal map over `bsdf` (then a `Material::Mapped`),
-    /// its colour c read as the normal's coordinates 2c − 1 along (∂p/∂u made orthogonal to the shading
-    /// normal, the normal × that, the normal).
-    pub normal_map: Option<u32>,
+    /// Where the normal of a `Material::Mapped` `bsdf` comes from at each hit: a normal map or a bump
+    /// map.
+    pub normal_map: Option<NormalMap>,
+}
+
+/// The texture that bends a normal-mapped material's normal at each hit (indices into
+/// `Scene::textures`), and how.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NormalMap {
+    /// A tangent-space normal map (Mitsuba's `normalmap`): its colour c read as the normal's
+    /// coordinates 2c − 1 along (∂p/∂u made orthogonal to the shading normal, the normal × that, the
+    /// normal).
+    Image(u32),
+    /// A bump map (Mitsuba's `bumpmap`): the surface displaced along the shading normal by `scale`
+    /// times the height texture's value (read by luminance), of which only the gradient counts
+    /// (`Scene::bumped_frame`).
+    Bump { height: u32, scale: f32 },
+}
+
+impl NormalMap {
+    pub fn texture(self) -> u32 {
+        match self {
+            NormalMap::Image(t) | NormalMap::Bump { height: t, .. } => t,
+        }
+    }
 }
 
 /// Textures that replace a BSDF's parameters at each hit (indices into `Scene::textures`), as Mitsuba's

@@ -61,6 +61,12 @@ impl TriMesh {
     /// ∂p/∂u on triangle `i`: from its texture coordinates where it has them (and they span an area),
     /// else along its barycentric u (b − a), as its uv are then its barycentrics.
     pub fn dp_du(&self, i: usize) -> Vec3 {
+        self.dp_duv(i).0
+    }
+
+    /// Triangle `i`'s ∂p/∂u and ∂p/∂v from its texture coordinates (Mitsuba's): its two edges from
+    /// the first vertex where it has none, or where they leave the uv map degenerate.
+    pub fn dp_duv(&self, i: usize) -> (Vec3, Vec3) {
         let [a, b, c] = self.triangle(i);
         if let Some(t) = &self.uvs {
             let [i0, i1, i2] = self.indices[i];
@@ -68,10 +74,10 @@ impl TriMesh {
             let (du1, dv1, du2, dv2) = (tb[0] - ta[0], tb[1] - ta[1], tc[0] - ta[0], tc[1] - ta[1]);
             let det = du1 * dv2 - dv1 * du2;
             if det != 0.0 && det.is_finite() {
-                return ((b - a) * dv2 - (c - a) * dv1) / det;
+                return (((b - a) * dv2 - (c - a) * dv1) / det, ((c - a) * du1 - (b - a) * du2) / det);
             }
         }
-        b - a
+        (b - a, c - a)
     }
 
     pub fn area(&self, i: usize) -> f32 {

@@ -79,6 +79,35 @@ impl Texture {
         }
     }
 
+    /// The gradient (∂/∂u, ∂/∂v) of the texture's value read as one number (its luminance, Mitsuba's
+    /// `eval_1`) at `uv`, as Mitsuba's `eval_1_grad` gives it to a bump map: a bilinear bitmap's
+    /// interpolant differentiated within the texel cell `uv` falls in, through `to_uv`; zero for nearest
+    /// lookup (a step function's gradient almost everywhere). None for a checkerboard or vertex colours,
+    /// which Mitsuba 3.9 cannot differentiate either. (Mitsuba 3.9.1 scales by the image's size after
+    /// `to_uv`'s transposed matrix, not before: the same for a square image or a `to_uv` without rotation
+    /// or shear, another number otherwise; caustica's is the derivative of what it evaluates.)
+    pub fn gradient(&self, uv: Vec2) -> Option<Vec2> {
+        let Texture::Bitmap { width, height, texels, to_uv, bilinear, .. } = self else { return None };
+        let t = to_uv.apply(uv);
+        let (w, h) = (*width as i64, *height as i64);
+        let (x, y) = (t.x * w as f32 - 0.5, t.y * h as f32 - 0.5);
+        if !(*bilinear && x.is_finite() && y.is_finite()) {
+            return Some(Vec2::ZERO);
+        }
+        let at = |x: i64, y: i64| {
+            crate::scene::material::mitsuba_luminance(texels[(y.rem_euclid(h) * w + x.rem_euclid(w)) as usize])
+        };
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let [f00, f10, f01, f11] = [at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1)];
+        // Per unit of the texture's own coordinates (a texel is 1/width of u).
+        let gx = ((f10 - f00) * (1.0 - fy) + (f11 - f01) * fy) * w as f32;
+        let gy = ((f01 - f00) * (1.0 - fx) + (f11 - f10) * fx) * h as f32;
+        let m = &to_uv.0;
+        Some(Vec2::new(m[0] * gx + m[3] * gy, m[1] * gx + m[4] * gy))
+    }
+
     /// Feeds what the texture is into a scene's content hash.
     pub fn hash_into(&self, h: &mut sha2::Sha256) {
         use sha2::Digest;
@@ -202,6 +231,56 @@ mod tests {
         assert_eq!(t.eval(Vec2::new(0.3, 0.3)), Rgb::ONE);
         // Wraps: negative coordinates keep the pattern.
         assert_eq!(t.eval(Vec2::new(-0.1, 0.1)), Rgb::ZERO);
+    }
+
+    /// Mitsuba 3.9.1's `eval_1_grad` of a 7 × 5 raw EXR (texel (x, y) = ((3x + 5y) mod 7)/7,
+    /// ((x² + 2y) mod 5)/5, 0.1xy/3), read off it at four uv, one beyond [0, 1] (it wraps), without and
+    /// with a `to_uv` of scale (2, 3) then translate (0.25, −0.5); and the gradient against central
+    /// differences of `eval` (away from the texel centres, where the interpolant has kinks).
+    #[test]
+    fn bitmap_gradient_is_mitsubas_and_evals_derivative() {
+        let (w, h) = (7u32, 5u32);
+        let texels = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x as f32, y as f32)))
+            .map(|(x, y)| {
+                Rgb::new(((3.0 * x + 5.0 * y) % 7.0) / 7.0, ((x * x + 2.0 * y) % 5.0) / 5.0, 0.1 * x * y / 3.0)
+            })
+            .collect::<Vec<_>>();
+        let bitmap = |to_uv| Texture::Bitmap {
+            file: "g".into(),
+            width: w,
+            height: h,
+            texels: texels.clone(),
+            to_uv,
+            bilinear: true,
+        };
+        let plain = bitmap(UvMap::default());
+        let mapped = bitmap(UvMap([2.0, 0.0, 0.25, 0.0, 3.0, -0.5]));
+        let cases = [
+            (&plain, [0.31, 0.73], [-2.576783, 1.859039]),
+            (&plain, [0.57, 0.12], [-1.863363, -0.655175]),
+            (&plain, [0.02, 0.95], [-1.038495, -2.778043]),
+            (&plain, [-0.4, 1.33], [1.685603, -1.013045]),
+            (&mapped, [0.31, 0.73], [2.728349, 1.065132]),
+            (&mapped, [0.57, 0.12], [-0.977909, 5.916333]),
+            (&mapped, [0.02, 0.95], [-0.928060, -0.107825]),
+            (&mapped, [-0.4, 1.33], [1.192832, 5.54868]),
+        ];
+        let lum = crate::scene::material::mitsuba_luminance;
+        for (t, [u, v], want) in cases {
+            let g = t.gradient(Vec2::new(u, v)).unwrap();
+            assert!((g - Vec2::from(want)).abs().max_element() < 1e-4, "at ({u}, {v}): {g} against Mitsuba's {want:?}");
+            let e = 1e-3;
+            let du = (lum(t.eval(Vec2::new(u + e, v))) - lum(t.eval(Vec2::new(u - e, v)))) / (2.0 * e);
+            let dv = (lum(t.eval(Vec2::new(u, v + e))) - lum(t.eval(Vec2::new(u, v - e)))) / (2.0 * e);
+            assert!((g - Vec2::new(du, dv)).abs().max_element() < 2e-2, "at ({u}, {v}): {g} against ({du}, {dv})");
+        }
+        // Nearest lookup: flat within each texel. A checkerboard has none.
+        let nearest =
+            Texture::Bitmap { file: "g".into(), width: w, height: h, texels, to_uv: UvMap::default(), bilinear: false };
+        assert_eq!(nearest.gradient(Vec2::new(0.31, 0.73)), Some(Vec2::ZERO));
+        let checks = Texture::Checkerboard { color0: Rgb::ONE, color1: Rgb::ZERO, to_uv: UvMap::default() };
+        assert_eq!(checks.gradient(Vec2::new(0.3, 0.3)), None);
     }
 
     #[test]

@@ -33,7 +33,7 @@ enum Valued<'a> {
 
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
-                     roughconductor (ggx, beckmann), principled, twosided, blendbsdf, mask, null, normalmap";
+                     roughconductor (ggx, beckmann), principled, twosided, blendbsdf, mask, null, normalmap, bumpmap";
 const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
@@ -706,19 +706,14 @@ impl<'a> Cx<'a> {
             "principled" => self.principled(b, &p, two_sided, name)?,
             "blendbsdf" | "mask" => self.blend(b, &p, two_sided, name)?,
             "null" => MaterialSpec::Null,
-            "normalmap" => self.normal_map(b, &p, two_sided, name)?,
-            "bumpmap" => {
-                return Err(b.error(
-                    "bumpmap is not read (Mitsuba 3.9.1 bends it by a height gradient that is not its texture's \
-                     derivative); a normalmap of the surface's normals is",
-                ))
-            }
+            "normalmap" | "bumpmap" => self.normal_map(b, &p, two_sided, name)?,
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
         };
         p.finish(
             "the parameters of diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
-             roughconductor, principled, twosided, blendbsdf (weight), mask (opacity) and normalmap (normalmap, \
-             flip_invalid_normals and use_shadowing_function, both true)",
+             roughconductor, principled, twosided, blendbsdf (weight), mask (opacity), normalmap (normalmap, \
+             flip_invalid_normals and use_shadowing_function, both true) and bumpmap (its texture, scale, the same \
+             flags)",
         )?;
         Ok(spec)
     }
@@ -752,10 +747,12 @@ impl<'a> Cx<'a> {
         Ok(MaterialSpec::Blend { weight, first, second })
     }
 
-    /// `normalmap`: its `normalmap` texture over its one nested BSDF (converted as a material of its
-    /// own). Inside `twosided` the back shows the front's mirror image; a `twosided` inside it makes the
-    /// nested BSDF two-sided about the mapped normal. Not inside a blend or a `twosided` of two BSDFs
-    /// (the normal is perturbed for the whole surface, before a blend picks), nor over one.
+    /// `normalmap` (its `normalmap` texture) or `bumpmap` (its one texture, whatever its name, a
+    /// bitmap: the height whose gradient bends the normal, times `scale`) over its one nested BSDF
+    /// (converted as a material of its own). Inside `twosided` the back shows the front's mirror image;
+    /// a `twosided` inside it makes the nested BSDF two-sided about the bent normal. Not inside a blend
+    /// or a `twosided` of two BSDFs (the normal is perturbed for the whole surface, before a blend
+    /// picks), nor over one.
     fn normal_map(
         &mut self,
         b: &'a Node,
@@ -763,15 +760,57 @@ impl<'a> Cx<'a> {
         two_sided: bool,
         name: &str,
     ) -> Result<MaterialSpec, SceneError> {
+        let kind = b.attr("type").unwrap_or("normalmap");
         if !self.blends.is_empty() || self.in_sides {
-            return Err(b.error(
-                "a normalmap inside a blendbsdf, mask or two-BSDF twosided is not supported (put it around them)",
-            ));
+            return Err(b.error(format!(
+                "a {kind} inside a blendbsdf, mask or two-BSDF twosided is not supported (put it around them)"
+            )));
         }
-        let texture = match self.colour_or_node(p, "normalmap", name)? {
-            Some(Valued::Texture(t, fallback)) => self.texture(t, &fallback)?,
-            _ => return Err(b.error("needs a `normalmap` texture")),
+        let bump = kind == "bumpmap";
+        let texture = if bump {
+            let is_texture = |c: &Node| {
+                c.tag == "texture"
+                    || (c.tag == "ref"
+                        && c.attr("id").and_then(|id| self.ids.get(id)).is_some_and(|t| t.tag == "texture"))
+            };
+            let found = p.children_where(is_texture);
+            let [t] = found[..] else {
+                return Err(b.error(format!("needs exactly one texture, its height (found {})", found.len())));
+            };
+            let t = match t.attr("id") {
+                Some(id) if t.tag == "ref" => self.lookup(t, id)?,
+                _ => t,
+            };
+            match t.attr("type") {
+                Some("bitmap") => {}
+                other => {
+                    return Err(t.error(format!(
+                        "a bumpmap's height must be a bitmap, whose gradient bends the normal (a {} has none, in \
+                         Mitsuba 3.9 too)",
+                        other.unwrap_or("texture without a type")
+                    )))
+                }
+            }
+            let height = self.texture(t, &format!("{name}-height"))?;
+            if let Some(TextureSpec::Bitmap { matrix: Some(m), .. }) = self.file.textures.get(&height) {
+                if m[0][1] != 0.0 || m[1][0] != 0.0 {
+                    self.warnings.push(format!(
+                        "{}: line {}: the bumpmap's height turns or shears its texture coordinates (`to_uv`): \
+                         Mitsuba 3.9.1's gradient there is not its texture's derivative unless the image is square \
+                         (it scales by the image's size after turning); caustica bends by the derivative",
+                        t.file.display(),
+                        t.line
+                    ));
+                }
+            }
+            height
+        } else {
+            match self.colour_or_node(p, "normalmap", name)? {
+                Some(Valued::Texture(t, fallback)) => self.texture(t, &fallback)?,
+                _ => return Err(b.error("needs a `normalmap` texture")),
+            }
         };
+        let scale = if bump { p.float("scale")?.unwrap_or(1.0) } else { 1.0 };
         for flag in ["flip_invalid_normals", "use_shadowing_function"] {
             if p.boolean(flag)? == Some(false) {
                 return Err(
@@ -783,19 +822,22 @@ impl<'a> Cx<'a> {
         let [one] = nested[..] else {
             return Err(b.error(format!("needs exactly one nested BSDF (found {})", nested.len())));
         };
-        if let Some(t @ ("blendbsdf" | "mask" | "null" | "thindielectric" | "normalmap")) = one.attr("type") {
-            return Err(
-                one.error(format!("a `{t}` under a normalmap is not supported (put the normal maps inside it)"))
-            );
+        if let Some(t @ ("blendbsdf" | "mask" | "null" | "thindielectric" | "normalmap" | "bumpmap")) = one.attr("type")
+        {
+            return Err(one.error(format!("a `{t}` under a {kind} is not supported (put the {kind}s inside it)")));
         }
         let material = self.nested_material(one, two_sided, &format!("{name}-mapped"))?;
         if let Some(MaterialSpec::Blend { .. } | MaterialSpec::Sides { .. }) = self.file.materials.get(&material) {
             return Err(
-                one.error("a twosided of two BSDFs under a normalmap is not supported (put a normalmap in each)")
+                one.error(format!("a twosided of two BSDFs under a {kind} is not supported (put a {kind} in each)"))
             );
         }
         // Inside `twosided`, the back is the front's mirror image, normal map and all.
-        Ok(MaterialSpec::Normalmap { normal_map: texture, material, two_sided })
+        Ok(if bump {
+            MaterialSpec::Bumpmap { height: texture, scale, material, two_sided }
+        } else {
+            MaterialSpec::Normalmap { normal_map: texture, material, two_sided }
+        })
     }
 
     /// The two materials a blend mixes (a mask's first is a `null` surface).

@@ -68,6 +68,20 @@ impl<'a> Props<'a> {
         out
     }
 
+    /// The children not read yet, named or not, for which `f` holds, in the order written (a
+    /// `bumpmap`'s texture, whatever its name).
+    pub fn children_where(&self, f: impl Fn(&'a Node) -> bool) -> Vec<&'a Node> {
+        let mut used = self.used.borrow_mut();
+        let mut out = Vec::new();
+        for (i, c) in self.node.children.iter().enumerate() {
+            if !used[i] && c.tag != "default" && f(c) {
+                used[i] = true;
+                out.push(c);
+            }
+        }
+        out
+    }
+
     fn value(n: &Node) -> Result<&str, SceneError> {
         n.attr("value").ok_or_else(|| n.error("needs a `value` attribute"))
     }
