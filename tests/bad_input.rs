@@ -497,6 +497,15 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["shapes[0].material", "`white` has a bump map, which needs texture coordinates"],
         ),
         (
+            "bumpmap_on_disk",
+            with_textures(with_white("white = { type = \"bumpmap\", height = \"h\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"), "h = { type = \"bitmap\", file = \"negative.exr\" }").replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
+                "type = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nradius = 1.0",
+            ),
+            vec![],
+            vec!["shapes[0].material", "`white` has a bump map, not supported on a disk"],
+        ),
+        (
             "emission_unknown_texture",
             GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\""),
             vec![],

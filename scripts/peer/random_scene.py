@@ -10,7 +10,7 @@ roughconductor by named metal or eta/k, dielectric, thindielectric, roughdielect
 random subset of its weights, and blendbsdf, mask and twosided around those), lit by one or two of
 area rectangle, area sphere, point, spot, directional, constant and envmap (at most one of the last
 two). Random max_depth (2 to unlimited), hide_emitters, box, tent or Gaussian filter; 64 x 48 pixels.
-The files it names (ball.ply, colored-ball.ply, tile.obj, tile.mtl, label.png, sky.exr) are tests/mitsuba's; the
+The files it names (ball.ply, colored-ball.ply, tile.obj, tile.mtl, label.png, sky.exr, height.png) are tests/mitsuba's; the
 caller copies them beside OUT. --no-blend leaves out blendbsdf, mask and twosided (Mitsuba 3.9.1's
 own blends are biased where caustica's are not: see the README). --area-lights draws the lights from
 area rectangle, area sphere, constant and envmap only: no point, spot or distant light, whose light
@@ -29,7 +29,8 @@ the BSDF of about a third of the shapes with texture coordinates, and an anisotr
 (alpha_u and alpha_v) for about three in five rough conductors and dielectrics and an `anisotropic`
 for half the principled BSDFs, not on a cylinder; and for half the cylinders a normal map or anisotropy;
 an orthographic camera, textured alpha_u/alpha_v, spots projecting a texture; a crop window of a larger
-film, and a principal point offset on a pinhole camera; vertex colours on half the PLY balls.
+film, and a principal point offset on a pinhole camera; vertex colours on half the PLY balls; a bump
+map (height.png or label.png) over about a quarter of the BSDFs of shapes with texture coordinates.
 """
 import argparse
 import os
@@ -542,6 +543,46 @@ if args.more:
         return re.sub(r'(<bsdf type="(\w+)">(?:(?!<bsdf).)*?)<rgb name="(\w+)" value="[^"]*"/>', one, line)
 
     text = "\n".join(colored(line) for line in text.split("\n"))
+    # Bump maps (caustica since session 46), from a fourteenth stream, last: about a quarter of the
+    # shapes with texture coordinates (not disks, whose triangles caustica refuses to bump, nor shapes
+    # with a normal map already) get a bumpmap over their BSDF, or inside a twosided of one around that
+    # one: height.png (raw, repeated 1 to 3 times) or label.png (sRGB, by luminance), a scale of either
+    # sign.
+    B = random.Random(args.seed * 4877 + 53)
+
+    def bump_texture():
+        if B.random() < 0.7:
+            s = B.choice([1, 2, 3])
+            return (f'<texture type="bitmap"><string name="filename" value="height.png"/><boolean name="raw" value="true"/>'
+                    f'<transform name="to_uv"><scale x="{s}" y="{s}"/></transform></texture>'
+                    f'<float name="scale" value="{f(B.choice([-1, 1]) * B.uniform(0.01, 0.06))}"/>')
+        return (f'<texture type="bitmap"><string name="filename" value="label.png"/></texture>'
+                f'<float name="scale" value="{f(B.choice([-1, 1]) * B.uniform(0.02, 0.1))}"/>')
+
+    def bumped(line):
+        m = re.match(r'<shape type="(\w+)">', line)
+        if (not m or m.group(1) not in ("rectangle", "cube", "sphere", "cylinder", "obj")
+                or 'type="normalmap"' in line or B.random() >= 0.25):
+            return line
+        i = line.find("<bsdf")
+        if i < 0:
+            return line
+        j = element_end(line, i)
+        outer = line[i:j]
+        kind = re.match(r'<bsdf type="(\w+)"', outer).group(1)
+        if kind in MAPPABLE:
+            return line[:i] + f'<bsdf type="bumpmap">{bump_texture()}{outer}</bsdf>' + line[j:]
+        if kind != "twosided":
+            return line
+        k = outer.find("<bsdf", 1)
+        inner = outer[k:element_end(outer, k)]
+        if len(inner) + len('<bsdf type="twosided">') + len("</bsdf>") != len(outer):
+            return line  # two BSDFs
+        if re.match(r'<bsdf type="(\w+)"', inner).group(1) not in MAPPABLE:
+            return line
+        return line[:i] + f'<bsdf type="twosided"><bsdf type="bumpmap">{bump_texture()}{inner}</bsdf></bsdf>' + line[j:]
+
+    text = "\n".join(bumped(line) for line in text.split("\n"))
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

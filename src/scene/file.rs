@@ -279,7 +279,8 @@ pub enum MaterialSpec {
     /// (a bitmap, read by luminance; use `raw = true` for heights stored as numbers, not colours), of
     /// which only the gradient along the texture's u and v counts. It bends the normal the material is
     /// taken about, with everything a normal map does (`normalmap`'s reflection, shadowing, `two_sided`
-    /// and restrictions); a bump map of a checkerboard is refused (it has no gradient).
+    /// and restrictions); a bump map of a checkerboard is refused (it has no gradient), and one on a
+    /// disk (whose triangles do not follow its ∂p/∂v, which shrinks towards the centre).
     Bumpmap {
         height: String,
         #[serde(default = "one")]

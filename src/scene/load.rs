@@ -1191,6 +1191,16 @@ fn build_shape(
             let msg = format!("`{name}` has {kind}, which needs texture coordinates, and this mesh has none");
             return Err(cx.err(&format!("{key}.material"), msg));
         }
+        // A disk's ∂p/∂v (along its angle) shrinks towards its centre (Mitsuba's disk: 2πr); each of
+        // its triangles keeps the rim's, which only a normal map (read along ∂p/∂u) does not see.
+        if let (Some(NormalMap::Bump { .. }), ShapeSpec::Disk { .. }) = (map, spec) {
+            let name = &out.names[s.material as usize];
+            let msg = format!(
+                "`{name}` has a bump map, not supported on a disk (its triangles would bend it by the rim's ∂p/∂v \
+                 everywhere; a rectangle or a mesh with texture coordinates can carry it)"
+            );
+            return Err(cx.err(&format!("{key}.material"), msg));
+        }
     }
     Ok(())
 }
