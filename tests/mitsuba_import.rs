@@ -216,12 +216,12 @@ fn a_bump_map_with_turned_texture_coordinates_is_warned_of() {
     let d = tmp("bump-turned");
     let text = std::fs::read_to_string(dir().join("bumpmap.xml"))
         .unwrap()
-        .replace(r#"<scale x="3" y="2"/></transform>"#, r#"<rotate z="1" angle="30"/></transform>"#);
+        .replace(r#"<scale x="3" y="2"/><translate x="-1" y="-0.5"/>"#, r#"<rotate z="1" angle="30"/>"#);
     let path = write(&d, "turned.xml", &text);
     let converted = caustica::scene::mitsuba::convert(&path).unwrap();
     let turned: Vec<&String> = converted.warnings.iter().filter(|w| w.contains("bumpmap")).collect();
     assert_eq!(turned.len(), 1, "{:?}", converted.warnings);
-    assert!(turned[0].contains("turned.xml: line 24") && turned[0].contains("to_uv"), "{}", turned[0]);
+    assert!(turned[0].contains("turned.xml: line 25") && turned[0].contains("to_uv"), "{}", turned[0]);
     let _ = std::fs::remove_dir_all(d);
 }
 

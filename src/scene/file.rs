@@ -384,6 +384,10 @@ fn white() -> Reflectance {
     Reflectance::Colour([1.0; 3])
 }
 
+fn is_repeat(w: &crate::scene::texture::Wrap) -> bool {
+    *w == crate::scene::texture::Wrap::Repeat
+}
+
 fn one() -> f32 {
     1.0
 }
@@ -434,6 +438,10 @@ pub enum TextureSpec {
         /// Bilinear (default) or nearest-texel lookup.
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         bilinear: bool,
+        /// What is read beyond the image's edges: "repeat" (default), "clamp" (the edge texels) or
+        /// "mirror" (the image mirrored at each edge), as Mitsuba's `wrap_mode`.
+        #[serde(default, skip_serializing_if = "is_repeat")]
+        wrap: crate::scene::texture::Wrap,
         #[serde(default = "one2")]
         scale: [f32; 2],
         #[serde(default)]

@@ -520,12 +520,12 @@ fn build_texture(cx: &Ctx, key: &str, spec: &TextureSpec, dir: &Path) -> Result<
             color1: cx.colour(&format!("{key}.color1"), *color1, None)?,
             to_uv: uv_map(cx, key, *scale, *offset, *matrix)?,
         },
-        TextureSpec::Bitmap { file, raw, bilinear, scale, offset, matrix } => {
+        TextureSpec::Bitmap { file, raw, bilinear, wrap, scale, offset, matrix } => {
             let path = dir.join(file);
             let (width, height, texels) = load_image(&path, *raw)
                 .map_err(|e| cx.err(&format!("{key}.file"), format!("{}: {e}", path.display())))?;
             let to_uv = uv_map(cx, key, *scale, *offset, *matrix)?;
-            Texture::Bitmap { file: file.clone(), width, height, texels, to_uv, bilinear: *bilinear }
+            Texture::Bitmap { file: file.clone(), width, height, texels, to_uv, bilinear: *bilinear, wrap: *wrap }
         }
         TextureSpec::VertexColor { scale } => {
             if !(scale.is_finite() && *scale >= 0.0) {
@@ -1221,8 +1221,15 @@ fn mtl_texture_material(
             let (width, height, texels) = load_image(&path, false)
                 .map_err(|e| cx.err(&format!("{key}.file"), format!("MTL map_Kd {}: {e}", path.display())))?;
             let t = out.textures.list.len() as u32;
-            let bitmap =
-                Texture::Bitmap { file: tex.into(), width, height, texels, to_uv: UvMap::default(), bilinear: true };
+            let bitmap = Texture::Bitmap {
+                file: tex.into(),
+                width,
+                height,
+                texels,
+                to_uv: UvMap::default(),
+                bilinear: true,
+                wrap: Default::default(),
+            };
             out.textures.list.push(bitmap);
             out.textures.files.insert(path.clone(), t);
             t

@@ -20,13 +20,43 @@ pub const MAX_TEXELS: u64 = 1 << 28;
 pub enum Texture {
     /// color0 where both of frac(u), frac(v) are on the same side of ½ (Mitsuba's convention), else color1.
     Checkerboard { color0: Rgb, color1: Rgb, to_uv: UvMap },
-    /// Linear RGB texels, row 0 at v = 0; bilinear (or nearest) lookup with texel centres at (i + ½)/size.
-    Bitmap { file: String, width: u32, height: u32, texels: Vec<Rgb>, to_uv: UvMap, bilinear: bool },
+    /// Linear RGB texels, row 0 at v = 0; bilinear (or nearest) lookup with texel centres at (i + ½)/size,
+    /// texels beyond the edges read as `wrap` says.
+    Bitmap { file: String, width: u32, height: u32, texels: Vec<Rgb>, to_uv: UvMap, bilinear: bool, wrap: Wrap },
     /// The hit mesh's vertex colours, interpolated, times `scale` (Mitsuba's `mesh_attribute`
     /// `vertex_color`). It needs the hit, not its uv: the scene reads it (`Scene::texture_at`); `eval`
     /// alone gives `scale` (white), and the loader checks the colours of every mesh that reads it lie in
     /// [0, 1], the bounds `min_value` and `max_value` give.
     VertexColor { scale: f32 },
+}
+
+/// Which texel an index beyond a bitmap's edge reads (Mitsuba's `wrap_mode`): the image repeated,
+/// its edge texels stretched out, or the image mirrored at each edge (period twice its size).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Wrap {
+    #[default]
+    Repeat,
+    Clamp,
+    Mirror,
+}
+
+impl Wrap {
+    /// Texel index `i` of a row or column of `n` texels, brought into [0, n).
+    pub fn index(self, i: i64, n: i64) -> i64 {
+        match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::Clamp => i.clamp(0, n - 1),
+            Wrap::Mirror => {
+                let m = i.rem_euclid(2 * n);
+                if m < n {
+                    m
+                } else {
+                    2 * n - 1 - m
+                }
+            }
+        }
+    }
 }
 
 /// uv' = (a·u + b·v + c, d·u + e·v + f).
@@ -62,10 +92,10 @@ impl Texture {
                     *color1
                 }
             }
-            Texture::Bitmap { width, height, texels, to_uv, bilinear, .. } => {
+            Texture::Bitmap { width, height, texels, to_uv, bilinear, wrap, .. } => {
                 let t = to_uv.apply(uv);
                 let (w, h) = (*width as i64, *height as i64);
-                let at = |x: i64, y: i64| texels[(y.rem_euclid(h) * w + x.rem_euclid(w)) as usize];
+                let at = |x: i64, y: i64| texels[(wrap.index(y, h) * w + wrap.index(x, w)) as usize];
                 let (x, y) = (t.x * w as f32, t.y * h as f32);
                 if !(x.is_finite() && y.is_finite()) {
                     return Rgb::ZERO;
@@ -87,7 +117,7 @@ impl Texture {
     /// `to_uv`'s transposed matrix, not before: the same for a square image or a `to_uv` without rotation
     /// or shear, another number otherwise; caustica's is the derivative of what it evaluates.)
     pub fn gradient(&self, uv: Vec2) -> Option<Vec2> {
-        let Texture::Bitmap { width, height, texels, to_uv, bilinear, .. } = self else { return None };
+        let Texture::Bitmap { width, height, texels, to_uv, bilinear, wrap, .. } = self else { return None };
         let t = to_uv.apply(uv);
         let (w, h) = (*width as i64, *height as i64);
         let (x, y) = (t.x * w as f32 - 0.5, t.y * h as f32 - 0.5);
@@ -95,7 +125,7 @@ impl Texture {
             return Some(Vec2::ZERO);
         }
         let at = |x: i64, y: i64| {
-            crate::scene::material::mitsuba_luminance(texels[(y.rem_euclid(h) * w + x.rem_euclid(w)) as usize])
+            crate::scene::material::mitsuba_luminance(texels[(wrap.index(y, h) * w + wrap.index(x, w)) as usize])
         };
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
@@ -113,8 +143,8 @@ impl Texture {
         use sha2::Digest;
         match self {
             Texture::Checkerboard { .. } | Texture::VertexColor { .. } => h.update(format!("{self:?}")),
-            Texture::Bitmap { width, height, texels, to_uv, bilinear, .. } => {
-                h.update(format!("bitmap {width} {height} {to_uv:?} {bilinear}"));
+            Texture::Bitmap { width, height, texels, to_uv, bilinear, wrap, .. } => {
+                h.update(format!("bitmap {width} {height} {to_uv:?} {bilinear} {wrap:?}"));
                 crate::scene::hash_vec3s(h, texels);
             }
         }
@@ -253,6 +283,7 @@ mod tests {
             texels: texels.clone(),
             to_uv,
             bilinear: true,
+            wrap: Wrap::Repeat,
         };
         let plain = bitmap(UvMap::default());
         let mapped = bitmap(UvMap([2.0, 0.0, 0.25, 0.0, 3.0, -0.5]));
@@ -276,18 +307,79 @@ mod tests {
             assert!((g - Vec2::new(du, dv)).abs().max_element() < 2e-2, "at ({u}, {v}): {g} against ({du}, {dv})");
         }
         // Nearest lookup: flat within each texel. A checkerboard has none.
-        let nearest =
-            Texture::Bitmap { file: "g".into(), width: w, height: h, texels, to_uv: UvMap::default(), bilinear: false };
+        let nearest = Texture::Bitmap {
+            file: "g".into(),
+            width: w,
+            height: h,
+            texels,
+            to_uv: UvMap::default(),
+            bilinear: false,
+            wrap: Wrap::Repeat,
+        };
         assert_eq!(nearest.gradient(Vec2::new(0.31, 0.73)), Some(Vec2::ZERO));
         let checks = Texture::Checkerboard { color0: Rgb::ONE, color1: Rgb::ZERO, to_uv: UvMap::default() };
         assert_eq!(checks.gradient(Vec2::new(0.3, 0.3)), None);
     }
 
+    /// Mitsuba 3.9.1's `wrap_mode` clamp and mirror on a 5 × 4 one-channel bitmap (texel (x, y) = 10x +
+    /// y), bilinear and nearest: `eval_1` and `eval_1_grad` read off it at uv beyond each edge, two
+    /// periods out and inside.
+    #[test]
+    fn clamp_and_mirror_wrap_as_mitsuba() {
+        let texels = (0..4).flat_map(|y| (0..5).map(move |x| Rgb::splat((10 * x + y) as f32))).collect::<Vec<_>>();
+        let uvs = [[-0.3, 0.5], [1.25, 0.5], [0.5, -0.6], [0.5, 1.9], [2.3, 0.4], [-1.3, 0.4], [0.05, 0.05]];
+        type Case = (Wrap, bool, [f32; 7], [[f32; 2]; 7]);
+        let cases: [Case; 4] = [
+            (
+                Wrap::Clamp,
+                true,
+                [1.5, 41.5, 20.0, 23.0, 41.1, 1.1, 0.0],
+                [[0.0, 4.0], [0.0, 4.0], [50.0, 0.0], [50.0, 0.0], [0.0, 4.0], [0.0, 4.0], [0.0, 0.0]],
+            ),
+            (Wrap::Clamp, false, [2.0, 42.0, 20.0, 23.0, 41.0, 1.0, 0.0], [[0.0; 2]; 7]),
+            (
+                Wrap::Mirror,
+                true,
+                [11.5, 34.0, 21.9, 20.0, 11.1, 31.1, 0.0],
+                [[-50.0, 4.0], [-50.0, 4.0], [50.0, -4.0], [50.0, 0.0], [50.0, 4.0], [50.0, 4.0], [0.0, 0.0]],
+            ),
+            (Wrap::Mirror, false, [12.0, 32.0, 22.0, 20.0, 11.0, 31.0, 0.0], [[0.0; 2]; 7]),
+        ];
+        for (wrap, bilinear, values, grads) in cases {
+            let t = Texture::Bitmap {
+                file: "w".into(),
+                width: 5,
+                height: 4,
+                texels: texels.clone(),
+                to_uv: UvMap::default(),
+                bilinear,
+                wrap,
+            };
+            for ((uv, v), g) in uvs.iter().zip(values).zip(grads) {
+                let uv = Vec2::from(*uv);
+                let got = t.eval(uv).x;
+                assert!((got - v).abs() < 1e-3, "{wrap:?} bilinear {bilinear} at {uv}: {got} against Mitsuba's {v}");
+                let got = t.gradient(uv).unwrap();
+                assert!(
+                    (got - Vec2::from(g)).abs().max_element() < 1e-3,
+                    "{wrap:?} {bilinear} at {uv}: gradient {got}, Mitsuba's {g:?}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn bitmap_bilinear_hits_texel_centres_and_wraps() {
         let texels = vec![Rgb::splat(0.0), Rgb::splat(1.0), Rgb::splat(0.5), Rgb::splat(0.25)];
-        let t =
-            Texture::Bitmap { file: "t".into(), width: 2, height: 2, texels, to_uv: UvMap::default(), bilinear: true };
+        let t = Texture::Bitmap {
+            file: "t".into(),
+            width: 2,
+            height: 2,
+            texels,
+            to_uv: UvMap::default(),
+            bilinear: true,
+            wrap: Wrap::Repeat,
+        };
         assert_eq!(t.eval(Vec2::new(0.25, 0.25)), Rgb::splat(0.0));
         assert_eq!(t.eval(Vec2::new(0.75, 0.25)), Rgb::splat(1.0));
         assert_eq!(t.eval(Vec2::new(0.25, 0.75)), Rgb::splat(0.5));

@@ -1129,14 +1129,19 @@ impl<'a> Cx<'a> {
                     Some("nearest") => false,
                     Some(f) => return Err(t.error(format!("filter_type `{f}` (read: bilinear, nearest)"))),
                 };
-                if let Some(w) = p.string("wrap_mode")?.filter(|w| w != "repeat") {
-                    return Err(t.error(format!("wrap_mode `{w}` is not supported (repeat is)")));
-                }
+                use crate::scene::texture::Wrap;
+                let wrap = match p.string("wrap_mode")?.as_deref() {
+                    None | Some("repeat") => Wrap::Repeat,
+                    Some("clamp") => Wrap::Clamp,
+                    Some("mirror") => Wrap::Mirror,
+                    Some(w) => return Err(t.error(format!("wrap_mode `{w}` (read: repeat, clamp, mirror)"))),
+                };
                 let raw = p.boolean("raw")?.unwrap_or(false);
                 TextureSpec::Bitmap {
                     file: self.resolve(t, &file),
                     raw,
                     bilinear,
+                    wrap,
                     scale: [1.0; 2],
                     offset: [0.0; 2],
                     matrix,
