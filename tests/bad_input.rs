@@ -55,6 +55,17 @@ fn with_shape(shape: &str) -> String {
     )
 }
 
+/// `GOOD` with its material `white` a bump map of the `[textures]` entry `h` (defined by `texture`, an
+/// inline table) over a diffuse `d`; `extra` ends white's table (`, key = value`).
+fn bump_mapped(extra: &str, texture: &str) -> String {
+    with_textures(
+        with_white(&format!(
+            "white = {{ type = \"bumpmap\", height = \"h\", material = \"d\"{extra} }}\nd = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}"
+        )),
+        &format!("h = {texture}"),
+    )
+}
+
 /// `GOOD` with the camera's pixel filter `filter` (an inline table).
 fn with_filter(filter: &str) -> String {
     with_camera(&format!("filter = {filter}"))
@@ -477,19 +488,19 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "bumpmap_of_checkerboard",
-            with_textures(with_white("white = { type = \"bumpmap\", height = \"saw\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"), "saw = { type = \"checkerboard\" }"),
+            bump_mapped("", "{ type = \"checkerboard\" }"),
             vec![],
-            vec!["materials.white.height", "`saw` has no gradient"],
+            vec!["materials.white.height", "`h` has no gradient"],
         ),
         (
             "bumpmap_infinite_scale",
-            with_textures(with_white("white = { type = \"bumpmap\", height = \"h\", scale = inf, material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"), "h = { type = \"bitmap\", file = \"negative.exr\" }"),
+            bump_mapped(", scale = inf", "{ type = \"bitmap\", file = \"negative.exr\" }"),
             vec![],
             vec!["materials.white.scale", "number inf is not finite"],
         ),
         (
             "bumpmap_without_uv",
-            with_textures(with_white("white = { type = \"bumpmap\", height = \"h\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"), "h = { type = \"bitmap\", file = \"negative.exr\" }").replace(
+            bump_mapped("", "{ type = \"bitmap\", file = \"negative.exr\" }").replace(
                 "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
                 "type = \"mesh\"\nfile = \"nouv.obj\"",
             ),
@@ -498,7 +509,7 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "bumpmap_on_disk",
-            with_textures(with_white("white = { type = \"bumpmap\", height = \"h\", material = \"d\" }\nd = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }"), "h = { type = \"bitmap\", file = \"negative.exr\" }").replace(
+            bump_mapped("", "{ type = \"bitmap\", file = \"negative.exr\" }").replace(
                 "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]",
                 "type = \"disk\"\ncenter = [0.0, 0.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nradius = 1.0",
             ),

@@ -30,7 +30,8 @@ the BSDF of about a third of the shapes with texture coordinates, and an anisotr
 for half the principled BSDFs, not on a cylinder; and for half the cylinders a normal map or anisotropy;
 an orthographic camera, textured alpha_u/alpha_v, spots projecting a texture; a crop window of a larger
 film, and a principal point offset on a pinhole camera; vertex colours on half the PLY balls; a bump
-map (height.png or label.png) over about a quarter of the BSDFs of shapes with texture coordinates.
+map (height.png or label.png) over about a quarter of the BSDFs of shapes with texture coordinates;
+wrap_mode clamp or mirror on a third of the bitmap textures.
 """
 import argparse
 import os
@@ -374,27 +375,39 @@ if args.more:
         return (f'<texture type="bitmap" name="normalmap"><string name="filename" value="bumps.exr"/>'
                 f'<boolean name="raw" value="true"/>{nearest}<transform name="to_uv"><scale x="{s}" y="{s}"/></transform></texture>')
 
-    def normal_mapped(line):
-        m = re.match(r'<shape type="(\w+)">', line)
-        if not m or m.group(1) not in ("rectangle", "cube", "disk", "sphere", "obj") or N.random() >= 0.35:
-            return line
+    def mappable(line):
+        """(i, j, outer, inner) for the first <bsdf> element of `line` (line[i:j] = outer) where a normal
+        or bump map can go: inner None where outer is itself MAPPABLE, else the one MAPPABLE BSDF of the
+        twosided that outer is; None where neither holds."""
         i = line.find("<bsdf")
         if i < 0:
-            return line
+            return None
         j = element_end(line, i)
         outer = line[i:j]
         kind = re.match(r'<bsdf type="(\w+)"', outer).group(1)
         if kind in MAPPABLE:
-            return line[:i] + f'<bsdf type="normalmap">{normal_map_texture()}{outer}</bsdf>' + line[j:]
+            return i, j, outer, None
         if kind != "twosided":
-            return line
+            return None
         k = outer.find("<bsdf", 1)
         inner = outer[k:element_end(outer, k)]
         if len(inner) + len('<bsdf type="twosided">') + len("</bsdf>") != len(outer):
-            return line  # two BSDFs
+            return None  # two BSDFs
         if re.match(r'<bsdf type="(\w+)"', inner).group(1) not in MAPPABLE:
+            return None
+        return i, j, outer, inner
+
+    def normal_mapped(line):
+        m = re.match(r'<shape type="(\w+)">', line)
+        if not m or m.group(1) not in ("rectangle", "cube", "disk", "sphere", "obj") or N.random() >= 0.35:
             return line
-        if N.random() < 0.5:
+        found = mappable(line)
+        if not found:
+            return line
+        i, j, outer, inner = found
+        if inner is None:
+            mapped = f'<bsdf type="normalmap">{normal_map_texture()}{outer}</bsdf>'
+        elif N.random() < 0.5:
             mapped = f'<bsdf type="twosided"><bsdf type="normalmap">{normal_map_texture()}{inner}</bsdf></bsdf>'
         else:
             mapped = f'<bsdf type="normalmap">{normal_map_texture()}{outer}</bsdf>'
@@ -564,25 +577,25 @@ if args.more:
         if (not m or m.group(1) not in ("rectangle", "cube", "sphere", "cylinder", "obj")
                 or 'type="normalmap"' in line or B.random() >= 0.25):
             return line
-        i = line.find("<bsdf")
-        if i < 0:
+        found = mappable(line)
+        if not found:
             return line
-        j = element_end(line, i)
-        outer = line[i:j]
-        kind = re.match(r'<bsdf type="(\w+)"', outer).group(1)
-        if kind in MAPPABLE:
+        i, j, outer, inner = found
+        if inner is None:
             return line[:i] + f'<bsdf type="bumpmap">{bump_texture()}{outer}</bsdf>' + line[j:]
-        if kind != "twosided":
-            return line
-        k = outer.find("<bsdf", 1)
-        inner = outer[k:element_end(outer, k)]
-        if len(inner) + len('<bsdf type="twosided">') + len("</bsdf>") != len(outer):
-            return line  # two BSDFs
-        if re.match(r'<bsdf type="(\w+)"', inner).group(1) not in MAPPABLE:
-            return line
         return line[:i] + f'<bsdf type="twosided"><bsdf type="bumpmap">{bump_texture()}{inner}</bsdf></bsdf>' + line[j:]
 
     text = "\n".join(bumped(line) for line in text.split("\n"))
+    # Wrap modes (caustica since session 46), from a fifteenth stream, last: a third of the bitmap
+    # textures read clamp or mirror beyond their edges (what repeat tiles).
+    X = random.Random(args.seed * 2609 + 71)
+
+    def wrapped(m):
+        if X.random() >= 1 / 3:
+            return m.group(0)
+        return m.group(0) + f'<string name="wrap_mode" value="{X.choice(["clamp", "mirror"])}"/>'
+
+    text = re.sub(r'<texture type="bitmap"[^>]*>', wrapped, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
