@@ -225,6 +225,32 @@ fn a_bump_map_with_turned_texture_coordinates_is_warned_of() {
     let _ = std::fs::remove_dir_all(d);
 }
 
+/// A bitmap's storage hints (`accel`, `format`: how Mitsuba keeps the texels and whether a GPU reads
+/// them through its texture units) are read and change nothing: `bumpmap.xml` with them on its label
+/// and height loads to the same textures.
+#[test]
+fn bitmap_storage_hints_are_read() {
+    let plain = load_scene_with(&dir().join("bumpmap.xml"), &[]).unwrap();
+    let d = tmp("bitmap-hints");
+    let text = std::fs::read_to_string(dir().join("bumpmap.xml")).unwrap().replace(
+        r#"<string name="filename" value="label.png"/>"#,
+        r#"<string name="filename" value="label.png"/><boolean name="accel" value="false"/><string name="format" value="fp16"/>"#,
+    );
+    std::fs::create_dir_all(&d).unwrap();
+    for f in ["height.png", "label.png", "tile.obj", "tile.mtl"] {
+        std::fs::copy(dir().join(f), d.join(f)).unwrap();
+    }
+    let hinted = load_scene_with(&write(&d, "hints.xml", &text), &[]).unwrap_or_else(|e| panic!("{e}"));
+    assert!(text.matches("fp16").count() >= 2);
+    assert_eq!(plain.textures.len(), hinted.textures.len());
+    assert!(plain
+        .textures
+        .iter()
+        .zip(&hinted.textures)
+        .all(|(a, b)| a.eval(glam::Vec2::new(0.3, 0.7)) == b.eval(glam::Vec2::new(0.3, 0.7))));
+    let _ = std::fs::remove_dir_all(d);
+}
+
 /// Anisotropic roughness (`anisotropic.xml`): `alpha_u` along each surface's ∂p/∂u and `alpha_v` across
 /// it, on a turned rectangle, a sphere (along its longitude), a disk (radially), a cube's faces, an OBJ
 /// tile in rough glass, a PLY ball without texture coordinates (each triangle's first edge), a normal
@@ -1184,6 +1210,11 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "normalmap-unflipped",
             r#"<bsdf type="normalmap"><boolean name="flip_invalid_normals" value="false"/><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/></bsdf>"#,
             &["line 8", "`flip_invalid_normals` false is not supported"],
+        ),
+        (
+            "bitmap-format",
+            r#"<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="label.png"/><string name="format" value="int8"/></texture></bsdf>"#,
+            &["line 8", "format `int8` (read: auto, variant, fp16)"],
         ),
         (
             "bumpmap-checkerboard",

@@ -1136,6 +1136,12 @@ impl<'a> Cx<'a> {
                     Some("mirror") => Wrap::Mirror,
                     Some(w) => return Err(t.error(format!("wrap_mode `{w}` (read: repeat, clamp, mirror)"))),
                 };
+                // How Mitsuba stores the texels (half floats for 8- and 16-bit images by default) and
+                // whether a GPU reads them through its texture units: precision only.
+                p.boolean("accel")?;
+                if let Some(f) = p.string("format")?.filter(|f| !["auto", "variant", "fp16"].contains(&f.as_str())) {
+                    return Err(t.error(format!("format `{f}` (read: auto, variant, fp16)")));
+                }
                 let raw = p.boolean("raw")?.unwrap_or(false);
                 TextureSpec::Bitmap {
                     file: self.resolve(t, &file),
@@ -1161,7 +1167,7 @@ impl<'a> Cx<'a> {
             _ => return Err(t.error("texture type not read (read: bitmap, checkerboard, mesh_attribute)")),
         };
         p.finish(
-            "filename, filter_type, wrap_mode = repeat, raw, to_uv (bitmap); color0, color1, to_uv (checkerboard); \
+            "filename, filter_type, wrap_mode, raw, to_uv, accel, format (bitmap); color0, color1, to_uv (checkerboard); \
              name = vertex_color, scale (mesh_attribute)",
         )?;
         self.file.textures.insert(name.clone(), spec);
