@@ -305,7 +305,7 @@ pub enum NormalMap {
     Image(u32),
     /// A bump map (Mitsuba's `bumpmap`): the surface displaced along the shading normal by `scale`
     /// times the height texture's value (read by luminance), of which only the gradient counts
-    /// (`Scene::bumped_frame`).
+    /// (`bump_frame`).
     Bump { height: u32, scale: f32 },
 }
 

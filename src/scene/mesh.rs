@@ -58,14 +58,9 @@ impl TriMesh {
         c[i0 as usize] * (1.0 - u - v) + c[i1 as usize] * u + c[i2 as usize] * v
     }
 
-    /// ∂p/∂u on triangle `i`: from its texture coordinates where it has them (and they span an area),
-    /// else along its barycentric u (b − a), as its uv are then its barycentrics.
-    pub fn dp_du(&self, i: usize) -> Vec3 {
-        self.dp_duv(i).0
-    }
-
-    /// Triangle `i`'s ∂p/∂u and ∂p/∂v from its texture coordinates (Mitsuba's): its two edges from
-    /// the first vertex where it has none, or where they leave the uv map degenerate.
+    /// Triangle `i`'s ∂p/∂u and ∂p/∂v from its texture coordinates where it has them and they span an
+    /// area (Mitsuba's), else its two edges from the first vertex (b − a, c − a), along its barycentric
+    /// u and v, as its uv are then its barycentrics.
     pub fn dp_duv(&self, i: usize) -> (Vec3, Vec3) {
         let [a, b, c] = self.triangle(i);
         if let Some(t) = &self.uvs {
@@ -958,7 +953,7 @@ mod tests {
                 let p = m.positions[k as usize];
                 assert!((ns[k as usize] - Vec3::new(p.x, p.y, 0.0)).length() < 1e-6);
             }
-            let du = m.dp_du(i);
+            let du = m.dp_duv(i).0;
             let around = Vec3::new(-centre.y, centre.x, 0.0).normalize();
             assert!(du.normalize().dot(around) > 0.9999, "triangle {i}: ∂p/∂u {du}");
             assert!((du.length() / std::f32::consts::TAU - 1.0).abs() < 1e-3, "triangle {i}: |∂p/∂u| {}", du.length());

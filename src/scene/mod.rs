@@ -226,6 +226,12 @@ pub fn sphere_dp_duv(center: Vec3, radius: f32, frame: Option<glam::Mat3>, p: Ve
     (world(du), world(dv))
 }
 
+/// The shading tangent: `dp_du` made orthogonal to the shading normal `ns`, as a unit vector; zero where
+/// ∂p/∂u is zero or along the normal.
+fn shading_tangent(ns: Vec3, dp_du: Vec3) -> Vec3 {
+    (dp_du - ns * ns.dot(dp_du)).normalize_or_zero()
+}
+
 /// The normal and the tangent a bump map gives, as Mitsuba 3.9.1's `bumpmap` does, from the geometric
 /// normal `ng`, the shading normal `ns`, the shading tangent `s` (∂p/∂u made orthogonal to `ns`),
 /// ∂p/∂u, ∂p/∂v and the height's gradient `g` along u and v (times the map's scale): ∂p/∂u and ∂p/∂v
@@ -664,11 +670,15 @@ impl Scene {
         if let (Material::Mapped(mut mapped), Some(map)) = (m.bsdf, m.normal_map) {
             let nested = self.textured_bsdf(m, mapped.nested.material(), si);
             mapped.nested = material::Nested::new(nested).unwrap_or(mapped.nested);
-            let s = self.tangent(si);
+            let (dp_du, dp_dv) = self.dp_duv(si);
+            let s = shading_tangent(si.ns, dp_du);
             let tangent;
             (mapped.normal, tangent) = match map {
                 material::NormalMap::Image(t) => (self.mapped_normal(t, si, s), s),
-                material::NormalMap::Bump { height, scale } => self.bumped_frame(height, scale, si, s),
+                material::NormalMap::Bump { height, scale } => {
+                    let g = self.textures[height as usize].gradient(si.uv).unwrap_or(glam::Vec2::ZERO) * scale;
+                    bump_frame(si.ng, si.ns, s, dp_du, dp_dv, g)
+                }
             };
             let bsdf = Material::Mapped(mapped);
             return if bsdf.anisotropic() { bsdf.with_tangent(tangent) } else { bsdf };
@@ -685,17 +695,7 @@ impl Scene {
     /// coordinates or, without them, its triangle's first edge; a sphere's along growing longitude) made
     /// orthogonal to the shading normal; zero where ∂p/∂u is zero or along the normal.
     fn tangent(&self, si: &SurfaceHit) -> Vec3 {
-        let ns = si.ns;
-        let dp_du = match &self.shapes[si.shape as usize].geometry {
-            Geometry::Mesh(m) => m.dp_du(si.prim as usize),
-            // Along growing longitude (Mitsuba's u) in the sphere's own axes, then in the world's.
-            Geometry::Sphere { frame, .. } => {
-                let own = frame.map_or(ns, |f| f * ns);
-                let along = Vec3::new(-own.y, own.x, 0.0);
-                frame.map_or(along, |f| f.transpose() * along)
-            }
-        };
-        (dp_du - ns * ns.dot(dp_du)).normalize_or_zero()
+        shading_tangent(si.ns, self.dp_duv(si).0)
     }
 
     /// The normal a normal map (texture `t`) gives at `si`: its colour c as 2c − 1 in the frame of the
@@ -724,14 +724,6 @@ impl Scene {
             Geometry::Mesh(m) => m.dp_duv(si.prim as usize),
             Geometry::Sphere { center, radius, frame } => sphere_dp_duv(*center, *radius, *frame, si.p),
         }
-    }
-
-    /// The normal and the tangent a bump map gives at `si` (height texture `t` times `scale`; see
-    /// `bump_frame`).
-    fn bumped_frame(&self, t: u32, scale: f32, si: &SurfaceHit, s: Vec3) -> (Vec3, Vec3) {
-        let (dp_du, dp_dv) = self.dp_duv(si);
-        let g = self.textures[t as usize].gradient(si.uv).unwrap_or(glam::Vec2::ZERO) * scale;
-        bump_frame(si.ng, si.ns, s, dp_du, dp_dv, g)
     }
 
     /// `bsdf`, material `m`'s BSDF, with its textures read at `si`.

@@ -94,9 +94,8 @@ impl Texture {
             }
             Texture::Bitmap { width, height, texels, to_uv, bilinear, wrap, .. } => {
                 let t = to_uv.apply(uv);
-                let (w, h) = (*width as i64, *height as i64);
-                let at = |x: i64, y: i64| texels[(wrap.index(y, h) * w + wrap.index(x, w)) as usize];
-                let (x, y) = (t.x * w as f32, t.y * h as f32);
+                let at = wrapped(texels, *width, *height, *wrap);
+                let (x, y) = (t.x * *width as f32, t.y * *height as f32);
                 if !(x.is_finite() && y.is_finite()) {
                     return Rgb::ZERO;
                 }
@@ -119,21 +118,18 @@ impl Texture {
     pub fn gradient(&self, uv: Vec2) -> Option<Vec2> {
         let Texture::Bitmap { width, height, texels, to_uv, bilinear, wrap, .. } = self else { return None };
         let t = to_uv.apply(uv);
-        let (w, h) = (*width as i64, *height as i64);
-        let (x, y) = (t.x * w as f32 - 0.5, t.y * h as f32 - 0.5);
+        let (w, h) = (*width as f32, *height as f32);
+        let (x, y) = (t.x * w - 0.5, t.y * h - 0.5);
         if !(*bilinear && x.is_finite() && y.is_finite()) {
             return Some(Vec2::ZERO);
         }
-        let at = |x: i64, y: i64| {
-            crate::scene::material::mitsuba_luminance(texels[(wrap.index(y, h) * w + wrap.index(x, w)) as usize])
-        };
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
+        let texel = wrapped(texels, *width, *height, *wrap);
+        let at = |x: i64, y: i64| crate::scene::material::mitsuba_luminance(texel(x, y));
+        let ((x0, y0), (fx, fy)) = cell(x, y);
         let [f00, f10, f01, f11] = [at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1)];
         // Per unit of the texture's own coordinates (a texel is 1/width of u).
-        let gx = ((f10 - f00) * (1.0 - fy) + (f11 - f01) * fy) * w as f32;
-        let gy = ((f01 - f00) * (1.0 - fx) + (f11 - f10) * fx) * h as f32;
+        let gx = ((f10 - f00) * (1.0 - fy) + (f11 - f01) * fy) * w;
+        let gy = ((f01 - f00) * (1.0 - fx) + (f11 - f10) * fx) * h;
         let m = &to_uv.0;
         Some(Vec2::new(m[0] * gx + m[3] * gy, m[1] * gx + m[4] * gy))
     }
@@ -188,11 +184,23 @@ impl Texture {
 /// Bilinear interpolation at continuous texel coordinates (x, y), texel (i, j) sitting at (i, j); `at`
 /// reads a texel and decides how indices outside the image wrap or clamp.
 pub fn bilinear(x: f32, y: f32, at: impl Fn(i64, i64) -> Rgb) -> Rgb {
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
-    let (x0, y0) = (x0 as i64, y0 as i64);
+    let ((x0, y0), (fx, fy)) = cell(x, y);
     (at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx) * (1.0 - fy)
         + (at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx) * fy
+}
+
+/// The texel cell continuous texel coordinates (x, y) fall in (texel (i, j) sitting at (i, j)): its
+/// lower corner and the fractions of the way across it.
+fn cell(x: f32, y: f32) -> ((i64, i64), (f32, f32)) {
+    let (x0, y0) = (x.floor(), y.floor());
+    ((x0 as i64, y0 as i64), (x - x0, y - y0))
+}
+
+/// A bitmap's texel reader: texel (x, y) of `width` × `height` `texels` (row 0 first), indices beyond
+/// the edges brought onto the image as `wrap` says.
+fn wrapped(texels: &[Rgb], width: u32, height: u32, wrap: Wrap) -> impl Fn(i64, i64) -> Rgb + '_ {
+    let (w, h) = (width as i64, height as i64);
+    move |x, y| texels[(wrap.index(y, h) * w + wrap.index(x, w)) as usize]
 }
 
 /// Reads an image as linear RGB, row 0 first: EXR as stored, PNG and JPEG decoded from sRGB unless

@@ -768,42 +768,7 @@ impl<'a> Cx<'a> {
         }
         let bump = kind == "bumpmap";
         let texture = if bump {
-            let is_texture = |c: &Node| {
-                c.tag == "texture"
-                    || (c.tag == "ref"
-                        && c.attr("id").and_then(|id| self.ids.get(id)).is_some_and(|t| t.tag == "texture"))
-            };
-            let found = p.children_where(is_texture);
-            let [t] = found[..] else {
-                return Err(b.error(format!("needs exactly one texture, its height (found {})", found.len())));
-            };
-            let t = match t.attr("id") {
-                Some(id) if t.tag == "ref" => self.lookup(t, id)?,
-                _ => t,
-            };
-            match t.attr("type") {
-                Some("bitmap") => {}
-                other => {
-                    return Err(t.error(format!(
-                        "a bumpmap's height must be a bitmap, whose gradient bends the normal (a {} has none, in \
-                         Mitsuba 3.9 too)",
-                        other.unwrap_or("texture without a type")
-                    )))
-                }
-            }
-            let height = self.texture(t, &format!("{name}-height"))?;
-            if let Some(TextureSpec::Bitmap { matrix: Some(m), .. }) = self.file.textures.get(&height) {
-                if m[0][1] != 0.0 || m[1][0] != 0.0 {
-                    self.warnings.push(format!(
-                        "{}: line {}: the bumpmap's height turns or shears its texture coordinates (`to_uv`): \
-                         Mitsuba 3.9.1's gradient there is not its texture's derivative unless the image is square \
-                         (it scales by the image's size after turning); caustica bends by the derivative",
-                        t.file.display(),
-                        t.line
-                    ));
-                }
-            }
-            height
+            self.bump_height(b, p, name)?
         } else {
             match self.colour_or_node(p, "normalmap", name)? {
                 Some(Valued::Texture(t, fallback)) => self.texture(t, &fallback)?,
@@ -838,6 +803,47 @@ impl<'a> Cx<'a> {
         } else {
             MaterialSpec::Normalmap { normal_map: texture, material, two_sided }
         })
+    }
+
+    /// A `bumpmap`'s height: its one texture (whatever its name, or a `<ref>` to one), which must be a
+    /// bitmap, converted; warned of where its `to_uv` turns or shears (Mitsuba 3.9.1's gradient is then
+    /// not the derivative on a non-square image; caustica's is).
+    fn bump_height(&mut self, b: &'a Node, p: &Props<'a>, name: &str) -> Result<String, SceneError> {
+        let is_texture = |c: &Node| {
+            c.tag == "texture"
+                || (c.tag == "ref" && c.attr("id").and_then(|id| self.ids.get(id)).is_some_and(|t| t.tag == "texture"))
+        };
+        let found = p.children_where(is_texture);
+        let [t] = found[..] else {
+            return Err(b.error(format!("needs exactly one texture, its height (found {})", found.len())));
+        };
+        let t = match t.attr("id") {
+            Some(id) if t.tag == "ref" => self.lookup(t, id)?,
+            _ => t,
+        };
+        match t.attr("type") {
+            Some("bitmap") => {}
+            other => {
+                return Err(t.error(format!(
+                    "a bumpmap's height must be a bitmap, whose gradient bends the normal (a {} has none, in \
+                     Mitsuba 3.9 too)",
+                    other.unwrap_or("texture without a type")
+                )))
+            }
+        }
+        let height = self.texture(t, &format!("{name}-height"))?;
+        if let Some(TextureSpec::Bitmap { matrix: Some(m), .. }) = self.file.textures.get(&height) {
+            if m[0][1] != 0.0 || m[1][0] != 0.0 {
+                self.warnings.push(format!(
+                    "{}: line {}: the bumpmap's height turns or shears its texture coordinates (`to_uv`): \
+                     Mitsuba 3.9.1's gradient there is not its texture's derivative unless the image is square \
+                     (it scales by the image's size after turning); caustica bends by the derivative",
+                    t.file.display(),
+                    t.line
+                ));
+            }
+        }
+        Ok(height)
     }
 
     /// The two materials a blend mixes (a mask's first is a `null` surface).
