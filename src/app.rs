@@ -271,7 +271,13 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     for s in &scene.shapes {
         let kind = match &s.geometry {
             Geometry::Mesh(m) => {
-                format!("mesh, {} triangles{}", m.indices.len(), if m.colors.is_some() { ", colours" } else { "" })
+                let colours = match (m.colors.is_some(), m.face_colors.is_some()) {
+                    (true, true) => ", vertex and face colours",
+                    (true, false) => ", vertex colours",
+                    (false, true) => ", face colours",
+                    (false, false) => "",
+                };
+                format!("mesh, {} triangles{colours}", m.indices.len())
             }
             Geometry::Sphere { radius, .. } => format!("sphere r={radius}"),
         };

@@ -153,6 +153,13 @@ fn each_malformed_scene_gets_its_own_message() {
     let rgb = "property float r\nproperty float g\nproperty float b\n";
     std::fs::write(d.join("bright.ply"), ply(rgb, "-1 0 -1 0.5 0.5 0.5\n1 0 -1 0.5 1.5 0.5\n0 0 1 0 0 0\n")).unwrap();
     std::fs::write(d.join("red.ply"), ply("property uchar red\n", "-1 0 -1 9\n1 0 -1 9\n0 0 1 9\n")).unwrap();
+    let faces = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nproperty float r\nproperty float g\nproperty float b\nend_header\n-1 0 -1\n1 0 -1\n0 0 1\n0 1 0\n3 0 2 1 0.5 0.5 0.5\n3 0 1 3 0.2 0.2 1.25\n";
+    std::fs::write(d.join("bright-faces.ply"), faces).unwrap();
+    let mixed = faces
+        .replace("property float b", "property uchar b")
+        .replace("0.5 0.5 0.5\n", "0.5 0.5 128\n")
+        .replace("1.25\n", "255\n");
+    std::fs::write(d.join("mixed-faces.ply"), mixed).unwrap();
     let cases: Vec<(&str, String, Vec<&str>, Vec<&str>)> = vec![
         ("syntax", GOOD.replace("fov = 40", "fov = = 40"), vec![], vec!["line 5"]),
         ("unknown_key", GOOD.replace("fov = 40", "fovv = 40"), vec![], vec!["unknown field `fovv`", "line 5"]),
@@ -537,6 +544,38 @@ fn each_malformed_scene_gets_its_own_message() {
             ),
             vec![],
             vec!["shapes[0]", "vertex 1's colour [0.5, 1.5, 0.5]", "leaves [0, 1]"],
+        ),
+        (
+            "face_colors_none",
+            with_textures(
+                with_shape("type = \"mesh\"\nfile = \"bright.ply\"")
+                    .replace("reflectance = [0.5, 0.5, 0.5]", "reflectance = \"fc\""),
+                "fc = { type = \"face_color\" }",
+            ),
+            vec![],
+            vec!["shapes[0].material", "`white` reads face colours (a face_color texture)", "this shape has none"],
+        ),
+        (
+            "face_colors_bright",
+            with_textures(
+                with_shape("type = \"mesh\"\nfile = \"bright-faces.ply\"")
+                    .replace("reflectance = [0.5, 0.5, 0.5]", "reflectance = \"fc\""),
+                "fc = { type = \"face_color\", scale = 0.9 }",
+            ),
+            vec![],
+            vec!["shapes[0]", "triangle 1's colour [0.2, 0.2, 1.25]", "face_color texture's scale 0.9", "leaves [0, 1]"],
+        ),
+        (
+            "face_colors_mixed_types",
+            with_shape("type = \"mesh\"\nfile = \"mixed-faces.ply\""),
+            vec![],
+            vec!["mixed-faces.ply", "PLY face colours", "not all of one type"],
+        ),
+        (
+            "face_colors_emitted",
+            with_textures(GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"fc\""), "fc = { type = \"face_color\" }"),
+            vec![],
+            vec!["shapes[0].emission", "`fc` is a face_color texture", "not as an emitter's radiance"],
         ),
         (
             "vertex_colors_red_only",

@@ -456,6 +456,8 @@ const ASSETS: &[(&str, &str)] = &[
     ("height.png", "bumpmap.xml"),
     ("colored-ball.ply", "vertexcolor.xml"),
     ("colored-tile.ply", "vertexcolor.xml"),
+    ("facets.ply", "vertexcolor.xml"),
+    ("prism.ply", "vertexcolor.xml"),
 ];
 
 proptest! {

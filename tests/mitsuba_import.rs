@@ -493,28 +493,37 @@ fn every_mode_means_match_mitsuba(name: &str) {
     }
 }
 
-/// Vertex colours (`vertexcolor.xml`, Mitsuba's `mesh_attribute` texture `vertex_color`): a binary PLY
-/// ball with float colours as a diffuse reflectance and a rough silver's `specular_reflectance`, an
-/// ASCII PLY card with 8-bit colours in stripes (read as value / 255; Mitsuba's copy of the scene scales
-/// them so, as Mitsuba 3.9.1 keeps them as 0 to 255). PT within 0.3% of the means and 4% per block, every
-/// other mode's mean; each mesh's colours replaced by their mean (what a texture read per mesh, not
-/// per vertex, would give) must miss a block by more than 4%.
+/// Mesh colours (`vertexcolor.xml`, Mitsuba's `mesh_attribute` textures `vertex_color` and
+/// `face_color`): a binary PLY ball with float vertex colours as a diffuse reflectance and a rough
+/// silver's `specular_reflectance`, an ASCII PLY card with 8-bit vertex colours in stripes (sRGB values;
+/// Mitsuba's copy of the scene reads them as 16-bit ones, which it decodes as caustica decodes both,
+/// as Mitsuba 3.9.1 keeps 8-bit ones as 0 to 255), a faceted ball with 16-bit face colours and a prism
+/// with float face colours before its ASCII index lists. PT within 0.3% of the means and 4% per block,
+/// every other mode's mean; each mesh's colours replaced by their mean (what a texture read per mesh,
+/// not per vertex or face, would give) must miss a block by more than 4%.
 #[test]
 fn vertex_colors_xml_match_mitsuba() {
     matches_mitsuba("vertexcolor", 1024, 0.003);
     every_mode_means_match_mitsuba("vertexcolor");
     let mut scene = load_scene_with(&dir().join("vertexcolor.xml"), &[]).unwrap();
-    let mut coloured = 0;
+    let (mut coloured, mut faced) = (0, 0);
+    let flatten = |c: &mut Vec<glam::Vec3>| {
+        let mean = c.iter().copied().sum::<glam::Vec3>() / c.len() as f32;
+        c.iter_mut().for_each(|x| *x = mean);
+    };
     for s in &mut scene.shapes {
         if let caustica::scene::Geometry::Mesh(m) = &mut s.geometry {
             if let Some(c) = &mut m.colors {
-                let mean = c.iter().copied().sum::<glam::Vec3>() / c.len() as f32;
-                c.iter_mut().for_each(|x| *x = mean);
+                flatten(c);
                 coloured += 1;
+            }
+            if let Some(c) = &mut m.face_colors {
+                flatten(c);
+                faced += 1;
             }
         }
     }
-    assert_eq!(coloured, 3, "three meshes with vertex colours");
+    assert_eq!((coloured, faced), (3, 2), "three meshes with vertex colours, two with face colours");
     let accel = Accel::new(&scene).unwrap();
     let flat = render_path(&scene, &accel, 256, true).image;
     let theirs = read_exr(&dir().join("ref/vertexcolor.exr")).unwrap();
@@ -522,6 +531,30 @@ fn vertex_colors_xml_match_mitsuba() {
     let worst = b1.iter().zip(&b2).map(|(a, b)| (a / b - 1.0).abs()).fold(0.0, f64::max);
     println!("vertexcolor, each mesh's mean colour: worst block off by {:.1}%", worst * 100.0);
     assert!(worst > 0.04, "flat colours should miss a block: worst {worst}");
+}
+
+/// A scene's content hash (what partial renders carry so that parts of different scenes are never
+/// merged) reads a mesh's colours: one vertex's colour changed, or one face's, changes it.
+#[test]
+fn content_hash_reads_mesh_colours() {
+    let load = || load_scene_with(&dir().join("vertexcolor.xml"), &[]).unwrap();
+    let base = load().content_hash();
+    let nudged = |f: &dyn Fn(&mut caustica::scene::TriMesh) -> bool| {
+        let mut scene = load();
+        let mut hit = false;
+        for s in &mut scene.shapes {
+            if let caustica::scene::Geometry::Mesh(m) = &mut s.geometry {
+                hit = hit || f(m);
+            }
+        }
+        assert!(hit, "a mesh to change");
+        scene.content_hash()
+    };
+    let vertex = nudged(&|m| m.colors.as_mut().map(|c| c[0].x += 0.01).is_some());
+    assert_ne!(vertex, base, "a vertex colour changed");
+    let face = nudged(&|m| m.face_colors.as_mut().map(|c| c[0].y += 0.01).is_some());
+    assert_ne!(face, base, "a face colour changed");
+    assert_ne!(face, vertex);
 }
 
 /// See-through surfaces under a point light and a spot (`see-through.xml`): a card cut by a
@@ -1344,11 +1377,18 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "must end in .serialized, got `m.obj`",
         ),
         (
-            "mesh-attribute-face",
+            "mesh-attribute-weight",
+            &panel_scene(
+                "<bsdf type=\"diffuse\"><texture type=\"mesh_attribute\" name=\"reflectance\"><string name=\"name\" value=\"vertex_weight\"/></texture></bsdf>",
+            ),
+            "mesh attribute `vertex_weight` is not read (read: vertex_color, face_color)",
+        ),
+        (
+            "mesh-attribute-face-none",
             &panel_scene(
                 "<bsdf type=\"diffuse\"><texture type=\"mesh_attribute\" name=\"reflectance\"><string name=\"name\" value=\"face_color\"/></texture></bsdf>",
             ),
-            "mesh attribute `face_color` is not read (read: vertex_color)",
+            "reads face colours (a face_color texture), and this shape has none",
         ),
         (
             "mesh-attribute-to-uv",

@@ -10,7 +10,7 @@ roughconductor by named metal or eta/k, dielectric, thindielectric, roughdielect
 random subset of its weights, and blendbsdf, mask and twosided around those), lit by one or two of
 area rectangle, area sphere, point, spot, directional, constant and envmap (at most one of the last
 two). Random max_depth (2 to unlimited), hide_emitters, box, tent or Gaussian filter; 64 x 48 pixels.
-The files it names (ball.ply, colored-ball.ply, tile.obj, tile.mtl, label.png, sky.exr, height.png) are tests/mitsuba's; the
+The files it names (ball.ply, colored-ball.ply, facets.ply, tile.obj, tile.mtl, label.png, sky.exr, height.png) are tests/mitsuba's; the
 caller copies them beside OUT. --no-blend leaves out blendbsdf, mask and twosided (Mitsuba 3.9.1's
 own blends are biased where caustica's are not: see the README). --area-lights draws the lights from
 area rectangle, area sphere, constant and envmap only: no point, spot or distant light, whose light
@@ -536,10 +536,12 @@ if args.more:
     # colours times a scale in [0.5, 1] (Mitsuba's plastics cannot read a mesh_attribute).
     V = random.Random(args.seed * 6151 + 97)
 
-    def colored(line):
-        if 'value="ball.ply"' not in line or V.random() >= 0.5:
+    def colored(line, rng, mesh, attribute):
+        """Half the time, `line`'s ball.ply becomes `mesh`, and the first colour its BSDF reads becomes
+        the mesh's `attribute` times a scale in [0.5, 1]."""
+        if 'value="ball.ply"' not in line or rng.random() >= 0.5:
             return line
-        line = line.replace('value="ball.ply"', 'value="colored-ball.ply"', 1)
+        line = line.replace('value="ball.ply"', f'value="{mesh}"', 1)
         # Which colour of which BSDF (the first such colour after its opening tag, no BSDF between).
         reads = {"diffuse": "reflectance", "principled": "base_color", "conductor": "specular_reflectance",
                  "roughconductor": "specular_reflectance", "dielectric": "specular_transmittance",
@@ -547,7 +549,7 @@ if args.more:
 
         def attr(m):
             return (f'{m.group(1)}<texture type="mesh_attribute" name="{m.group(3)}">'
-                    f'<string name="name" value="vertex_color"/><float name="scale" value="{f(V.uniform(0.5, 1.0))}"/></texture>')
+                    f'<string name="name" value="{attribute}"/><float name="scale" value="{f(rng.uniform(0.5, 1.0))}"/></texture>')
 
         def one(m):
             if reads.get(m.group(2)) != m.group(3):
@@ -555,7 +557,7 @@ if args.more:
             return attr(m)
         return re.sub(r'(<bsdf type="(\w+)">(?:(?!<bsdf).)*?)<rgb name="(\w+)" value="[^"]*"/>', one, line)
 
-    text = "\n".join(colored(line) for line in text.split("\n"))
+    text = "\n".join(colored(line, V, "colored-ball.ply", "vertex_color") for line in text.split("\n"))
     # Bump maps (caustica since session 46), from a fourteenth stream, last: about a quarter of the
     # shapes with texture coordinates (not disks, whose triangles caustica refuses to bump, nor shapes
     # with a normal map already) get a bumpmap over their BSDF, or inside a twosided of one around that
@@ -596,6 +598,11 @@ if args.more:
         return m.group(0) + f'<string name="wrap_mode" value="{X.choice(["clamp", "mirror"])}"/>'
 
     text = re.sub(r'<texture type="bitmap"[^>]*>', wrapped, text)
+    # Face colours (caustica since session 47), from a sixteenth stream, last: half the PLY balls left
+    # become facets.ply (flat faces with 16-bit colours), their BSDF's colour its face colours, as the
+    # thirteenth stream gives vertex colours.
+    C = random.Random(args.seed * 3203 + 29)
+    text = "\n".join(colored(line, C, "facets.ply", "face_color") for line in text.split("\n"))
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

@@ -450,11 +450,19 @@ pub enum TextureSpec {
         matrix: Option<[[f32; 3]; 2]>,
     },
     /// The colours of the hit mesh's vertices, interpolated across each triangle, times `scale`
-    /// (default 1): a PLY's `red`/`green`/`blue` (8-bit values scaled to [0, 1]) or a `.serialized`
-    /// mesh's colours. Every shape whose material reads it must be such a mesh, its colours times
-    /// `scale` within [0, 1].
+    /// (default 1): a PLY's `red`/`green`/`blue` (floats as they are, 8- and 16-bit integers as sRGB
+    /// values) or a `.serialized` mesh's colours. Every shape whose material reads it must be such a
+    /// mesh, its colours times `scale` within [0, 1].
     #[serde(rename = "vertex_color")]
     VertexColor {
+        #[serde(default = "one", skip_serializing_if = "is_one")]
+        scale: f32,
+    },
+    /// The colour of the hit triangle, times `scale` (default 1): a PLY face element's
+    /// `red`/`green`/`blue`, read as vertex colours are (a polygon's colour on each of its triangles).
+    /// Every shape whose material reads it must be such a mesh, its colours times `scale` within [0, 1].
+    #[serde(rename = "face_color")]
+    FaceColor {
         #[serde(default = "one", skip_serializing_if = "is_one")]
         scale: f32,
     },

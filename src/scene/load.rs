@@ -10,7 +10,7 @@ use crate::scene::material::{
     SurfaceMaterial, MIN_ALPHA,
 };
 use crate::scene::mesh::{self, TriMesh};
-use crate::scene::texture::{load_image, Texture, UvMap};
+use crate::scene::texture::{load_image, MeshColors, Texture, UvMap};
 use crate::scene::{Camera, Geometry, Scene, SceneError, Shape};
 use glam::{Mat3, Mat4, Vec3};
 use std::collections::HashMap;
@@ -527,11 +527,12 @@ fn build_texture(cx: &Ctx, key: &str, spec: &TextureSpec, dir: &Path) -> Result<
             let to_uv = uv_map(cx, key, *scale, *offset, *matrix)?;
             Texture::Bitmap { file: file.clone(), width, height, texels, to_uv, bilinear: *bilinear, wrap: *wrap }
         }
-        TextureSpec::VertexColor { scale } => {
+        TextureSpec::VertexColor { scale } | TextureSpec::FaceColor { scale } => {
             if !(scale.is_finite() && *scale >= 0.0) {
                 return Err(cx.err(&format!("{key}.scale"), format!("must be a finite number ≥ 0, got {scale}")));
             }
-            Texture::VertexColor { scale: *scale }
+            let of = if let TextureSpec::FaceColor { .. } = spec { MeshColors::Face } else { MeshColors::Vertex };
+            Texture::MeshColor { of, scale: *scale }
         }
     })
 }
@@ -973,26 +974,25 @@ fn texture_named(cx: &Ctx, key: &str, name: &str, textures: &Textures) -> Result
     })
 }
 
-/// Refuses vertex colours (texture `t`, named `name`, for the field `key`) where `what` has no mesh hit
+/// Refuses mesh colours (texture `t`, named `name`, for the field `key`) where `what` has no mesh hit
 /// to read them at.
-fn not_vertex_colors(
-    cx: &Ctx,
-    key: &str,
-    name: &str,
-    textures: &Textures,
-    t: u32,
-    what: &str,
-) -> Result<(), SceneError> {
-    if let Texture::VertexColor { .. } = textures.list[t as usize] {
-        let msg = format!("`{name}` is a vertex_color texture, read on materials only, not as {what}");
+fn not_mesh_colors(cx: &Ctx, key: &str, name: &str, textures: &Textures, t: u32, what: &str) -> Result<(), SceneError> {
+    if let Texture::MeshColor { of, .. } = textures.list[t as usize] {
+        let msg = format!("`{name}` is a {} texture, read on materials only, not as {what}", of.name());
         return Err(cx.err(key, msg));
     }
     Ok(())
 }
 
-/// The largest scale of the vertex-colour textures material `m` reads (through its blends,
+/// The largest scale of the mesh-colour textures of kind `of` material `m` reads (through its blends,
 /// depth-bounded), if it reads any.
-fn vertex_color_scale(materials: &[SurfaceMaterial], textures: &[Texture], m: u32, depth: usize) -> Option<f32> {
+fn mesh_color_scale(
+    materials: &[SurfaceMaterial],
+    textures: &[Texture],
+    of: MeshColors,
+    m: u32,
+    depth: usize,
+) -> Option<f32> {
     let mat = &materials[m as usize];
     let maps = &mat.maps;
     let weight = mat.blend.and_then(|b| match b.weight {
@@ -1002,12 +1002,12 @@ fn vertex_color_scale(materials: &[SurfaceMaterial], textures: &[Texture], m: u3
     let normal = mat.normal_map.map(NormalMap::texture);
     let own = [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, normal, weight];
     let mut most = own.into_iter().flatten().fold(None, |most: Option<f32>, t| match textures[t as usize] {
-        Texture::VertexColor { scale } => Some(most.map_or(scale, |m| m.max(scale))),
+        Texture::MeshColor { of: kind, scale } if kind == of => Some(most.map_or(scale, |m| m.max(scale))),
         _ => most,
     });
     if let Some(b) = mat.blend.filter(|_| depth < MAX_BLEND_DEPTH) {
         for next in [b.first, b.second] {
-            if let Some(scale) = vertex_color_scale(materials, textures, next, depth + 1) {
+            if let Some(scale) = mesh_color_scale(materials, textures, of, next, depth + 1) {
                 most = Some(most.map_or(scale, |m| m.max(scale)));
             }
         }
@@ -1019,7 +1019,7 @@ fn vertex_color_scale(materials: &[SurfaceMaterial], textures: &[Texture], m: u3
 fn texture_label(name: &str, t: &Texture) -> String {
     match t {
         Texture::Bitmap { file, .. } => format!("`{name}` ({file})"),
-        Texture::Checkerboard { .. } | Texture::VertexColor { .. } => format!("`{name}`"),
+        Texture::Checkerboard { .. } | Texture::MeshColor { .. } => format!("`{name}`"),
     }
 }
 
@@ -1073,7 +1073,7 @@ fn build_shape(
             Some(Reflectance::Colour(c)) => Ok((cx.colour(&field, *c, None)?, None)),
             Some(Reflectance::Texture(name)) => {
                 let t = texture_named(cx, &field, name, textures)?;
-                not_vertex_colors(cx, &field, name, textures, t, "an emitter's radiance")?;
+                not_mesh_colors(cx, &field, name, textures, t, "an emitter's radiance")?;
                 let low = textures.list[t as usize].min_value();
                 if low.is_nan() || low < 0.0 {
                     let label = texture_label(name, &textures.list[t as usize]);
@@ -1152,33 +1152,42 @@ fn build_shape(
             push(out.shapes, mesh, false, transform, lookup(material)?, emission(e, out.textures)?, false)?;
         }
     }
-    // Vertex colours are read off the hit mesh: it must have them, each within [0, 1] times the
+    // Mesh colours are read off the hit mesh: it must have them, each within [0, 1] times the
     // texture's scale (a reflectance, a weight, a roughness).
     for s in &out.shapes[first..] {
-        let Some(scale) = vertex_color_scale(out.materials, &out.textures.list, s.material, 0) else { continue };
-        let name = &out.names[s.material as usize];
-        let colors = match &s.geometry {
-            Geometry::Mesh(m) => m.colors.as_ref(),
-            Geometry::Sphere { .. } => None,
-        };
-        let Some(colors) = colors else {
-            let msg = format!("`{name}` reads vertex colours (a vertex_color texture), and this shape has none");
-            return Err(cx.err(&format!("{key}.material"), msg));
-        };
-        if let Some((i, c)) = colors
-            .iter()
-            .enumerate()
-            .find(|(_, c)| !(c.is_finite() && c.min_element() >= 0.0 && c.max_element() * scale <= 1.0))
-        {
-            let from = match spec {
-                ShapeSpec::Mesh { file, .. } => format!("{file}: "),
-                _ => String::new(),
+        for of in [MeshColors::Vertex, MeshColors::Face] {
+            let Some(scale) = mesh_color_scale(out.materials, &out.textures.list, of, s.material, 0) else { continue };
+            let name = &out.names[s.material as usize];
+            let (colors, what) = match (&s.geometry, of) {
+                (Geometry::Mesh(m), MeshColors::Vertex) => (m.colors.as_ref(), "vertex"),
+                (Geometry::Mesh(m), MeshColors::Face) => (m.face_colors.as_ref(), "triangle"),
+                (Geometry::Sphere { .. }, _) => (None, ""),
             };
-            let msg = format!(
-                "{from}vertex {i}'s colour {:?} times the vertex_color texture's scale {scale} leaves [0, 1] (`{name}` reads it)",
-                c.to_array()
-            );
-            return Err(cx.err(key, msg));
+            let Some(colors) = colors else {
+                let msg = match of {
+                    MeshColors::Vertex => "vertex colours (a vertex_color texture)",
+                    MeshColors::Face => "face colours (a face_color texture)",
+                };
+                return Err(
+                    cx.err(&format!("{key}.material"), format!("`{name}` reads {msg}, and this shape has none"))
+                );
+            };
+            if let Some((i, c)) = colors
+                .iter()
+                .enumerate()
+                .find(|(_, c)| !(c.is_finite() && c.min_element() >= 0.0 && c.max_element() * scale <= 1.0))
+            {
+                let from = match spec {
+                    ShapeSpec::Mesh { file, .. } => format!("{file}: "),
+                    _ => String::new(),
+                };
+                let msg = format!(
+                    "{from}{what} {i}'s colour {:?} times the {} texture's scale {scale} leaves [0, 1] (`{name}` reads it)",
+                    c.to_array(),
+                    of.name()
+                );
+                return Err(cx.err(key, msg));
+            }
         }
     }
     // A normal map is read along the texture's u, a bump map's gradient along u and v: a mesh without
@@ -1423,7 +1432,7 @@ fn build_light(
             match texture {
                 Some(name) => {
                     let t = texture_named(cx, &format!("{key}.texture"), name, textures)?;
-                    not_vertex_colors(cx, &format!("{key}.texture"), name, textures, t, "a spot's projected texture")?;
+                    not_mesh_colors(cx, &format!("{key}.texture"), name, textures, t, "a spot's projected texture")?;
                     if *cutoff_angle >= 90.0 {
                         let msg = format!("a projected texture needs cutoff_angle < 90 degrees, got {cutoff_angle}");
                         return Err(cx.err(&format!("{key}.cutoff_angle"), msg));

@@ -18,9 +18,13 @@ pub struct TriMesh {
     /// bottom-up v is flipped on load), when the file has them; without them a hit's uv is its
     /// barycentric coordinates.
     pub uvs: Option<Vec<[f32; 2]>>,
-    /// Per-vertex colours, when the file has them (a PLY's `red`/`green`/`blue` or `r`/`g`/`b`, 8- and
-    /// 16-bit integers scaled to [0, 1]; a `.serialized` mesh's), read by a `vertex_color` texture.
+    /// Per-vertex colours, when the file has them (a PLY's `red`/`green`/`blue` or `r`/`g`/`b`: floats as
+    /// they are, 8- and 16-bit integers as sRGB-encoded values, decoded to linear; a `.serialized`
+    /// mesh's), read by a `vertex_color` texture.
     pub colors: Option<Vec<Vec3>>,
+    /// Per-triangle colours, when the file has them (a PLY face element's colours, read as vertex
+    /// colours are; a polygon's colour goes to each triangle of its fan), read by a `face_color` texture.
+    pub face_colors: Option<Vec<Vec3>>,
 }
 
 impl TriMesh {
@@ -169,6 +173,7 @@ impl TriMesh {
             + self.normals.as_ref().map_or(0, |n| n.len() * 12)
             + self.uvs.as_ref().map_or(0, |t| t.len() * 8)
             + self.colors.as_ref().map_or(0, |c| c.len() * 12)
+            + self.face_colors.as_ref().map_or(0, |c| c.len() * 12)
     }
 }
 
@@ -184,7 +189,8 @@ pub struct LoadedMesh {
 
 /// Loads an OBJ, a PLY (optionally gzip-compressed) or mesh `shape_index` (0 unless given) of a Mitsuba
 /// `.serialized` file. Vertex normals are read only when `normals` (smooth shading asked for); texture
-/// coordinates whenever the file has them; other per-vertex properties never are.
+/// coordinates and colours (of vertices and of faces) whenever the file has them; other properties
+/// never are.
 pub fn load_mesh_file(
     path: &Path,
     shown: &str,
@@ -266,7 +272,7 @@ fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> 
         // An object with no faces (points, lines, an empty group) has nothing to render.
         if !indices.is_empty() {
             out.push(LoadedMesh {
-                mesh: TriMesh { positions, indices, normals, uvs, colors: None },
+                mesh: TriMesh { positions, indices, normals, uvs, colors: None, face_colors: None },
                 mtl_diffuse,
                 mtl_texture,
                 mtl_error: mtl_error.clone(),
@@ -341,8 +347,17 @@ impl ply_rs_bw::ply::PropertyAccess for PlyVertex {
     }
 }
 
+/// A PLY face: its vertex indices and its colour (slots as a vertex's 8–10; zero without one).
 #[derive(Default)]
-struct PlyFace(Vec<u32>);
+struct PlyFace {
+    idx: Vec<u32>,
+    c: [f32; 3],
+}
+
+/// Where a colour property of a PLY element goes: 0–2 for red, green, blue.
+fn ply_colour_slot(key: &str) -> Option<usize> {
+    PLY_SLOTS.iter().find(|(k, s)| *k == key && *s >= 8).map(|&(_, s)| s - 8)
+}
 
 impl ply_rs_bw::ply::PropertyAccess for PlyFace {
     fn new() -> Self {
@@ -350,10 +365,20 @@ impl ply_rs_bw::ply::PropertyAccess for PlyFace {
     }
     fn set_property(&mut self, key: &String, prop: ply_rs_bw::ply::Property) {
         use ply_rs_bw::ply::Property as P;
+        if let Some(slot) = ply_colour_slot(key) {
+            self.c[slot] = match prop {
+                P::Float(v) => v,
+                P::Double(v) => v as f32,
+                P::UChar(v) => v as f32,
+                P::UShort(v) => v as f32,
+                _ => return,
+            };
+            return;
+        }
         if key != "vertex_indices" && key != "vertex_index" {
             return;
         }
-        self.0 = match prop {
+        self.idx = match prop {
             P::ListInt(v) => v.into_iter().map(|i| i as u32).collect(),
             P::ListUInt(v) => v,
             P::ListUChar(v) => v.into_iter().map(u32::from).collect(),
@@ -374,7 +399,11 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
     let vdef = header.elements.get("vertex").ok_or("PLY has no `vertex` element")?;
     let has_normals = want_normals && vdef.properties.contains_key("nx");
     let has_uvs = ["u", "s", "texture_u"].iter().any(|k| vdef.properties.contains_key(*k));
-    let color_scale = ply_color_scale(vdef)?;
+    let vertex_colours = ply_colours(vdef, "vertex")?;
+    let face_colours = match header.elements.get("face") {
+        Some(fdef) => ply_colours(fdef, "face")?,
+        None => None,
+    };
     for k in ["x", "y", "z"] {
         if !vdef.properties.contains_key(k) {
             return Err(format!("PLY vertex element has no `{k}` property"));
@@ -421,44 +450,66 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
     let positions: Vec<Vec3> = verts.iter().map(|v| Vec3::from_array(v.p)).collect();
     let normals = has_normals.then(|| verts.iter().map(|v| Vec3::from_array(v.n).normalize_or_zero()).collect());
     let uvs = has_uvs.then(|| verts.iter().map(|v| v.uv).collect());
-    let colors = color_scale.map(|k| verts.iter().map(|v| Vec3::from_array(v.c) * k).collect());
+    let colors = vertex_colours.map(|k| verts.iter().map(|v| k.decode(v.c)).collect());
     let mut indices = Vec::with_capacity(faces.len());
+    let mut face_colors = face_colours.map(|_| Vec::with_capacity(faces.len()));
     for f in &faces {
-        if f.0.len() < 3 {
-            return Err(format!("PLY face with {} vertices (need at least 3)", f.0.len()));
+        if f.idx.len() < 3 {
+            return Err(format!("PLY face with {} vertices (need at least 3)", f.idx.len()));
         }
-        for k in 1..f.0.len() - 1 {
-            indices.push([f.0[0], f.0[k], f.0[k + 1]]);
+        for k in 1..f.idx.len() - 1 {
+            indices.push([f.idx[0], f.idx[k], f.idx[k + 1]]);
+        }
+        if let (Some(out), Some(k)) = (&mut face_colors, face_colours) {
+            out.extend(std::iter::repeat_n(k.decode(f.c), f.idx.len() - 2));
         }
     }
-    Ok(TriMesh { positions, indices, normals, uvs, colors })
+    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors })
 }
 
-/// Whether a PLY's vertices have colours, and what scales them to [0, 1]: 1/255 for 8-bit integers,
-/// 1/65535 for 16-bit ones, 1 for floats (read as they are). All three of red, green and blue (or r, g,
-/// b) or none; another integer type is refused. (Mitsuba 3.9.1 keeps 8-bit colours as 0 to 255, with a
-/// warning that it expects [0, 1]; caustica scales them, as the file means them.)
-fn ply_color_scale(vdef: &ply_rs_bw::ply::ElementDef) -> Result<Option<f32>, String> {
+/// How a PLY's colour properties encode a colour: floats as they are (linear), or integers up to
+/// `max` holding sRGB-encoded values. (Mitsuba 3.9.1's loader marks integer properties as normalised
+/// and gamma-encoded: it decodes 16-bit colours so, though it keeps 8-bit ones as 0 to 255 with a
+/// warning that it expects [0, 1]; caustica decodes both.)
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum PlyColour {
+    Linear,
+    Srgb { max: f32 },
+}
+
+impl PlyColour {
+    fn decode(self, c: [f32; 3]) -> Vec3 {
+        match self {
+            PlyColour::Linear => Vec3::from_array(c),
+            PlyColour::Srgb { max } => Vec3::from_array(c.map(|x| crate::color::srgb_decode(x / max))),
+        }
+    }
+}
+
+/// Whether a PLY element (`what`: its vertices or faces) has colours, and how they are encoded: all
+/// three of red, green and blue (or r, g, b) or none, one type for the three (uchar and ushort read as
+/// sRGB, float and double as linear); another type is refused.
+fn ply_colours(def: &ply_rs_bw::ply::ElementDef, what: &str) -> Result<Option<PlyColour>, String> {
     use ply_rs_bw::ply::{PropertyType, ScalarType};
     let names = [["red", "green", "blue"], ["r", "g", "b"]];
-    let Some(set) = names.iter().find(|set| set.iter().any(|k| vdef.properties.contains_key(*k))) else {
+    let Some(set) = names.iter().find(|set| set.iter().any(|k| def.properties.contains_key(*k))) else {
         return Ok(None);
     };
-    let mut scale = None;
+    let mut kind = None;
     for k in set {
-        let p = vdef.properties.get(*k).ok_or_else(|| format!("PLY vertex colour has `{}` but no `{k}`", set[0]))?;
-        let s = match &p.data_type {
-            PropertyType::Scalar(ScalarType::UChar) => 1.0 / 255.0,
-            PropertyType::Scalar(ScalarType::UShort) => 1.0 / 65535.0,
-            PropertyType::Scalar(ScalarType::Float | ScalarType::Double) => 1.0,
-            t => return Err(format!("PLY vertex colour `{k}` is {t:?} (read: uchar, ushort, float, double)")),
+        let p = def.properties.get(*k).ok_or_else(|| format!("PLY {what} colour has `{}` but no `{k}`", set[0]))?;
+        let this = match &p.data_type {
+            PropertyType::Scalar(ScalarType::UChar) => PlyColour::Srgb { max: 255.0 },
+            PropertyType::Scalar(ScalarType::UShort) => PlyColour::Srgb { max: 65535.0 },
+            PropertyType::Scalar(ScalarType::Float | ScalarType::Double) => PlyColour::Linear,
+            t => return Err(format!("PLY {what} colour `{k}` is {t:?} (read: uchar, ushort, float, double)")),
         };
-        if scale.is_some_and(|x| x != s) {
-            return Err(format!("PLY vertex colours {set:?} are not all of one type"));
+        if kind.is_some_and(|x| x != this) {
+            return Err(format!("PLY {what} colours {set:?} are not all of one type"));
         }
-        scale = Some(s);
+        kind = Some(this);
     }
-    Ok(scale)
+    Ok(kind)
 }
 
 /// A `.serialized` file's mark and the versions read (Mitsuba 0.4 to 3 write 4; 3 lacks the mesh name).
@@ -561,7 +612,7 @@ pub fn parse_serialized(bytes: &[u8], index: u32, want_normals: bool) -> Result<
         .map(|c| std::array::from_fn(|k| u32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
         .collect();
     let normals = normals.filter(|_| want_normals).map(|ns| ns.into_iter().map(|n| n.normalize_or_zero()).collect());
-    Ok(TriMesh { positions, indices, normals, uvs, colors })
+    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors: None })
 }
 
 /// The fewest bytes one binary record of `def` can take: its scalars, and the count of each list.
@@ -624,17 +675,57 @@ fn parse_ascii_payload(
                 })
                 .collect::<Result<_, String>>()?;
         } else if name == "face" {
+            // What each property of a face's line is: its index list (`vertex_indices` or `vertex_index`,
+            // else the first list), another list (skipped), a colour channel, or a number skipped.
+            enum Field {
+                Indices,
+                List,
+                Colour(usize),
+                Skip,
+            }
+            let named = def.properties.keys().position(|k| k == "vertex_indices" || k == "vertex_index");
+            let first_list = def.properties.values().position(|p| matches!(p.data_type, PropertyType::List(..)));
+            let fields: Vec<Field> = def
+                .properties
+                .iter()
+                .enumerate()
+                .map(|(k, (key, p))| match p.data_type {
+                    PropertyType::List(..) if Some(k) == named.or(first_list) => Field::Indices,
+                    PropertyType::List(..) => Field::List,
+                    _ => ply_colour_slot(key).map_or(Field::Skip, Field::Colour),
+                })
+                .collect();
             faces = chunk
                 .par_iter()
                 .enumerate()
                 .map(|(i, line)| {
                     let mut toks = line.split_ascii_whitespace();
-                    let n: usize =
-                        toks.next().and_then(|t| t.parse().ok()).ok_or_else(|| format!("face {i}: bad count"))?;
-                    let idx: Result<Vec<u32>, String> = (0..n)
-                        .map(|_| toks.next().and_then(|t| t.parse().ok()).ok_or_else(|| format!("face {i}: bad index")))
-                        .collect();
-                    Ok(PlyFace(idx?))
+                    let mut f = PlyFace::default();
+                    let mut next = |what: &str| toks.next().ok_or_else(|| format!("face {i}: no {what}"));
+                    for field in &fields {
+                        match field {
+                            Field::Indices | Field::List => {
+                                let t = next("count")?;
+                                let n: usize = t.parse().map_err(|_| format!("face {i}: bad count `{t}`"))?;
+                                let mut idx = Vec::with_capacity(n);
+                                for _ in 0..n {
+                                    let t = next("index")?;
+                                    idx.push(t.parse::<u32>().map_err(|_| format!("face {i}: bad index `{t}`"))?);
+                                }
+                                if let Field::Indices = field {
+                                    f.idx = idx;
+                                }
+                            }
+                            Field::Colour(c) => {
+                                let t = next("colour")?;
+                                f.c[*c] = t.parse().map_err(|_| format!("face {i}: bad colour `{t}`"))?;
+                            }
+                            Field::Skip => {
+                                next("value")?;
+                            }
+                        }
+                    }
+                    Ok(f)
                 })
                 .collect::<Result<_, String>>()?;
         }
@@ -649,6 +740,7 @@ pub fn quad(corner: Vec3, eu: Vec3, ev: Vec3) -> TriMesh {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         normals: None,
         colors: None,
+        face_colors: None,
         uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
     }
 }
@@ -986,9 +1078,9 @@ mod tests {
         assert!((m.total_area() - 1.0).abs() < 1e-6);
     }
 
-    /// Vertex colours: 8-bit (ASCII) and 16-bit (binary) integers scaled to [0, 1], floats kept, both
-    /// naming conventions; `color_at` interpolates by the point's barycentric coordinates (the centroid
-    /// reads the mean, a corner its own colour).
+    /// Vertex colours: 8-bit (ASCII) and 16-bit (binary) integers read as sRGB-encoded values (scaled to
+    /// [0, 1], then decoded to linear), floats kept, both naming conventions; `color_at` interpolates by
+    /// the point's barycentric coordinates (the centroid reads the mean, a corner its own colour).
     #[test]
     fn ply_vertex_colours_are_read_and_interpolated() {
         let head = |fmt: &str, props: &str| {
@@ -998,10 +1090,12 @@ mod tests {
         let text = head("ascii", rgb8) + "0 0 0 255 0 51\n1 0 0 0 255 0\n0 1 0 0 0 204\n3 0 1 2\n";
         let m = parse_ply(text.as_bytes(), false).unwrap();
         let c = m.colors.as_ref().expect("colours");
-        assert!((c[0] - Vec3::new(1.0, 0.0, 0.2)).abs().max_element() < 1e-6, "{c:?}");
+        let (dec02, dec08) = (crate::color::srgb_decode(0.2), crate::color::srgb_decode(0.8));
+        assert!((c[0] - Vec3::new(1.0, 0.0, dec02)).abs().max_element() < 1e-6, "{c:?}");
         let mid = m.color_at(0, Vec3::new(1.0 / 3.0, 1.0 / 3.0, 0.0));
-        assert!((mid - Vec3::splat(1.0 / 3.0)).abs().max_element() < 1e-5, "{mid:?}");
-        assert!((m.color_at(0, Vec3::new(0.0, 1.0, 0.0)) - Vec3::new(0.0, 0.0, 0.8)).abs().max_element() < 1e-5);
+        let mean = Vec3::new(1.0, 1.0, dec02 + dec08) / 3.0;
+        assert!((mid - mean).abs().max_element() < 1e-5, "{mid:?}");
+        assert!((m.color_at(0, Vec3::new(0.0, 1.0, 0.0)) - Vec3::new(0.0, 0.0, dec08)).abs().max_element() < 1e-5);
         let rgb16 = "property ushort r\nproperty ushort g\nproperty ushort b\n";
         let mut bin = head("binary_little_endian", rgb16).into_bytes();
         for (p, c) in
@@ -1013,12 +1107,81 @@ mod tests {
         bin.push(3);
         [0i32, 1, 2].iter().for_each(|i| bin.extend(i.to_le_bytes()));
         let m = parse_ply(&bin, false).unwrap();
-        assert!((m.colors.as_ref().unwrap()[2] - Vec3::new(0.0, 0.0, 0.2)).abs().max_element() < 1e-6);
+        assert!((m.colors.as_ref().unwrap()[2] - Vec3::new(0.0, 0.0, dec02)).abs().max_element() < 1e-6);
         let floats = "property float r\nproperty float g\nproperty float b\n";
         let text = head("ascii", floats) + "0 0 0 0.5 2 0\n1 0 0 0 0 0\n0 1 0 0 0 0\n3 0 1 2\n";
         assert_eq!(parse_ply(text.as_bytes(), false).unwrap().colors.unwrap()[0], Vec3::new(0.5, 2.0, 0.0));
         let none = head("ascii", "") + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
         assert!(parse_ply(none.as_bytes(), false).unwrap().colors.is_none());
+    }
+
+    /// Integer colours as Mitsuba 3.9.1 reads them where it decodes them (its PLY loader marks integer
+    /// properties `Normalized | Gamma`; 16-bit ones come out decoded, 8-bit ones it keeps as 0 to 255):
+    /// its `vertex_color` and `face_color` buffers for a binary PLY of 16-bit colours, the vertices'
+    /// being 8-bit values × 257, so that they are also what caustica reads for those 8-bit values.
+    #[test]
+    fn integer_colours_decode_as_mitsubas() {
+        let props = |t: &str| format!("property {t} red\nproperty {t} green\nproperty {t} blue\n");
+        let head = |t: &str| {
+            format!(
+                "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{}element face 1\nproperty list uchar int vertex_indices\n{}end_header\n",
+                props(t),
+                props(t)
+            )
+        };
+        let verts: [[u16; 3]; 3] = [[255, 0, 0], [0, 128, 255], [64, 192, 4]];
+        let face = [13107u16, 1, 65534];
+        let theirs_v = [[1.0, 0.0, 0.0], [0.0, 0.21586037, 1.0], [0.051269423, 0.5271154, 0.0012141078]];
+        let theirs_f = [0.033104725, 1.1810389e-06, 0.99996525];
+        for sixteen in [true, false] {
+            let mut bin = head(if sixteen { "ushort" } else { "uchar" }).into_bytes();
+            for (i, c) in verts.iter().enumerate() {
+                [[-1f32, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]][i]
+                    .iter()
+                    .for_each(|x| bin.extend(x.to_le_bytes()));
+                for &x in c {
+                    if sixteen {
+                        bin.extend((x * 257).to_le_bytes());
+                    } else {
+                        bin.push(x as u8);
+                    }
+                }
+            }
+            bin.push(3);
+            [0i32, 1, 2].iter().for_each(|i| bin.extend(i.to_le_bytes()));
+            for x in face {
+                if sixteen {
+                    bin.extend(x.to_le_bytes());
+                } else {
+                    bin.push((x / 257) as u8);
+                }
+            }
+            let m = parse_ply(&bin, false).unwrap();
+            for (got, want) in m.colors.as_ref().unwrap().iter().zip(theirs_v) {
+                assert!((*got - Vec3::from(want)).abs().max_element() < 1e-6, "{got} against Mitsuba's {want:?}");
+            }
+            let f = m.face_colors.as_ref().expect("face colours")[0];
+            let eight = Vec3::from_array(face.map(|x| crate::color::srgb_decode((x / 257) as f32 / 255.0)));
+            let want = if sixteen { Vec3::from(theirs_f) } else { eight };
+            assert!((f - want).abs().max_element() < 1e-6, "{f} against {want}");
+        }
+    }
+
+    /// Face colours (a PLY face element's `red`/`green`/`blue` or `r`/`g`/`b`) in ASCII, given before
+    /// and after the index list, beside properties caustica does not read: a polygon's colour goes to
+    /// each triangle of its fan; a face element without them leaves none.
+    #[test]
+    fn ply_face_colours_follow_their_polygons() {
+        let text = "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty float r\nproperty uchar flags\nproperty list uchar int vertex_indices\nproperty float g\nproperty float b\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 2 0\n0.5 7 4 0 1 2 3 0.25 0.125\n1 0 3 1 4 2 0 1\n";
+        let m = parse_ply(text.as_bytes(), false).unwrap();
+        assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3], [1, 4, 2]]);
+        let f = m.face_colors.as_ref().expect("face colours");
+        assert_eq!(f, &vec![Vec3::new(0.5, 0.25, 0.125), Vec3::new(0.5, 0.25, 0.125), Vec3::new(1.0, 0.0, 1.0)]);
+        assert!(m.colors.is_none());
+        let plain = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nproperty int material\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 5\n";
+        let m = parse_ply(plain.as_bytes(), false).unwrap();
+        assert!(m.face_colors.is_none());
+        assert_eq!(m.indices, vec![[0, 1, 2]]);
     }
 
     #[test]

@@ -20,7 +20,7 @@ pub use light::Lights;
 pub use load::{load_scene, load_scene_str, load_scene_with};
 pub use material::{Blend, BlendWeight, Material, SurfaceMaterial, TransportMode};
 pub use mesh::TriMesh;
-pub use texture::Texture;
+pub use texture::{MeshColors, Texture};
 
 /// Refuses what is not a regular file before it is read: a scene reads each file it names whole, and a
 /// device (`/dev/zero` never ends) or a named pipe (it blocks until written to) would take the memory
@@ -362,9 +362,9 @@ pub(crate) fn hash_vec3s<'a>(h: &mut sha2::Sha256, v: impl IntoIterator<Item = &
 
 impl Scene {
     /// SHA-256 (hex) of what the scene is, independent of where its files live: camera, materials,
-    /// lights, every shape's geometry (vertex and normal bits, indices) and emission. Render settings
-    /// are not part of it (they are compared on their own). Partial renders carry it, so parts of
-    /// different scenes are never merged.
+    /// lights, every shape's geometry (the bits of its vertices, normals, texture coordinates and
+    /// colours, its indices) and emission. Render settings are not part of it (they are compared on
+    /// their own). Partial renders carry it, so parts of different scenes are never merged.
     pub fn content_hash(&self) -> String {
         use sha2::{Digest, Sha256};
         let mut h = Sha256::new();
@@ -389,6 +389,9 @@ impl Scene {
                         t.iter().for_each(|i| h.update(i.to_le_bytes()));
                     }
                     hash_vec3s(&mut h, m.normals.iter().flatten());
+                    h.update(format!("colours {:?} {:?}", m.colors.is_some(), m.face_colors.is_some()));
+                    hash_vec3s(&mut h, m.colors.iter().flatten());
+                    hash_vec3s(&mut h, m.face_colors.iter().flatten());
                     for t in m.uvs.iter().flatten() {
                         t.iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
                     }
@@ -751,12 +754,18 @@ impl Scene {
         bsdf.with_params(colour(m.maps.specular), colour(m.maps.tint), alpha, alpha_v)
     }
 
-    /// Texture `t`'s value at hit `si`: at its uv, or for vertex colours the hit mesh's, interpolated.
+    /// Texture `t`'s value at hit `si`: at its uv, or for mesh colours the hit mesh's (its vertices',
+    /// interpolated, or its triangle's).
     #[inline]
     pub fn texture_at(&self, t: u32, si: &SurfaceHit) -> Rgb {
         match &self.textures[t as usize] {
-            texture::Texture::VertexColor { scale } => match &self.shapes[si.shape as usize].geometry {
-                Geometry::Mesh(m) => m.color_at(si.prim as usize, si.p) * *scale,
+            texture::Texture::MeshColor { of, scale } => match &self.shapes[si.shape as usize].geometry {
+                Geometry::Mesh(m) => match of {
+                    texture::MeshColors::Vertex => m.color_at(si.prim as usize, si.p) * *scale,
+                    texture::MeshColors::Face => {
+                        m.face_colors.as_ref().map_or(Rgb::ZERO, |c| c[si.prim as usize] * *scale)
+                    }
+                },
                 Geometry::Sphere { .. } => Rgb::ZERO,
             },
             tex => tex.eval(si.uv),

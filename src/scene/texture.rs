@@ -23,11 +23,30 @@ pub enum Texture {
     /// Linear RGB texels, row 0 at v = 0; bilinear (or nearest) lookup with texel centres at (i + ½)/size,
     /// texels beyond the edges read as `wrap` says.
     Bitmap { file: String, width: u32, height: u32, texels: Vec<Rgb>, to_uv: UvMap, bilinear: bool, wrap: Wrap },
-    /// The hit mesh's vertex colours, interpolated, times `scale` (Mitsuba's `mesh_attribute`
-    /// `vertex_color`). It needs the hit, not its uv: the scene reads it (`Scene::texture_at`); `eval`
-    /// alone gives `scale` (white), and the loader checks the colours of every mesh that reads it lie in
-    /// [0, 1], the bounds `min_value` and `max_value` give.
-    VertexColor { scale: f32 },
+    /// The hit mesh's vertex colours, interpolated, or its triangle's colour, times `scale` (Mitsuba's
+    /// `mesh_attribute` `vertex_color` and `face_color`). It needs the hit, not its uv: the scene reads
+    /// it (`Scene::texture_at`); `eval` alone gives `scale` (white), and the loader checks the colours of
+    /// every mesh that reads it lie in [0, 1], the bounds `min_value` and `max_value` give.
+    MeshColor { of: MeshColors, scale: f32 },
+}
+
+/// Which colours of a mesh a `MeshColor` texture reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshColors {
+    /// Its vertices', interpolated across each triangle.
+    Vertex,
+    /// Its triangles' own, one each.
+    Face,
+}
+
+impl MeshColors {
+    /// The texture's name in a scene file (and Mitsuba's attribute name).
+    pub fn name(self) -> &'static str {
+        match self {
+            MeshColors::Vertex => "vertex_color",
+            MeshColors::Face => "face_color",
+        }
+    }
 }
 
 /// Which texel an index beyond a bitmap's edge reads (Mitsuba's `wrap_mode`): the image repeated,
@@ -104,14 +123,14 @@ impl Texture {
                 }
                 self::bilinear(x - 0.5, y - 0.5, at)
             }
-            Texture::VertexColor { scale } => Rgb::splat(*scale),
+            Texture::MeshColor { scale, .. } => Rgb::splat(*scale),
         }
     }
 
     /// The gradient (∂/∂u, ∂/∂v) of the texture's value read as one number (its luminance, Mitsuba's
     /// `eval_1`) at `uv`, as Mitsuba's `eval_1_grad` gives it to a bump map: a bilinear bitmap's
     /// interpolant differentiated within the texel cell `uv` falls in, through `to_uv`; zero for nearest
-    /// lookup (a step function's gradient almost everywhere). None for a checkerboard or vertex colours,
+    /// lookup (a step function's gradient almost everywhere). None for a checkerboard or mesh colours,
     /// which Mitsuba 3.9 cannot differentiate either. (Mitsuba 3.9.1 scales by the image's size after
     /// `to_uv`'s transposed matrix, not before: the same for a square image or a `to_uv` without rotation
     /// or shear, another number otherwise; caustica's is the derivative of what it evaluates.)
@@ -138,7 +157,7 @@ impl Texture {
     pub fn hash_into(&self, h: &mut sha2::Sha256) {
         use sha2::Digest;
         match self {
-            Texture::Checkerboard { .. } | Texture::VertexColor { .. } => h.update(format!("{self:?}")),
+            Texture::Checkerboard { .. } | Texture::MeshColor { .. } => h.update(format!("{self:?}")),
             Texture::Bitmap { width, height, texels, to_uv, bilinear, wrap, .. } => {
                 h.update(format!("bitmap {width} {height} {to_uv:?} {bilinear} {wrap:?}"));
                 crate::scene::hash_vec3s(h, texels);
@@ -158,7 +177,7 @@ impl Texture {
                 Rgb::new((sum[0] / n) as f32, (sum[1] / n) as f32, (sum[2] / n) as f32)
             }
             // Not read on emitters (refused there); the middle of its range.
-            Texture::VertexColor { scale } => Rgb::splat(0.5 * scale),
+            Texture::MeshColor { scale, .. } => Rgb::splat(0.5 * scale),
         }
     }
 
@@ -167,7 +186,7 @@ impl Texture {
         match self {
             Texture::Checkerboard { color0, color1, .. } => color0.min_element().min(color1.min_element()),
             Texture::Bitmap { texels, .. } => texels.iter().map(|t| t.min_element()).fold(f32::INFINITY, f32::min),
-            Texture::VertexColor { scale } => scale.min(0.0),
+            Texture::MeshColor { scale, .. } => scale.min(0.0),
         }
     }
 
@@ -176,7 +195,7 @@ impl Texture {
         match self {
             Texture::Checkerboard { color0, color1, .. } => color0.max_element().max(color1.max_element()),
             Texture::Bitmap { texels, .. } => texels.iter().map(|t| t.max_element()).fold(0.0, f32::max),
-            Texture::VertexColor { scale } => scale.max(0.0),
+            Texture::MeshColor { scale, .. } => scale.max(0.0),
         }
     }
 }

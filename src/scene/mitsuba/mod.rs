@@ -1160,21 +1160,27 @@ impl<'a> Cx<'a> {
                 }
             }
             Some("mesh_attribute") => {
-                // The hit mesh's attribute, interpolated, times `scale`: caustica reads the vertex colours.
+                // The hit mesh's attribute, times `scale`: caustica reads the vertex colours
+                // (interpolated) and the face colours.
                 let attr = p.string("name")?.ok_or_else(|| t.error("a `mesh_attribute` needs a `name`"))?;
-                if attr != "vertex_color" {
-                    return Err(t.error(format!("mesh attribute `{attr}` is not read (read: vertex_color)")));
-                }
                 if matrix.is_some() {
                     return Err(t.error("a `mesh_attribute` texture has no `to_uv` (Mitsuba refuses it too)"));
                 }
-                TextureSpec::VertexColor { scale: p.float("scale")?.unwrap_or(1.0) }
+                let scale = p.float("scale")?.unwrap_or(1.0);
+                match attr.as_str() {
+                    "vertex_color" => TextureSpec::VertexColor { scale },
+                    "face_color" => TextureSpec::FaceColor { scale },
+                    _ => {
+                        let msg = format!("mesh attribute `{attr}` is not read (read: vertex_color, face_color)");
+                        return Err(t.error(msg));
+                    }
+                }
             }
             _ => return Err(t.error("texture type not read (read: bitmap, checkerboard, mesh_attribute)")),
         };
         p.finish(
             "filename, filter_type, wrap_mode, raw, to_uv, accel, format (bitmap); color0, color1, to_uv (checkerboard); \
-             name = vertex_color, scale (mesh_attribute)",
+             name = vertex_color or face_color, scale (mesh_attribute)",
         )?;
         self.file.textures.insert(name.clone(), spec);
         self.done.insert(t as *const Node, name.clone());
