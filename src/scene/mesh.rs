@@ -707,7 +707,8 @@ fn parse_ascii_payload(
                             Field::Indices | Field::List => {
                                 let t = next("count")?;
                                 let n: usize = t.parse().map_err(|_| format!("face {i}: bad count `{t}`"))?;
-                                let mut idx = Vec::with_capacity(n);
+                                // The count is the file's word: the line's own tokens bound what is read.
+                                let mut idx = Vec::with_capacity(n.min(16));
                                 for _ in 0..n {
                                     let t = next("index")?;
                                     idx.push(t.parse::<u32>().map_err(|_| format!("face {i}: bad index `{t}`"))?);
@@ -1224,5 +1225,9 @@ mod tests {
     fn ascii_ply_truncated_is_an_error() {
         let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n";
         assert!(parse_ply(text.as_bytes(), true).is_err());
+        // A face whose count is far beyond its line (and beyond memory): an error, not an abort.
+        let huge = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty uchar flags\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n1 4000000000000000000 0 1 2\n";
+        let e = parse_ply(huge.as_bytes(), true).unwrap_err();
+        assert!(e.contains("face 0: no index"), "{e}");
     }
 }
