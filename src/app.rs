@@ -282,7 +282,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             Geometry::Sphere { radius, .. } => format!("sphere r={radius}"),
         };
         println!(
-            "  {:<12} {:<28} material {:<10} area {:.4}{}",
+            "  {:<12} {:<36} material {:<10} area {:.4}{}",
             s.name,
             kind,
             scene.material_names[s.material as usize],

@@ -981,7 +981,8 @@ fn emitter_spectra_read_as_mitsuba_reads_them() {
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let cases: [(&str, &[&str]); 14] = [
+    let cases: [(&str, &[&str]); 15] = [
+        ("vertexcolor", &["type = \"vertex_color\"", "type = \"face_color\"", "scale = 0.9"]),
         ("bumpmap", &["type = \"bumpmap\"", "scale = 0.08", "scale = -0.06", "wrap = \"clamp\"", "wrap = \"mirror\""]),
         ("orthographic", &["projection = \"orthographic\"", "film_size = [3.2"]),
         ("spot-texture", &["texture = \"lights[0]-texture\"", "up = [0.348"]),
