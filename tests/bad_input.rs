@@ -619,6 +619,18 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["materials.white.metallic", "[0, 1]", "got 1.5"],
         ),
         (
+            "principled_metallic_unknown_texture",
+            with_white("white = { type = \"principled\", metallic = \"shiny\" }"),
+            vec![],
+            vec!["materials.white.metallic", "unknown texture `shiny`"],
+        ),
+        (
+            "principled_metallic_wrong_type",
+            with_white("white = { type = \"principled\", metallic = [0.5, 0.5, 0.5] }"),
+            vec![],
+            vec!["a number in [0, 1] or the name of a [textures] entry"],
+        ),
+        (
             "principled_eta_and_specular",
             with_white("white = { type = \"principled\", eta = 1.5, specular = 0.5 }"),
             vec![],

@@ -1011,6 +1011,7 @@ fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
                 "two_sided = true",
                 "spec_trans = 0.9",
                 "roughness = \"rough-squares-as-weight\"",
+                "metallic = \"shapes[5]-metallic-as-weight\"",
             ],
         ),
     ];
@@ -1087,9 +1088,9 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &["line 8", "`anisotropic` of a principled BSDF must be a number"],
         ),
         (
-            "principled-metallic-texture",
-            r#"<bsdf type="principled"><texture type="checkerboard" name="metallic"/></bsdf>"#,
-            &["line 8", "`metallic` of a principled BSDF must be a number", "base_color and roughness"],
+            "principled-sheen-texture",
+            r#"<bsdf type="principled"><texture type="checkerboard" name="sheen"/></bsdf>"#,
+            &["line 8", "`sheen` of a principled BSDF must be a number", "base_color, roughness and metallic"],
         ),
         (
             "principled-twosided-transmitter",

@@ -303,8 +303,9 @@ pub enum MaterialSpec {
         base_color: Reflectance,
         #[serde(default = "half_weight")]
         roughness: Weight,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        metallic: f32,
+        /// A number in [0, 1] or a texture (read per hit as its luminance).
+        #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
+        metallic: Weight,
         #[serde(default, skip_serializing_if = "is_zero")]
         spec_trans: f32,
         #[serde(default, skip_serializing_if = "is_zero")]
@@ -347,7 +348,9 @@ impl MaterialSpec {
             MaterialSpec::Conductor { specular, roughness, .. } => specular.as_ref().is_some_and(t) || w(roughness),
             MaterialSpec::Dielectric { tint, roughness, .. } => t(tint) || w(roughness),
             MaterialSpec::ThinDielectric { tint, .. } => t(tint),
-            MaterialSpec::Principled { base_color, roughness, .. } => t(base_color) || w(roughness),
+            MaterialSpec::Principled { base_color, roughness, metallic, .. } => {
+                t(base_color) || w(roughness) || w(metallic)
+            }
             MaterialSpec::Blend { weight, .. } => w(weight),
             MaterialSpec::Sides { .. } | MaterialSpec::Null => false,
             MaterialSpec::Normalmap { .. } | MaterialSpec::Bumpmap { .. } => true,
@@ -362,6 +365,14 @@ impl MaterialSpec {
 pub enum Weight {
     Value(f32),
     Texture(String),
+}
+
+fn zero_weight() -> Weight {
+    Weight::Value(0.0)
+}
+
+fn is_zero_weight(w: &Weight) -> bool {
+    *w == Weight::Value(0.0)
 }
 
 fn half_weight() -> Weight {

@@ -691,7 +691,11 @@ fn build_material(
             let fresnel = Fresnel::Constant(c);
             let bsdf =
                 Material::Conductor { fresnel, alpha, alpha_v, tangent: Vec3::ZERO, distribution: *distribution };
-            sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, alpha_v: alpha_v_map, tint: None })
+            sided(
+                bsdf,
+                *two_sided,
+                ParamMaps { specular, alpha: alpha_map, alpha_v: alpha_v_map, ..Default::default() },
+            )
         }
         MaterialSpec::Conductor { preset, specular, eta, k, roughness: r, roughness_v, distribution, two_sided } => {
             let (fresnel, specular) = match (preset, specular, eta, k) {
@@ -720,7 +724,11 @@ fn build_material(
             let (alpha_v, alpha_v_map) = across(alpha, alpha_map, roughness_v)?;
             let bsdf =
                 Material::Conductor { fresnel, alpha, alpha_v, tangent: Vec3::ZERO, distribution: *distribution };
-            sided(bsdf, *two_sided, ParamMaps { specular, alpha: alpha_map, alpha_v: alpha_v_map, tint: None })
+            sided(
+                bsdf,
+                *two_sided,
+                ParamMaps { specular, alpha: alpha_map, alpha_v: alpha_v_map, ..Default::default() },
+            )
         }
         MaterialSpec::Dielectric { ior, outside_ior, tint, .. }
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
@@ -731,7 +739,11 @@ fn build_material(
                 let (alpha_v, alpha_v_map) = across(alpha, alpha_map, roughness_v)?;
                 let distribution = *distribution;
                 let bsdf = Material::Dielectric { ior, tint, alpha, alpha_v, tangent: Vec3::ZERO, distribution };
-                sided(bsdf, true, ParamMaps { tint: tint_map, alpha: alpha_map, alpha_v: alpha_v_map, specular: None })
+                sided(
+                    bsdf,
+                    true,
+                    ParamMaps { tint: tint_map, alpha: alpha_map, alpha_v: alpha_v_map, ..Default::default() },
+                )
             } else {
                 sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })
             }
@@ -753,7 +765,19 @@ fn build_material(
             two_sided,
         } => {
             let mut p = Principled::new(Rgb::ZERO);
-            p.metallic = unit("metallic", *metallic)?;
+            // A textured `metallic` is read per hit; the material's own number is its least (where
+            // the surface is most able to transmit, which `transmits` asks).
+            let metallic_map = match metallic {
+                Weight::Value(x) => {
+                    p.metallic = unit("metallic", *x)?;
+                    None
+                }
+                Weight::Texture(name) => {
+                    let t = texture_index(cx, &format!("{key}.metallic"), name, textures, "a metallic weight")?;
+                    p.metallic = textures.list[t as usize].min_value().clamp(0.0, 1.0);
+                    Some(t)
+                }
+            };
             p.spec_trans = unit("spec_trans", *spec_trans)?;
             p.spec_tint = unit("spec_tint", *spec_tint)?;
             p.sheen = unit("sheen", *sheen)?;
@@ -801,7 +825,7 @@ fn build_material(
                 }
             };
             // The BSDF minds its own sides (`Principled::two_sided`).
-            let maps = ParamMaps { alpha, ..Default::default() };
+            let maps = ParamMaps { alpha, metallic: metallic_map, ..Default::default() };
             SurfaceMaterial { texture, maps, ..SurfaceMaterial::new(Material::Principled(p)) }
         }
         MaterialSpec::Null => SurfaceMaterial::null(),
@@ -1000,7 +1024,7 @@ fn mesh_color_scale(
         _ => None,
     });
     let normal = mat.normal_map.map(NormalMap::texture);
-    let own = [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, normal, weight];
+    let own = [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, maps.metallic, normal, weight];
     let mut most = own.into_iter().flatten().fold(None, |most: Option<f32>, t| match textures[t as usize] {
         Texture::MeshColor { of: kind, scale } if kind == of => Some(most.map_or(scale, |m| m.max(scale))),
         _ => most,

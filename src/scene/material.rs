@@ -333,11 +333,17 @@ pub struct ParamMaps {
     /// surface whose roughness is a texture, another (Mitsuba's textured `alpha_v`), or none where that
     /// α is the material's own number.
     pub alpha_v: Option<u32>,
+    /// A principled BSDF's `metallic`, read as one number (as `alpha`).
+    pub metallic: Option<u32>,
 }
 
 impl ParamMaps {
     pub fn any(&self) -> bool {
-        self.specular.is_some() || self.tint.is_some() || self.alpha.is_some() || self.alpha_v.is_some()
+        self.specular.is_some()
+            || self.tint.is_some()
+            || self.alpha.is_some()
+            || self.alpha_v.is_some()
+            || self.metallic.is_some()
     }
 }
 
@@ -1010,13 +1016,15 @@ impl Material {
     /// This BSDF with a texel's values in place of its own colour (`specular`: a conductor's or a plastic
     /// coat's), transmittance (`tint`: a dielectric's) and roughness (`alpha`: a rough conductor's or
     /// dielectric's, along the tangent, and `alpha_v` across it, each kept at least `MIN_ALPHA`; a
-    /// principled BSDF's roughness is `alpha`), where given; parameters it does not have are ignored.
+    /// principled BSDF's roughness is `alpha`) and a principled BSDF's `metallic` (clamped to [0, 1]),
+    /// where given; parameters it does not have are ignored.
     pub fn with_params(
         mut self,
         specular: Option<Rgb>,
         tint: Option<Rgb>,
         alpha: Option<f32>,
         alpha_v: Option<f32>,
+        metallic: Option<f32>,
     ) -> Material {
         let rough = |a: &mut f32, v: &mut f32| {
             if let Some(x) = alpha {
@@ -1056,10 +1064,13 @@ impl Material {
                 if let Some(x) = alpha {
                     p.roughness = x;
                 }
+                if let Some(x) = metallic {
+                    p.metallic = x.clamp(0.0, 1.0);
+                }
             }
             Material::Diffuse { .. } => {}
             Material::Mapped(m) => {
-                let nested = m.nested.material().with_params(specular, tint, alpha, alpha_v);
+                let nested = m.nested.material().with_params(specular, tint, alpha, alpha_v, metallic);
                 m.nested = Nested::new(nested).unwrap_or(m.nested);
             }
         }

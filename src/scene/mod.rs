@@ -590,7 +590,11 @@ impl Scene {
             best = best.max(match m.texture {
                 Some(t) => self.textures[t as usize].max_value(),
                 // Each colour at its texture's largest value bounds what the surface reflects.
-                None => m.bsdf.with_params(most(m.maps.specular), most(m.maps.tint), None, None).albedo().max_element(),
+                None => m
+                    .bsdf
+                    .with_params(most(m.maps.specular), most(m.maps.tint), None, None, None)
+                    .albedo()
+                    .max_element(),
             });
             false
         });
@@ -751,7 +755,7 @@ impl Scene {
         let alpha = number(m.maps.alpha);
         // An isotropic textured roughness reads its texture once for both.
         let alpha_v = if m.maps.alpha_v == m.maps.alpha { alpha } else { number(m.maps.alpha_v) };
-        bsdf.with_params(colour(m.maps.specular), colour(m.maps.tint), alpha, alpha_v)
+        bsdf.with_params(colour(m.maps.specular), colour(m.maps.tint), alpha, alpha_v, number(m.maps.metallic))
     }
 
     /// Texture `t`'s value at hit `si`: at its uv, or for mesh colours the hit mesh's (its vertices',

@@ -1040,8 +1040,8 @@ impl<'a> Cx<'a> {
         }))
     }
 
-    /// Mitsuba's `principled`: `base_color` and `roughness` may be textures, every other weight
-    /// (`anisotropic` too) is a number; the sampling rates change only the noise and are read and left.
+    /// Mitsuba's `principled`: `base_color`, `roughness` and `metallic` may be textures, every other
+    /// weight (`anisotropic` too) is a number; the sampling rates change only the noise and are read and left.
     fn principled(
         &mut self,
         b: &'a Node,
@@ -1054,7 +1054,7 @@ impl<'a> Cx<'a> {
                 None => Ok(0.0),
                 Some(ColourProp::Rgb([a, g, bb])) if a == g && g == bb => Ok(a),
                 Some(_) => Err(b.error(format!(
-                    "`{key}` of a principled BSDF must be a number here (only base_color and roughness take a texture)"
+                    "`{key}` of a principled BSDF must be a number here (only base_color, roughness and metallic take a texture)"
                 ))),
             }
         };
@@ -1070,7 +1070,7 @@ impl<'a> Cx<'a> {
         Ok(MaterialSpec::Principled {
             base_color: self.colour_or_texture(p, "base_color", name, 0.5)?,
             roughness: self.scalar_prop(b, p, "roughness", name)?.unwrap_or(Weight::Value(0.5)),
-            metallic: number("metallic")?,
+            metallic: self.scalar_prop(b, p, "metallic", name)?.unwrap_or(Weight::Value(0.0)),
             spec_trans,
             spec_tint: number("spec_tint")?,
             sheen: number("sheen")?,
