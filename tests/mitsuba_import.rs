@@ -942,6 +942,47 @@ fn one_sided_bsdfs_are_black_from_behind_unless_twosided() {
     let _ = std::fs::remove_dir_all(d);
 }
 
+/// Each textured weight of a principled BSDF reaches its own parameter at a hit: the eight weights
+/// Mitsuba lets be textures, each a checkerboard of one value (0.1, 0.2, … 0.8 in `PRINCIPLED_WEIGHTS`'
+/// order: metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss),
+/// read back from the hit's BSDF; and the same through `convert`'s TOML.
+#[test]
+fn principled_weights_read_their_own_textures() {
+    use caustica::scene::{Material, PRINCIPLED_WEIGHTS};
+    let d = tmp("principled-weights");
+    let textures: String = PRINCIPLED_WEIGHTS
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let v = 0.1 * (k + 1) as f32;
+            format!(r#"<texture type="checkerboard" name="{name}"><float name="color0" value="{v}"/><float name="color1" value="{v}"/></texture>"#)
+        })
+        .collect();
+    let xml = write(&d, "weights.xml", &panel_scene(&format!(r#"<bsdf type="principled">{textures}</bsdf>"#)));
+    let toml = d.join("weights.toml");
+    let bin = env!("CARGO_BIN_EXE_caustica");
+    let out = std::process::Command::new(bin)
+        .args(["convert", xml.to_str().unwrap(), "-o", toml.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for path in [&xml, &toml] {
+        let scene = load_scene_with(path, &[]).unwrap_or_else(|e| panic!("{e}"));
+        let ray = caustica::math::Ray::new(glam::Vec3::new(0.1, 0.2, 2.0), -glam::Vec3::Z);
+        let si = scene.surface(&ray, 0, 0, 0.25, 0.25, 2.0);
+        let Material::Principled(p) = scene.bsdf(&si, glam::Vec3::Z, || 0.5) else {
+            panic!("{}: not a principled BSDF at the hit", path.display())
+        };
+        let fields =
+            [p.metallic, p.spec_trans, p.spec_tint, p.sheen, p.sheen_tint, p.flatness, p.clearcoat, p.clearcoat_gloss];
+        for (k, (name, got)) in PRINCIPLED_WEIGHTS.iter().zip(fields).enumerate() {
+            let want = 0.1 * (k + 1) as f32;
+            assert!((got - want).abs() < 1e-6, "{}: {name} read {got}, its texture holds {want}", path.display());
+        }
+    }
+    let _ = std::fs::remove_dir_all(d);
+}
+
 /// Spectra as Mitsuba 3's RGB variants read them, seen straight on: a panel light filling the view
 /// shows its radiance in every pixel (box filter). A constant `<spectrum>` inside an emitter is a flat
 /// spectrum, c·(1.204794, 0.948291, 0.908916) in sRGB (the rows of Mitsuba's XYZ → sRGB matrix, summed;
@@ -1009,9 +1050,11 @@ fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
             &[
                 "type = \"principled\"",
                 "two_sided = true",
-                "spec_trans = 0.9",
                 "roughness = \"rough-squares-as-weight\"",
                 "metallic = \"shapes[5]-metallic-as-weight\"",
+                "clearcoat = \"label\"",
+                "sheen = \"shapes[2]-sheen-as-weight\"",
+                "spec_trans = \"shapes[4]-spec_trans-as-weight\"",
             ],
         ),
     ];
@@ -1088,13 +1131,13 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &["line 8", "`anisotropic` of a principled BSDF must be a number"],
         ),
         (
-            "principled-sheen-texture",
-            r#"<bsdf type="principled"><texture type="checkerboard" name="sheen"/></bsdf>"#,
-            &["line 8", "`sheen` of a principled BSDF must be a number", "base_color, roughness and metallic"],
-        ),
-        (
             "principled-twosided-transmitter",
             r#"<bsdf type="twosided"><bsdf type="principled"><float name="spec_trans" value="0.5"/></bsdf></bsdf>"#,
+            &["line 8", "spec_trans cannot be wrapped in twosided"],
+        ),
+        (
+            "principled-twosided-textured-transmitter",
+            r#"<bsdf type="twosided"><bsdf type="principled"><texture type="checkerboard" name="spec_trans"/></bsdf></bsdf>"#,
             &["line 8", "spec_trans cannot be wrapped in twosided"],
         ),
         (

@@ -291,8 +291,9 @@ pub enum MaterialSpec {
     },
     /// Mitsuba's `principled` BSDF (Burley's "Disney" model as Mitsuba 3 writes it): `base_color` (a
     /// colour or a texture, default ½) and `roughness` (a number or a texture read by luminance,
-    /// default ½) and, each a number in [0, 1] defaulting to 0: `metallic`, `spec_trans`
-    /// (transmission), `spec_tint`, `sheen`, `sheen_tint`, `flatness`, `clearcoat`, `clearcoat_gloss`;
+    /// default ½) and, each a number in [0, 1] defaulting to 0 or a texture read per hit by luminance:
+    /// `metallic`, `spec_trans` (transmission), `spec_tint`, `sheen`, `sheen_tint`, `flatness`,
+    /// `clearcoat`, `clearcoat_gloss`;
     /// the dielectric index as `eta` (inside over outside) or `specular` (in [0, 1], default ½: η 1.5),
     /// not both. `two_sided` (default: true unless it transmits; a transmitting one cannot be) mirrors
     /// the front onto the back (Mitsuba's `twosided`); one-sided, the back reflects only what its
@@ -303,23 +304,22 @@ pub enum MaterialSpec {
         base_color: Reflectance,
         #[serde(default = "half_weight")]
         roughness: Weight,
-        /// A number in [0, 1] or a texture (read per hit as its luminance).
         #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
         metallic: Weight,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        spec_trans: f32,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        spec_tint: f32,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        sheen: f32,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        sheen_tint: f32,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        flatness: f32,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        clearcoat: f32,
-        #[serde(default, skip_serializing_if = "is_zero")]
-        clearcoat_gloss: f32,
+        #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
+        spec_trans: Weight,
+        #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
+        spec_tint: Weight,
+        #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
+        sheen: Weight,
+        #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
+        sheen_tint: Weight,
+        #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
+        flatness: Weight,
+        #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
+        clearcoat: Weight,
+        #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
+        clearcoat_gloss: Weight,
         /// The specular and transmission lobes stretched along the surface's tangent (∂p/∂u, as
         /// `roughness_v` takes it), Mitsuba's `anisotropic`: a number in [0, 1].
         #[serde(default, skip_serializing_if = "is_zero")]
@@ -348,8 +348,33 @@ impl MaterialSpec {
             MaterialSpec::Conductor { specular, roughness, .. } => specular.as_ref().is_some_and(t) || w(roughness),
             MaterialSpec::Dielectric { tint, roughness, .. } => t(tint) || w(roughness),
             MaterialSpec::ThinDielectric { tint, .. } => t(tint),
-            MaterialSpec::Principled { base_color, roughness, metallic, .. } => {
-                t(base_color) || w(roughness) || w(metallic)
+            MaterialSpec::Principled {
+                base_color,
+                roughness,
+                metallic,
+                spec_trans,
+                spec_tint,
+                sheen,
+                sheen_tint,
+                flatness,
+                clearcoat,
+                clearcoat_gloss,
+                ..
+            } => {
+                t(base_color)
+                    || [
+                        roughness,
+                        metallic,
+                        spec_trans,
+                        spec_tint,
+                        sheen,
+                        sheen_tint,
+                        flatness,
+                        clearcoat,
+                        clearcoat_gloss,
+                    ]
+                    .into_iter()
+                    .any(w)
             }
             MaterialSpec::Blend { weight, .. } => w(weight),
             MaterialSpec::Sides { .. } | MaterialSpec::Null => false,

@@ -7,7 +7,7 @@ use crate::scene::file::*;
 use crate::scene::light::{Lights, PointLight, Spot};
 use crate::scene::material::{
     conductor_preset, BlendWeight, Fresnel, Mapped, Material, Nested, NormalMap, ParamMaps, Principled, RoughCoat,
-    SurfaceMaterial, MIN_ALPHA,
+    SurfaceMaterial, MIN_ALPHA, PRINCIPLED_WEIGHTS,
 };
 use crate::scene::mesh::{self, TriMesh};
 use crate::scene::texture::{load_image, MeshColors, Texture, UvMap};
@@ -765,26 +765,23 @@ fn build_material(
             two_sided,
         } => {
             let mut p = Principled::new(Rgb::ZERO);
-            // A textured `metallic` is read per hit; the material's own number is its least (where
-            // the surface is most able to transmit, which `transmits` asks).
-            let metallic_map = match metallic {
-                Weight::Value(x) => {
-                    p.metallic = unit("metallic", *x)?;
-                    None
-                }
-                Weight::Texture(name) => {
-                    let t = texture_index(cx, &format!("{key}.metallic"), name, textures, "a metallic weight")?;
-                    p.metallic = textures.list[t as usize].min_value().clamp(0.0, 1.0);
-                    Some(t)
-                }
-            };
-            p.spec_trans = unit("spec_trans", *spec_trans)?;
-            p.spec_tint = unit("spec_tint", *spec_tint)?;
-            p.sheen = unit("sheen", *sheen)?;
-            p.sheen_tint = unit("sheen_tint", *sheen_tint)?;
-            p.flatness = unit("flatness", *flatness)?;
-            p.clearcoat = unit("clearcoat", *clearcoat)?;
-            p.clearcoat_gloss = unit("clearcoat_gloss", *clearcoat_gloss)?;
+            // A textured weight is read per hit; the material's own number is the texture's least for
+            // `metallic` and its most for the others (where the surface is most able to transmit,
+            // which `transmits` asks, and the sides are chosen by).
+            let given = [metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss];
+            let mut weights = [None; PRINCIPLED_WEIGHTS.len()];
+            for (k, (w, name)) in given.into_iter().zip(PRINCIPLED_WEIGHTS).enumerate() {
+                *p.weight_mut(k) = match w {
+                    Weight::Value(x) => unit(name, *x)?,
+                    Weight::Texture(t) => {
+                        let what = format!("a principled {name} weight");
+                        let t = texture_index(cx, &format!("{key}.{name}"), t, textures, &what)?;
+                        weights[k] = Some(t);
+                        let tex = &textures.list[t as usize];
+                        if k == 0 { tex.min_value() } else { tex.max_value() }.clamp(0.0, 1.0)
+                    }
+                };
+            }
             p.anisotropic = unit("anisotropic", *anisotropic)?;
             // Mitsuba's own guards: a transmitting surface of index 1 (or specular 0) is made 1.001 (1e-3).
             let transmits = p.spec_trans > 0.0;
@@ -825,7 +822,7 @@ fn build_material(
                 }
             };
             // The BSDF minds its own sides (`Principled::two_sided`).
-            let maps = ParamMaps { alpha, metallic: metallic_map, ..Default::default() };
+            let maps = ParamMaps { alpha, weights, ..Default::default() };
             SurfaceMaterial { texture, maps, ..SurfaceMaterial::new(Material::Principled(p)) }
         }
         MaterialSpec::Null => SurfaceMaterial::null(),
@@ -1024,11 +1021,12 @@ fn mesh_color_scale(
         _ => None,
     });
     let normal = mat.normal_map.map(NormalMap::texture);
-    let own = [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, maps.metallic, normal, weight];
-    let mut most = own.into_iter().flatten().fold(None, |most: Option<f32>, t| match textures[t as usize] {
-        Texture::MeshColor { of: kind, scale } if kind == of => Some(most.map_or(scale, |m| m.max(scale))),
-        _ => most,
-    });
+    let own = [mat.texture, maps.specular, maps.tint, maps.alpha, maps.alpha_v, normal, weight];
+    let mut most =
+        own.into_iter().chain(maps.weights).flatten().fold(None, |most: Option<f32>, t| match textures[t as usize] {
+            Texture::MeshColor { of: kind, scale } if kind == of => Some(most.map_or(scale, |m| m.max(scale))),
+            _ => most,
+        });
     if let Some(b) = mat.blend.filter(|_| depth < MAX_BLEND_DEPTH) {
         for next in [b.first, b.second] {
             if let Some(scale) = mesh_color_scale(materials, textures, of, next, depth + 1) {

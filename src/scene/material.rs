@@ -333,9 +333,15 @@ pub struct ParamMaps {
     /// surface whose roughness is a texture, another (Mitsuba's textured `alpha_v`), or none where that
     /// α is the material's own number.
     pub alpha_v: Option<u32>,
-    /// A principled BSDF's `metallic`, read as one number (as `alpha`).
-    pub metallic: Option<u32>,
+    /// A principled BSDF's weights (`PRINCIPLED_WEIGHTS`, in that order), each read as one number (as
+    /// `alpha`).
+    pub weights: [Option<u32>; PRINCIPLED_WEIGHTS.len()],
 }
+
+/// The weights of a principled BSDF that may be textures (Mitsuba's too), in the order of
+/// `ParamMaps::weights` and `Principled::weight_mut`.
+pub const PRINCIPLED_WEIGHTS: [&str; 8] =
+    ["metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness", "clearcoat", "clearcoat_gloss"];
 
 impl ParamMaps {
     pub fn any(&self) -> bool {
@@ -343,7 +349,7 @@ impl ParamMaps {
             || self.tint.is_some()
             || self.alpha.is_some()
             || self.alpha_v.is_some()
-            || self.metallic.is_some()
+            || self.weights.iter().any(Option::is_some)
     }
 }
 
@@ -1016,15 +1022,15 @@ impl Material {
     /// This BSDF with a texel's values in place of its own colour (`specular`: a conductor's or a plastic
     /// coat's), transmittance (`tint`: a dielectric's) and roughness (`alpha`: a rough conductor's or
     /// dielectric's, along the tangent, and `alpha_v` across it, each kept at least `MIN_ALPHA`; a
-    /// principled BSDF's roughness is `alpha`) and a principled BSDF's `metallic` (clamped to [0, 1]),
-    /// where given; parameters it does not have are ignored.
+    /// principled BSDF's roughness is `alpha`) and a principled BSDF's weights (`PRINCIPLED_WEIGHTS`,
+    /// each clamped to [0, 1]), where given; parameters it does not have are ignored.
     pub fn with_params(
         mut self,
         specular: Option<Rgb>,
         tint: Option<Rgb>,
         alpha: Option<f32>,
         alpha_v: Option<f32>,
-        metallic: Option<f32>,
+        weights: [Option<f32>; PRINCIPLED_WEIGHTS.len()],
     ) -> Material {
         let rough = |a: &mut f32, v: &mut f32| {
             if let Some(x) = alpha {
@@ -1064,13 +1070,15 @@ impl Material {
                 if let Some(x) = alpha {
                     p.roughness = x;
                 }
-                if let Some(x) = metallic {
-                    p.metallic = x.clamp(0.0, 1.0);
+                for (k, w) in weights.into_iter().enumerate() {
+                    if let Some(x) = w {
+                        *p.weight_mut(k) = x.clamp(0.0, 1.0);
+                    }
                 }
             }
             Material::Diffuse { .. } => {}
             Material::Mapped(m) => {
-                let nested = m.nested.material().with_params(specular, tint, alpha, alpha_v, metallic);
+                let nested = m.nested.material().with_params(specular, tint, alpha, alpha_v, weights);
                 m.nested = Nested::new(nested).unwrap_or(m.nested);
             }
         }
@@ -1600,6 +1608,20 @@ fn gtr1_sample(u: [f32; 2], alpha: f32) -> Vec3 {
 }
 
 impl Principled {
+    /// Weight `k` of `PRINCIPLED_WEIGHTS`.
+    pub fn weight_mut(&mut self, k: usize) -> &mut f32 {
+        match k {
+            0 => &mut self.metallic,
+            1 => &mut self.spec_trans,
+            2 => &mut self.spec_tint,
+            3 => &mut self.sheen,
+            4 => &mut self.sheen_tint,
+            5 => &mut self.flatness,
+            6 => &mut self.clearcoat,
+            _ => &mut self.clearcoat_gloss,
+        }
+    }
+
     /// Mitsuba's defaults: base colour ½, roughness ½, specular ½ (η = 1.5), every other weight 0.
     pub fn new(base: Rgb) -> Principled {
         Principled {

@@ -18,7 +18,7 @@ pub use camera::Camera;
 pub use file::{RenderSettings, SceneFile};
 pub use light::Lights;
 pub use load::{load_scene, load_scene_str, load_scene_with};
-pub use material::{Blend, BlendWeight, Material, SurfaceMaterial, TransportMode};
+pub use material::{Blend, BlendWeight, Material, SurfaceMaterial, TransportMode, PRINCIPLED_WEIGHTS};
 pub use mesh::TriMesh;
 pub use texture::{MeshColors, Texture};
 
@@ -592,7 +592,7 @@ impl Scene {
                 // Each colour at its texture's largest value bounds what the surface reflects.
                 None => m
                     .bsdf
-                    .with_params(most(m.maps.specular), most(m.maps.tint), None, None, None)
+                    .with_params(most(m.maps.specular), most(m.maps.tint), None, None, [None; PRINCIPLED_WEIGHTS.len()])
                     .albedo()
                     .max_element(),
             });
@@ -755,7 +755,7 @@ impl Scene {
         let alpha = number(m.maps.alpha);
         // An isotropic textured roughness reads its texture once for both.
         let alpha_v = if m.maps.alpha_v == m.maps.alpha { alpha } else { number(m.maps.alpha_v) };
-        bsdf.with_params(colour(m.maps.specular), colour(m.maps.tint), alpha, alpha_v, number(m.maps.metallic))
+        bsdf.with_params(colour(m.maps.specular), colour(m.maps.tint), alpha, alpha_v, m.maps.weights.map(number))
     }
 
     /// Texture `t`'s value at hit `si`: at its uv, or for mesh colours the hit mesh's (its vertices',

@@ -10,7 +10,7 @@ mod spectrum;
 pub mod xml;
 
 use crate::scene::file::*;
-use crate::scene::SceneError;
+use crate::scene::{SceneError, PRINCIPLED_WEIGHTS};
 use glam::{Mat4, Vec3};
 use props::{ColourProp, Props};
 use std::collections::{BTreeMap, HashMap};
@@ -1040,8 +1040,9 @@ impl<'a> Cx<'a> {
         }))
     }
 
-    /// Mitsuba's `principled`: `base_color`, `roughness` and `metallic` may be textures, every other
-    /// weight (`anisotropic` too) is a number; the sampling rates change only the noise and are read and left.
+    /// Mitsuba's `principled`: `anisotropic` is a number (the only one of its weights caustica reads
+    /// as one alone), the others numbers or textures; the sampling rates change only the noise and are
+    /// read and left.
     fn principled(
         &mut self,
         b: &'a Node,
@@ -1049,20 +1050,22 @@ impl<'a> Cx<'a> {
         two_sided: bool,
         name: &str,
     ) -> Result<MaterialSpec, SceneError> {
-        let number = |key: &str| -> Result<f32, SceneError> {
-            match p.colour(key)? {
-                None => Ok(0.0),
-                Some(ColourProp::Rgb([a, g, bb])) if a == g && g == bb => Ok(a),
-                Some(_) => Err(b.error(format!(
-                    "`{key}` of a principled BSDF must be a number here (only base_color, roughness and metallic take a texture)"
-                ))),
-            }
+        let anisotropic = match p.colour("anisotropic")? {
+            None => 0.0,
+            Some(ColourProp::Rgb([a, g, bb])) if a == g && g == bb => a,
+            Some(_) => return Err(b.error("`anisotropic` of a principled BSDF must be a number here")),
         };
         for rate in ["main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"] {
             p.float(rate)?;
         }
-        let spec_trans = number("spec_trans")?;
-        if two_sided && spec_trans > 0.0 {
+        let mut weight = |key: &str| -> Result<Weight, SceneError> {
+            Ok(self.scalar_prop(b, p, key, name)?.unwrap_or(Weight::Value(0.0)))
+        };
+        let [metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss] =
+            [0, 1, 2, 3, 4, 5, 6, 7].map(|k| weight(PRINCIPLED_WEIGHTS[k]));
+        let spec_trans = spec_trans?;
+        // Mitsuba's twosided refuses a principled BSDF that can transmit (a textured spec_trans can).
+        if two_sided && spec_trans != Weight::Value(0.0) {
             return Err(
                 b.error("a principled BSDF with spec_trans cannot be wrapped in twosided (Mitsuba refuses it too)")
             );
@@ -1070,15 +1073,15 @@ impl<'a> Cx<'a> {
         Ok(MaterialSpec::Principled {
             base_color: self.colour_or_texture(p, "base_color", name, 0.5)?,
             roughness: self.scalar_prop(b, p, "roughness", name)?.unwrap_or(Weight::Value(0.5)),
-            metallic: self.scalar_prop(b, p, "metallic", name)?.unwrap_or(Weight::Value(0.0)),
+            metallic: metallic?,
             spec_trans,
-            spec_tint: number("spec_tint")?,
-            sheen: number("sheen")?,
-            sheen_tint: number("sheen_tint")?,
-            flatness: number("flatness")?,
-            clearcoat: number("clearcoat")?,
-            clearcoat_gloss: number("clearcoat_gloss")?,
-            anisotropic: number("anisotropic")?,
+            spec_tint: spec_tint?,
+            sheen: sheen?,
+            sheen_tint: sheen_tint?,
+            flatness: flatness?,
+            clearcoat: clearcoat?,
+            clearcoat_gloss: clearcoat_gloss?,
+            anisotropic,
             specular: p.float("specular")?,
             eta: p.float("eta")?,
             two_sided: Some(two_sided),
