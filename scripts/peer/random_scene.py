@@ -603,6 +603,25 @@ if args.more:
     # thirteenth stream gives vertex colours.
     C = random.Random(args.seed * 3203 + 29)
     text = "\n".join(colored(line, C, "facets.ply", "face_color") for line in text.split("\n"))
+    # Textured principled weights (caustica since session 47), from a seventeenth stream, last: each
+    # number a principled BSDF gives metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness,
+    # clearcoat or clearcoat_gloss becomes, three times in ten, a checkerboard of it and another value
+    # (read by Mitsuba's eval_1, which swaps a checkerboard's colours) or label.png (by luminance).
+    W = random.Random(args.seed * 7919 + 11)
+
+    def weight_texture(m):
+        if W.random() >= 0.3:
+            return m.group(0)
+        name, value = m.group(1), m.group(2)
+        if W.random() < 0.7:
+            s = W.choice([2, 3, 5])
+            return (f'<texture type="checkerboard" name="{name}"><float name="color0" value="{value}"/>'
+                    f'<float name="color1" value="{f(W.uniform(0.0, 1.0))}"/>'
+                    f'<transform name="to_uv"><scale x="{s}" y="{s}"/></transform></texture>')
+        return f'<texture type="bitmap" name="{name}"><string name="filename" value="label.png"/></texture>'
+
+    weights = "metallic|spec_trans|spec_tint|sheen|sheen_tint|flatness|clearcoat|clearcoat_gloss"
+    text = re.sub(rf'<float name="({weights})" value="([^"]*)"/>', weight_texture, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
