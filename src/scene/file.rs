@@ -337,6 +337,26 @@ pub enum MaterialSpec {
 }
 
 impl MaterialSpec {
+    /// A principled BSDF's weights that may be textures, in `PRINCIPLED_WEIGHTS`' order (metallic,
+    /// spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss); None for
+    /// another material.
+    pub fn principled_weights(&self) -> Option<[&Weight; 8]> {
+        match self {
+            MaterialSpec::Principled {
+                metallic,
+                spec_trans,
+                spec_tint,
+                sheen,
+                sheen_tint,
+                flatness,
+                clearcoat,
+                clearcoat_gloss,
+                ..
+            } => Some([metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss]),
+            _ => None,
+        }
+    }
+
     /// Whether the material itself (not a blend's sides) names a `[textures]` entry.
     pub fn names_texture(&self) -> bool {
         let t = |r: &Reflectance| matches!(r, Reflectance::Texture(_));
@@ -348,33 +368,8 @@ impl MaterialSpec {
             MaterialSpec::Conductor { specular, roughness, .. } => specular.as_ref().is_some_and(t) || w(roughness),
             MaterialSpec::Dielectric { tint, roughness, .. } => t(tint) || w(roughness),
             MaterialSpec::ThinDielectric { tint, .. } => t(tint),
-            MaterialSpec::Principled {
-                base_color,
-                roughness,
-                metallic,
-                spec_trans,
-                spec_tint,
-                sheen,
-                sheen_tint,
-                flatness,
-                clearcoat,
-                clearcoat_gloss,
-                ..
-            } => {
-                t(base_color)
-                    || [
-                        roughness,
-                        metallic,
-                        spec_trans,
-                        spec_tint,
-                        sheen,
-                        sheen_tint,
-                        flatness,
-                        clearcoat,
-                        clearcoat_gloss,
-                    ]
-                    .into_iter()
-                    .any(w)
+            MaterialSpec::Principled { base_color, roughness, .. } => {
+                t(base_color) || w(roughness) || self.principled_weights().into_iter().flatten().any(w)
             }
             MaterialSpec::Blend { weight, .. } => w(weight),
             MaterialSpec::Sides { .. } | MaterialSpec::Null => false,

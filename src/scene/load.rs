@@ -748,27 +748,12 @@ fn build_material(
                 sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })
             }
         }
-        MaterialSpec::Principled {
-            base_color,
-            roughness: r,
-            metallic,
-            spec_trans,
-            spec_tint,
-            sheen,
-            sheen_tint,
-            flatness,
-            clearcoat,
-            clearcoat_gloss,
-            anisotropic,
-            specular,
-            eta,
-            two_sided,
-        } => {
+        MaterialSpec::Principled { base_color, roughness: r, anisotropic, specular, eta, two_sided, .. } => {
             let mut p = Principled::new(Rgb::ZERO);
             // A textured weight is read per hit; the material's own number is the texture's least for
             // `metallic` and its most for the others (where the surface is most able to transmit,
             // which `transmits` asks, and the sides are chosen by).
-            let given = [metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss];
+            let given = spec.principled_weights().expect("a principled BSDF's weights");
             let mut weights = [None; PRINCIPLED_WEIGHTS.len()];
             for (k, (w, name)) in given.into_iter().zip(PRINCIPLED_WEIGHTS).enumerate() {
                 *p.weight_mut(k) = match w {
