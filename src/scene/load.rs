@@ -763,7 +763,7 @@ fn build_material(
                         let t = texture_index(cx, &format!("{key}.{name}"), t, textures, &what)?;
                         weights[k] = Some(t);
                         let tex = &textures.list[t as usize];
-                        if k == 0 { tex.min_value() } else { tex.max_value() }.clamp(0.0, 1.0)
+                        if name == "metallic" { tex.min_value() } else { tex.max_value() }.clamp(0.0, 1.0)
                     }
                 };
             }

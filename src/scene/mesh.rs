@@ -332,18 +332,23 @@ impl ply_rs_bw::ply::PropertyAccess for PlyVertex {
         PlyVertex::default()
     }
     fn set_property(&mut self, key: &String, prop: ply_rs_bw::ply::Property) {
-        use ply_rs_bw::ply::Property as P;
-        let v = match prop {
-            P::Float(v) => v,
-            P::Double(v) => v as f32,
-            // Colours as 8- or 16-bit integers (scaled once the mesh is read).
-            P::UChar(v) => v as f32,
-            P::UShort(v) => v as f32,
-            _ => return,
-        };
+        let Some(v) = ply_number(prop) else { return };
         if let Some(&(_, slot)) = PLY_SLOTS.iter().find(|(k, _)| k == key) {
             self.set(slot, v);
         }
+    }
+}
+
+/// A PLY scalar caustica reads, as a number: a float or a double, or a colour's 8- or 16-bit integer
+/// (decoded once the mesh is read, `PlyColour`); None for another type.
+fn ply_number(prop: ply_rs_bw::ply::Property) -> Option<f32> {
+    use ply_rs_bw::ply::Property as P;
+    match prop {
+        P::Float(v) => Some(v),
+        P::Double(v) => Some(v as f32),
+        P::UChar(v) => Some(v as f32),
+        P::UShort(v) => Some(v as f32),
+        _ => None,
     }
 }
 
@@ -366,13 +371,9 @@ impl ply_rs_bw::ply::PropertyAccess for PlyFace {
     fn set_property(&mut self, key: &String, prop: ply_rs_bw::ply::Property) {
         use ply_rs_bw::ply::Property as P;
         if let Some(slot) = ply_colour_slot(key) {
-            self.c[slot] = match prop {
-                P::Float(v) => v,
-                P::Double(v) => v as f32,
-                P::UChar(v) => v as f32,
-                P::UShort(v) => v as f32,
-                _ => return,
-            };
+            if let Some(v) = ply_number(prop) {
+                self.c[slot] = v;
+            }
             return;
         }
         if key != "vertex_indices" && key != "vertex_index" {

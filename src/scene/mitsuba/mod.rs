@@ -1058,11 +1058,11 @@ impl<'a> Cx<'a> {
         for rate in ["main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"] {
             p.float(rate)?;
         }
-        let mut weight = |key: &str| -> Result<Weight, SceneError> {
+        let weight = |key: &str| -> Result<Weight, SceneError> {
             Ok(self.scalar_prop(b, p, key, name)?.unwrap_or(Weight::Value(0.0)))
         };
         let [metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss] =
-            [0, 1, 2, 3, 4, 5, 6, 7].map(|k| weight(PRINCIPLED_WEIGHTS[k]));
+            PRINCIPLED_WEIGHTS.map(weight);
         let spec_trans = spec_trans?;
         // Mitsuba's twosided refuses a principled BSDF that can transmit (a textured spec_trans can).
         if two_sided && spec_trans != Weight::Value(0.0) {
