@@ -5,7 +5,7 @@
 //! Directions point away from the surface; `n` is the shading normal (any side).
 use crate::color::Rgb;
 use crate::math::{face_forward, reflect, refract, sampling, Frame};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::f32::consts::PI;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -428,41 +428,39 @@ impl Fresnel {
         match self {
             Fresnel::Constant(c) => *c,
             Fresnel::Schlick(f0) => schlick(*f0, cos),
-            Fresnel::Complex { eta, k, scale } => {
-                let f = |i: usize| fresnel_complex(cos, eta[i], k[i]);
-                Rgb::new(f(0), f(1), f(2)) * *scale
-            }
+            Fresnel::Complex { eta, k, scale } => fresnel_complex(cos, *eta, *k) * *scale,
             Fresnel::Dielectric { ior, scale } => *scale * fresnel_dielectric(cos.clamp(0.0, 1.0), *ior).0,
         }
     }
 }
 
-/// Unpolarised Fresnel reflectance at a conductor with complex index η + iκ (outside index 1).
-pub fn fresnel_complex(cos_i: f32, eta: f32, k: f32) -> f32 {
-    #[derive(Clone, Copy)]
-    struct C(f64, f64);
-    let mul = |a: C, b: C| C(a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
-    let div = |a: C, b: C| {
-        let d = b.0 * b.0 + b.1 * b.1;
-        C((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
-    };
-    let sqrt = |a: C| {
-        let r = (a.0 * a.0 + a.1 * a.1).sqrt();
-        let re = (0.5 * (r + a.0)).max(0.0).sqrt();
-        let im = (0.5 * (r - a.0)).max(0.0).sqrt();
-        C(re, if a.1 < 0.0 { -im } else { im })
-    };
-    let norm = |a: C| a.0 * a.0 + a.1 * a.1;
-    let cos_i = cos_i.clamp(0.0, 1.0) as f64;
-    let n = C(eta as f64, k as f64);
-    let sin2_t = div(C(1.0 - cos_i * cos_i, 0.0), mul(n, n));
-    let cos_t = sqrt(C(1.0 - sin2_t.0, -sin2_t.1));
-    let ci = C(cos_i, 0.0);
-    let n_ci = mul(n, ci);
-    let n_ct = mul(n, cos_t);
-    let r_parl = div(C(n_ci.0 - cos_t.0, n_ci.1 - cos_t.1), C(n_ci.0 + cos_t.0, n_ci.1 + cos_t.1));
-    let r_perp = div(C(ci.0 - n_ct.0, -n_ct.1), C(ci.0 + n_ct.0, n_ct.1));
-    (0.5 * (norm(r_parl) + norm(r_perp))) as f32
+/// Unpolarised Fresnel reflectance at a conductor with complex index η + iκ (outside index 1), per
+/// channel. The closed form in real arithmetic (a² + b² = |n² − sin²θ|, a = Re √(n² − sin²θ); Born &
+/// Wolf, as pbrt-v3's `FrConductor`), three channels at once, in `f64` (in `f32` an index with κ ≈ 0
+/// and η < 1 reads 2e-5 off near its critical angle, where a is the root of a difference near zero);
+/// a² is taken from the difference form when η² − κ² − sin²θ is negative (silver, gold, aluminium:
+/// κ ≫ η), where the sum would cancel.
+pub fn fresnel_complex(cos_i: f32, eta: Rgb, k: Rgb) -> Rgb {
+    let cos = cos_i.clamp(0.0, 1.0) as f64;
+    let (cos2, sin2) = (cos * cos, 1.0 - cos * cos);
+    let (eta, k) = (eta.as_dvec3(), k.as_dvec3());
+    let (eta2, k2) = (eta * eta, k * k);
+    let t0 = eta2 - k2 - DVec3::splat(sin2);
+    let sqrt = |v: DVec3| DVec3::new(v.x.max(0.0).sqrt(), v.y.max(0.0).sqrt(), v.z.max(0.0).sqrt());
+    let tiny = DVec3::splat(f64::MIN_POSITIVE);
+    let a2_plus_b2 = sqrt(t0 * t0 + 4.0 * eta2 * k2);
+    // a² = (|w| + Re w) / 2 for w = n² − sin²θ; for Re w < 0 the same as |Im w|² / (2 (|w| − Re w)).
+    let sum = 0.5 * (a2_plus_b2 + t0);
+    let diff = 2.0 * eta2 * k2 / (a2_plus_b2 - t0).max(tiny);
+    let a = sqrt(DVec3::select(t0.cmpge(DVec3::ZERO), sum, diff));
+    let t1 = a2_plus_b2 + DVec3::splat(cos2);
+    let t2 = 2.0 * cos * a;
+    // Both denominators vanish only for η = 1, κ = 0 at grazing incidence (no interface at all).
+    let rs = (t1 - t2) / (t1 + t2).max(tiny);
+    let t3 = cos2 * a2_plus_b2 + DVec3::splat(sin2 * sin2);
+    let t4 = t2 * sin2;
+    let rp = rs * (t3 - t4) / (t3 + t4).max(tiny);
+    (0.5 * (rs + rp)).clamp(DVec3::ZERO, DVec3::ONE).as_vec3()
 }
 
 /// RGB complex refractive indices (η, κ) of named conductors, as Mitsuba's `conductor` names them
@@ -2851,19 +2849,77 @@ mod tests {
         assert_eq!(m.eval(a, -b, n, rad), Rgb::ZERO);
     }
 
+    /// The Fresnel equations of a conductor written in complex arithmetic (f64), as Mitsuba's
+    /// `fresnel_conductor` writes them: the oracle for the real closed form caustica evaluates.
+    fn fresnel_complex_oracle(cos_i: f64, eta: f64, k: f64) -> f64 {
+        type C = (f64, f64);
+        let mul = |a: C, b: C| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+        let div = |a: C, b: C| {
+            let d = b.0 * b.0 + b.1 * b.1;
+            ((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
+        };
+        let sqrt = |a: C| {
+            let r = a.0.hypot(a.1);
+            let im = (0.5 * (r - a.0)).max(0.0).sqrt();
+            ((0.5 * (r + a.0)).max(0.0).sqrt(), if a.1 < 0.0 { -im } else { im })
+        };
+        let norm = |a: C| a.0 * a.0 + a.1 * a.1;
+        let n = (eta, k);
+        let sin2_t = div((1.0 - cos_i * cos_i, 0.0), mul(n, n));
+        let cos_t = sqrt((1.0 - sin2_t.0, -sin2_t.1));
+        let (n_ci, n_ct) = (mul(n, (cos_i, 0.0)), mul(n, cos_t));
+        let r_parl = div((n_ci.0 - cos_t.0, n_ci.1 - cos_t.1), (n_ci.0 + cos_t.0, n_ci.1 + cos_t.1));
+        let r_perp = div((cos_i - n_ct.0, -n_ct.1), (cos_i + n_ct.0, n_ct.1));
+        0.5 * (norm(r_parl) + norm(r_perp))
+    }
+
     #[test]
     fn complex_fresnel_matches_closed_forms() {
+        let f = |c: f32, eta: f32, k: f32| fresnel_complex(c, Rgb::splat(eta), Rgb::splat(k)).x;
         // Normal incidence: ((η−1)² + κ²) / ((η+1)² + κ²).
         let (eta, k) = (0.2f32, 3.9f32);
         let f0 = ((eta - 1.0).powi(2) + k * k) / ((eta + 1.0).powi(2) + k * k);
-        assert!((fresnel_complex(1.0, eta, k) - f0).abs() < 1e-6);
+        assert!((f(1.0, eta, k) - f0).abs() < 1e-6);
         // κ = 0 is a dielectric; grazing incidence reflects everything.
         for c in [0.1f32, 0.5, 0.9] {
-            assert!((fresnel_complex(c, 1.5, 0.0) - fresnel_dielectric(c, 1.5).0).abs() < 1e-5);
+            assert!((f(c, 1.5, 0.0) - fresnel_dielectric(c, 1.5).0).abs() < 1e-5);
         }
-        assert!((fresnel_complex(0.0, 0.2, 3.9) - 1.0).abs() < 1e-6);
-        // Gold reflects red more than blue.
+        assert!((f(0.0, 0.2, 3.9) - 1.0).abs() < 1e-6);
+        // Every named conductor's channels and a spread of indices, against the complex arithmetic
+        // at every angle, grazing ones included (where a² comes from the difference form).
+        let mut indices: Vec<(f32, f32)> = Vec::new();
+        for name in ["Ag", "Al", "Au", "Cr", "Cu", "K", "W", "none"] {
+            if let Some((e, k)) = complex_ior(name) {
+                indices.extend((0..3).map(|i| (e[i], k[i])));
+            }
+        }
+        for eta in [0.05f32, 0.3, 1.0, 1.7, 4.0] {
+            indices.extend([0.0f32, 0.01, 0.5, 3.0, 12.0].map(|k| (eta, k)));
+        }
+        let mut worst = 0.0f64;
+        for &(eta, k) in &indices {
+            for i in 0..=1000 {
+                let c = i as f32 / 1000.0;
+                let ours = f(c, eta, k) as f64;
+                let theirs = fresnel_complex_oracle(c as f64, eta as f64, k as f64);
+                assert!((0.0..=1.0).contains(&ours), "η {eta} κ {k} cos {c}: {ours}");
+                if theirs.is_nan() {
+                    // η = 1, κ = 0 at grazing incidence: 0/0 in the complex form (no interface).
+                    assert_eq!((eta, k, c), (1.0, 0.0, 0.0));
+                    continue;
+                }
+                worst = worst.max((ours - theirs).abs());
+                assert!((ours - theirs).abs() < 1e-6, "η {eta} κ {k} cos {c}: {ours} against {theirs}");
+            }
+        }
+        assert!(worst > 0.0, "the oracle and the closed form are different computations");
+        // Three channels at once, each its own.
         let (e, k) = complex_ior("Au").unwrap();
+        let c = Fresnel::Complex { eta: e, k, scale: Rgb::ONE }.eval(0.37);
+        for i in 0..3 {
+            assert!((c[i] - f(0.37, e[i], k[i])).abs() < 1e-7);
+        }
+        // Gold reflects red more than blue.
         let c = Fresnel::Complex { eta: e, k, scale: Rgb::ONE }.eval(1.0);
         assert!(c.x > 0.9 && c.z < 0.5, "{c:?}");
     }
