@@ -625,6 +625,12 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["materials.white.metallic", "unknown texture `shiny`"],
         ),
         (
+            "principled_anisotropic_unknown_texture",
+            with_white("white = { type = \"principled\", anisotropic = \"brushed\" }"),
+            vec![],
+            vec!["materials.white.anisotropic", "unknown texture `brushed`"],
+        ),
+        (
             "principled_metallic_wrong_type",
             with_white("white = { type = \"principled\", metallic = [0.5, 0.5, 0.5] }"),
             vec![],

@@ -31,7 +31,8 @@ for half the principled BSDFs, not on a cylinder; and for half the cylinders a n
 an orthographic camera, textured alpha_u/alpha_v, spots projecting a texture; a crop window of a larger
 film, and a principal point offset on a pinhole camera; vertex colours on half the PLY balls; a bump
 map (height.png or label.png) over about a quarter of the BSDFs of shapes with texture coordinates;
-wrap_mode clamp or mirror on a third of the bitmap textures.
+wrap_mode clamp or mirror on a third of the bitmap textures; face colours on half the PLY balls left;
+textured principled weights; a textured `anisotropic` for half the anisotropic principled BSDFs.
 """
 import argparse
 import os
@@ -622,6 +623,22 @@ if args.more:
 
     weights = "metallic|spec_trans|spec_tint|sheen|sheen_tint|flatness|clearcoat|clearcoat_gloss"
     text = re.sub(rf'<float name="({weights})" value="([^"]*)"/>', weight_texture, text)
+    # A textured principled `anisotropic` (caustica since session 48), from an eighteenth stream, last:
+    # half the principled BSDFs the seventh stream made anisotropic get a checkerboard of their value
+    # and 0 to 1 instead (patches brushed beside isotropic ones), or label.png.
+    W = random.Random(args.seed * 5651 + 13)
+
+    def anisotropic_texture(m):
+        if W.random() >= 0.5:
+            return m.group(0)
+        if W.random() < 0.75:
+            s = W.choice([2, 4, 6])
+            return (f'<texture type="checkerboard" name="anisotropic"><float name="color0" value="{m.group(1)}"/>'
+                    f'<float name="color1" value="{f(W.uniform(0.0, 1.0))}"/>'
+                    f'<transform name="to_uv"><scale x="{s}" y="{s // 2}"/></transform></texture>')
+        return '<texture type="bitmap" name="anisotropic"><string name="filename" value="label.png"/></texture>'
+
+    text = re.sub(r'<float name="anisotropic" value="([^"]*)"/>', anisotropic_texture, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

@@ -321,9 +321,9 @@ pub enum MaterialSpec {
         #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
         clearcoat_gloss: Weight,
         /// The specular and transmission lobes stretched along the surface's tangent (∂p/∂u, as
-        /// `roughness_v` takes it), Mitsuba's `anisotropic`: a number in [0, 1].
-        #[serde(default, skip_serializing_if = "is_zero")]
-        anisotropic: f32,
+        /// `roughness_v` takes it), Mitsuba's `anisotropic`: a number in [0, 1] or a texture.
+        #[serde(default = "zero_weight", skip_serializing_if = "is_zero_weight")]
+        anisotropic: Weight,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         specular: Option<f32>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -338,9 +338,9 @@ pub enum MaterialSpec {
 
 impl MaterialSpec {
     /// A principled BSDF's weights that may be textures, in `PRINCIPLED_WEIGHTS`' order (metallic,
-    /// spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss); None for
-    /// another material.
-    pub fn principled_weights(&self) -> Option<[&Weight; 8]> {
+    /// spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss, anisotropic);
+    /// None for another material.
+    pub fn principled_weights(&self) -> Option<[&Weight; 9]> {
         match self {
             MaterialSpec::Principled {
                 metallic,
@@ -351,8 +351,19 @@ impl MaterialSpec {
                 flatness,
                 clearcoat,
                 clearcoat_gloss,
+                anisotropic,
                 ..
-            } => Some([metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss]),
+            } => Some([
+                metallic,
+                spec_trans,
+                spec_tint,
+                sheen,
+                sheen_tint,
+                flatness,
+                clearcoat,
+                clearcoat_gloss,
+                anisotropic,
+            ]),
             _ => None,
         }
     }

@@ -748,11 +748,12 @@ fn build_material(
                 sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })
             }
         }
-        MaterialSpec::Principled { base_color, roughness: r, anisotropic, specular, eta, two_sided, .. } => {
+        MaterialSpec::Principled { base_color, roughness: r, specular, eta, two_sided, .. } => {
             let mut p = Principled::new(Rgb::ZERO);
             // A textured weight is read per hit; the material's own number is the texture's least for
             // `metallic` and its most for the others (where the surface is most able to transmit,
-            // which `transmits` asks, and the sides are chosen by).
+            // which `transmits` asks, and the sides are chosen by; an `anisotropic` texture that is
+            // anywhere above 0 makes the material one whose hits get a tangent).
             let given = spec.principled_weights().expect("a principled BSDF's weights");
             let mut weights = [None; PRINCIPLED_WEIGHTS.len()];
             for (k, (w, name)) in given.into_iter().zip(PRINCIPLED_WEIGHTS).enumerate() {
@@ -767,7 +768,6 @@ fn build_material(
                     }
                 };
             }
-            p.anisotropic = unit("anisotropic", *anisotropic)?;
             // Mitsuba's own guards: a transmitting surface of index 1 (or specular 0) is made 1.001 (1e-3).
             let transmits = p.spec_trans > 0.0;
             p.eta = match (eta, specular) {

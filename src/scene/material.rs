@@ -340,8 +340,17 @@ pub struct ParamMaps {
 
 /// The weights of a principled BSDF that may be textures (Mitsuba's too), in the order of
 /// `ParamMaps::weights` and `Principled::weight_mut`.
-pub const PRINCIPLED_WEIGHTS: [&str; 8] =
-    ["metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint", "flatness", "clearcoat", "clearcoat_gloss"];
+pub const PRINCIPLED_WEIGHTS: [&str; 9] = [
+    "metallic",
+    "spec_trans",
+    "spec_tint",
+    "sheen",
+    "sheen_tint",
+    "flatness",
+    "clearcoat",
+    "clearcoat_gloss",
+    "anisotropic",
+];
 
 impl ParamMaps {
     pub fn any(&self) -> bool {
@@ -1616,7 +1625,8 @@ impl Principled {
             4 => &mut self.sheen_tint,
             5 => &mut self.flatness,
             6 => &mut self.clearcoat,
-            _ => &mut self.clearcoat_gloss,
+            7 => &mut self.clearcoat_gloss,
+            _ => &mut self.anisotropic,
         }
     }
 

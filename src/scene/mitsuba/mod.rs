@@ -1040,9 +1040,8 @@ impl<'a> Cx<'a> {
         }))
     }
 
-    /// Mitsuba's `principled`: `anisotropic` is a number (the only one of its weights caustica reads
-    /// as one alone), the others numbers or textures; the sampling rates change only the noise and are
-    /// read and left.
+    /// Mitsuba's `principled`: its weights (`anisotropic` among them) numbers or textures, each read
+    /// as one number; the sampling rates change only the noise and are read and left.
     fn principled(
         &mut self,
         b: &'a Node,
@@ -1050,18 +1049,13 @@ impl<'a> Cx<'a> {
         two_sided: bool,
         name: &str,
     ) -> Result<MaterialSpec, SceneError> {
-        let anisotropic = match p.colour("anisotropic")? {
-            None => 0.0,
-            Some(ColourProp::Rgb([a, g, bb])) if a == g && g == bb => a,
-            Some(_) => return Err(b.error("`anisotropic` of a principled BSDF must be a number here")),
-        };
         for rate in ["main_specular_sampling_rate", "clearcoat_sampling_rate", "diffuse_reflectance_sampling_rate"] {
             p.float(rate)?;
         }
         let weight = |key: &str| -> Result<Weight, SceneError> {
             Ok(self.scalar_prop(b, p, key, name)?.unwrap_or(Weight::Value(0.0)))
         };
-        let [metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss] =
+        let [metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss, anisotropic] =
             PRINCIPLED_WEIGHTS.map(weight);
         let spec_trans = spec_trans?;
         // Mitsuba's twosided refuses a principled BSDF that can transmit (a textured spec_trans can).
@@ -1081,7 +1075,7 @@ impl<'a> Cx<'a> {
             flatness: flatness?,
             clearcoat: clearcoat?,
             clearcoat_gloss: clearcoat_gloss?,
-            anisotropic,
+            anisotropic: anisotropic?,
             specular: p.float("specular")?,
             eta: p.float("eta")?,
             two_sided: Some(two_sided),
