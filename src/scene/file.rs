@@ -341,31 +341,16 @@ impl MaterialSpec {
     /// spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss, anisotropic);
     /// None for another material.
     pub fn principled_weights(&self) -> Option<[&Weight; 9]> {
-        match self {
-            MaterialSpec::Principled {
-                metallic,
-                spec_trans,
-                spec_tint,
-                sheen,
-                sheen_tint,
-                flatness,
-                clearcoat,
-                clearcoat_gloss,
-                anisotropic,
-                ..
-            } => Some([
-                metallic,
-                spec_trans,
-                spec_tint,
-                sheen,
-                sheen_tint,
-                flatness,
-                clearcoat,
-                clearcoat_gloss,
-                anisotropic,
-            ]),
-            _ => None,
+        // Each field named once: bound by the pattern and listed in that order.
+        macro_rules! weights {
+            ($($field:ident),*) => {
+                match self {
+                    MaterialSpec::Principled { $($field,)* .. } => Some([$($field),*]),
+                    _ => None,
+                }
+            };
         }
+        weights!(metallic, spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss, anisotropic)
     }
 
     /// Whether the material itself (not a blend's sides) names a `[textures]` entry.
