@@ -96,6 +96,43 @@ fn a_spectrum_clipped_into_gamut_is_warned_of() {
     assert!(clipped[0].contains("clipped to (0, 0.2956"), "{}", clipped[0]);
 }
 
+/// An area emitter on a smooth-shaded mesh is where caustica knowingly differs from Mitsuba (emission
+/// on the front of the face's normal, Mitsuba's of the shading normal; `docs/mitsuba-differences/`),
+/// and the import says so once, naming the line; with `face_normals`, or on a rectangle or a sphere
+/// (whose shading normal is the geometric one), it says nothing.
+#[test]
+fn an_emitting_smooth_mesh_is_warned_of() {
+    let d = tmp("smooth-emitter");
+    let ply = dir().join("facets.ply");
+    let emitter = r#"<emitter type="area"><rgb name="radiance" value="1"/></emitter>"#;
+    let cases = [
+        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ply.display()), 1),
+        (
+            format!(
+                r#"<shape type="ply"><string name="filename" value="{}"/><boolean name="face_normals" value="true"/>{emitter}</shape>"#,
+                ply.display()
+            ),
+            0,
+        ),
+        (format!(r#"<shape type="ply"><string name="filename" value="{}"/></shape>"#, ply.display()), 0),
+        (format!(r#"<shape type="rectangle">{emitter}</shape>"#), 0),
+        (format!(r#"<shape type="sphere">{emitter}</shape>"#), 0),
+    ];
+    for (k, (shape, want)) in cases.iter().enumerate() {
+        let sensor = sensor_at_z2(8);
+        let text = format!("<scene version=\"3.0.0\">\n{sensor}\n{shape}\n</scene>");
+        let line = 2 + sensor.lines().count();
+        let xml = write(&d, &format!("case{k}.xml"), &text);
+        let converted = caustica::scene::mitsuba::convert(&xml).unwrap();
+        let said: Vec<&String> = converted.warnings.iter().filter(|w| w.contains("smooth-shaded mesh")).collect();
+        assert_eq!(said.len(), *want, "case {k}: {:?}", converted.warnings);
+        if let Some(w) = said.first() {
+            assert!(w.contains(&format!("case{k}.xml: line {line}")) && w.contains("face_normals"), "{w}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(d);
+}
+
 /// A `.spd` file resolves as Mitsuba's file resolver finds it: beside the file that names it (here an
 /// included file in a subfolder), else beside the scene. A flat 0.5 over 360–830 nm is 0.5 · (0.998985,
 /// 0.998874, 0.998802) as a reflectance (Mitsuba 3.9.1's figures for a flat 1).
