@@ -640,9 +640,6 @@ fn principled_xml_matches_mitsuba() {
     matches_mitsuba("principled", 1024, 0.003);
 }
 
-/// Every mode on `principled.xml`: light subpaths and photons cross principled surfaces with the
-/// importance form of the BSDF (its transmission's adjoint), and the photon mappers' eye passes follow
-/// camera paths through them; each mode's mean stays with Mitsuba's.
 /// A principled BSDF's `anisotropic` as a texture (`principled-aniso.xml`, close up): a ball's from a
 /// checkerboard (Mitsuba's `eval_1`, its colours the other way round from `eval`'s), a metallic floor's
 /// from the label image's luminance. Blocks held to 1.5%: caustica at 1024 spp reads 0.38–0.67% off
@@ -654,6 +651,9 @@ fn principled_anisotropic_textures_match_mitsuba() {
     matches_mitsuba_within("principled-aniso", 1024, 0.003, 0.015);
 }
 
+/// Every mode on `principled.xml`: light subpaths and photons cross principled surfaces with the
+/// importance form of the BSDF (its transmission's adjoint), and the photon mappers' eye passes follow
+/// camera paths through them; each mode's mean stays with Mitsuba's.
 #[test]
 fn every_mode_renders_principled_as_mitsuba() {
     every_mode_means_match_mitsuba("principled");

@@ -56,6 +56,19 @@ def f(x):
     return f"{x:.4g}"
 
 
+def checkerboard(name, color0, color1, sx, sy=None, kind="rgb"):
+    """A checkerboard texture named `name`: its two colours as <kind> values, its to_uv a scale by sx
+    (by sx and sy along u and v where sy is given)."""
+    scale = f'<scale value="{sx}"/>' if sy is None else f'<scale x="{sx}" y="{sy}"/>'
+    return (f'<texture type="checkerboard" name="{name}"><{kind} name="color0" value="{color0}"/>'
+            f'<{kind} name="color1" value="{color1}"/><transform name="to_uv">{scale}</transform></texture>')
+
+
+def bitmap(name, filename):
+    """A bitmap texture named `name` reading `filename` (beside the scene)."""
+    return f'<texture type="bitmap" name="{name}"><string name="filename" value="{filename}"/></texture>'
+
+
 def rgb(lo=0.05, hi=0.95):
     return ", ".join(f(R.uniform(lo, hi)) for _ in range(3))
 
@@ -81,9 +94,7 @@ def bsdf(depth=0, allow_glass=True):
         return f'<bsdf type="diffuse"><rgb name="reflectance" value="{rgb()}"/></bsdf>'
     if k == "diffuse_tex":
         s = R.choice([2, 4, 7])
-        return (f'<bsdf type="diffuse"><texture type="checkerboard" name="reflectance">'
-                f'<rgb name="color0" value="{rgb()}"/><rgb name="color1" value="{rgb()}"/>'
-                f'<transform name="to_uv"><scale x="{s}" y="{s}"/></transform></texture></bsdf>')
+        return f'<bsdf type="diffuse">{checkerboard("reflectance", rgb(), rgb(), s, s)}</bsdf>'
     if k == "plastic":
         return (f'<bsdf type="plastic"><rgb name="diffuse_reflectance" value="{rgb(0.05, 0.8)}"/>'
                 f'<float name="int_ior" value="{f(R.uniform(1.3, 1.9))}"/>'
@@ -340,10 +351,9 @@ if args.more:
             c0 = ", ".join(f(U.uniform(0.1, 1.0)) for _ in range(3))
             c1 = ", ".join(f(U.uniform(0.1, 1.0)) for _ in range(3))
             s = U.choice([2, 3, 5])
-            tex = (f'<texture type="checkerboard" name="radiance"><rgb name="color0" value="{c0}"/>'
-                   f'<rgb name="color1" value="{c1}"/><transform name="to_uv"><scale x="{s}" y="{s}"/></transform></texture>')
+            tex = checkerboard("radiance", c0, c1, s, s)
         else:
-            tex = f'<texture type="bitmap" name="radiance"><string name="filename" value="{k}"/></texture>'
+            tex = bitmap("radiance", k)
         return m.group(0).replace(m.group(2), tex)
 
     text = re.sub(r'<shape type="(\w+)">.*?<emitter type="area">(<(?:rgb|spectrum) name="radiance"[^>]*/>)</emitter>',
@@ -489,9 +499,7 @@ if args.more:
         if X.random() >= 1 / 3:
             return m.group(0)
         scale = X.choice([2, 3, 5, 8])
-        return (f'<texture type="checkerboard" name="{m.group(1)}"><rgb name="color0" value="{m.group(2)}"/>'
-                f'<rgb name="color1" value="{f(X.uniform(0.02, 0.5))}"/>'
-                f'<transform name="to_uv"><scale value="{scale}"/></transform></texture>')
+        return checkerboard(m.group(1), m.group(2), f(X.uniform(0.02, 0.5)), scale)
 
     text = re.sub(r'<float name="(alpha_[uv])" value="([^"]+)"/>', textured_alpha, text)
 
@@ -509,8 +517,7 @@ if args.more:
         else:
             c0 = ", ".join(f(P.uniform(0.1, 1.0)) for _ in range(3))
             c1 = ", ".join(f(P.uniform(0.1, 1.0)) for _ in range(3))
-            tex = (f'<texture type="checkerboard" name="texture"><rgb name="color0" value="{c0}"/>'
-                   f'<rgb name="color1" value="{c1}"/><transform name="to_uv"><scale value="{P.choice([2, 3, 4])}"/></transform></texture>')
+            tex = checkerboard("texture", c0, c1, P.choice([2, 3, 4]))
         return m.group(0)[:-len("</emitter>")] + tex + "</emitter>"
 
     text = re.sub(r'<emitter type="spot">(?:(?!</emitter>).)*</emitter>', slide, text)
@@ -616,10 +623,8 @@ if args.more:
         name, value = m.group(1), m.group(2)
         if W.random() < 0.7:
             s = W.choice([2, 3, 5])
-            return (f'<texture type="checkerboard" name="{name}"><float name="color0" value="{value}"/>'
-                    f'<float name="color1" value="{f(W.uniform(0.0, 1.0))}"/>'
-                    f'<transform name="to_uv"><scale x="{s}" y="{s}"/></transform></texture>')
-        return f'<texture type="bitmap" name="{name}"><string name="filename" value="label.png"/></texture>'
+            return checkerboard(name, value, f(W.uniform(0.0, 1.0)), s, s, kind="float")
+        return bitmap(name, "label.png")
 
     weights = "metallic|spec_trans|spec_tint|sheen|sheen_tint|flatness|clearcoat|clearcoat_gloss"
     text = re.sub(rf'<float name="({weights})" value="([^"]*)"/>', weight_texture, text)
@@ -633,10 +638,8 @@ if args.more:
             return m.group(0)
         if W.random() < 0.75:
             s = W.choice([2, 4, 6])
-            return (f'<texture type="checkerboard" name="anisotropic"><float name="color0" value="{m.group(1)}"/>'
-                    f'<float name="color1" value="{f(W.uniform(0.0, 1.0))}"/>'
-                    f'<transform name="to_uv"><scale x="{s}" y="{s // 2}"/></transform></texture>')
-        return '<texture type="bitmap" name="anisotropic"><string name="filename" value="label.png"/></texture>'
+            return checkerboard("anisotropic", m.group(1), f(W.uniform(0.0, 1.0)), s, s // 2, kind="float")
+        return bitmap("anisotropic", "label.png")
 
     text = re.sub(r'<float name="anisotropic" value="([^"]*)"/>', anisotropic_texture, text)
     for spd, body in spd_files:
