@@ -340,6 +340,18 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["camera.aperture_radius", "3.3e38 puts the lens beyond f32's range"],
         ),
         (
+            "negative_near_clip",
+            with_camera("near_clip = -1.0"),
+            vec![],
+            vec!["camera.near_clip", "≥ 0", "got -1"],
+        ),
+        (
+            "far_clip_before_near",
+            with_camera("near_clip = 2.0\nfar_clip = 1.0"),
+            vec![],
+            vec!["camera.far_clip", "beyond near_clip (2)", "got 1"],
+        ),
+        (
             "orthographic_fov_and_film",
             with_camera("projection = \"orthographic\"\nfilm_size = [2.0, 2.0]"),
             vec![],

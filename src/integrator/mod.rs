@@ -255,7 +255,7 @@ pub fn link_to_camera(
         return;
     }
     c.rays += 1;
-    let seen = camera_sees(scene, tracer, si, link.to, c);
+    let seen = camera_sees(scene, tracer, si, link.clear, c);
     if seen == crate::color::Rgb::ZERO {
         return;
     }

@@ -586,7 +586,7 @@ pub fn splat_photons(scene: &Scene, tracer: &dyn Tracer, maps: &PhotonMaps, whic
                 continue;
             };
             let (x, y) = link.film;
-            let mut r = Ray::new(link.to, p - link.to);
+            let mut r = Ray::new(link.clear, p - link.clear);
             r.tmax = 1.0 - 1e-3;
             if tracer.occluded(&r) {
                 continue;

@@ -271,6 +271,12 @@ pub struct Camera {
     pub centre: [f32; 2],
     /// For a crop window: its offset on the whole film and that film's size, in pixels (for reports).
     pub window: Option<([u32; 2], [u32; 2])>,
+    /// The clipping planes (Mitsuba's sensor `near_clip` and `far_clip`): the camera sees only what lies
+    /// between these depths along `forward` from the lens's plane, [0, ∞) by default. Whatever is nearer
+    /// is not there for the camera's line of sight (a cutaway), though it still casts shadows and
+    /// reflects; whatever is farther is not seen either, the sky shows instead. Only the segment from the
+    /// camera is clipped, as in Mitsuba (a reflection shows everything).
+    pub clip: [f32; 2],
 }
 
 /// Where light leaving a surface point reaches the camera (`Camera::link`).
@@ -289,6 +295,10 @@ pub struct CameraLink {
     /// is the density with which a camera path reaches that point, per unit area.
     pub pdf: f32,
     pub dist2: f32,
+    /// Where the segment from the surface point towards `to` meets the near clipping plane (`to` itself
+    /// without one): what lies beyond it, nearer the camera, the camera sees through, so a shadow ray
+    /// to the camera stops there.
+    pub clear: Vec3,
 }
 
 impl Camera {
@@ -316,7 +326,24 @@ impl Camera {
             ortho: None,
             centre: [0.0, 0.0],
             window: None,
+            clip: [0.0, f32::INFINITY],
         }
+    }
+
+    /// Depth of world point `p` along the view direction from the lens's plane.
+    pub fn depth(&self, p: Vec3) -> f32 {
+        (p - self.origin).dot(self.forward)
+    }
+
+    /// Ray `r` leaving the lens's plane, limited to the clipping planes: t from near to far over the
+    /// cosine of its direction with the view direction (`r.d` need not be a unit vector).
+    fn clipped(&self, mut r: Ray) -> Ray {
+        let [near, far] = self.clip;
+        if near > 0.0 || far < f32::INFINITY {
+            let c = r.d.dot(self.forward);
+            (r.tmin, r.tmax) = (near / c, far / c);
+        }
+        r
     }
 
     /// An orthographic camera at `origin` looking at `target`, its film `size` (width, height) in scene
@@ -369,18 +396,26 @@ impl Camera {
 
     /// Where light leaving world point `p` reaches the camera through lens point `lens` (the pinhole, or
     /// ignored for an orthographic camera), if `p` is in front of the camera and lands on the film.
+    /// Outside the clipping planes the camera does not see `p`.
     pub fn link(&self, lens: Vec3, p: Vec3) -> Option<CameraLink> {
+        let [near, far] = self.clip;
+        let z = self.depth(p);
+        if z < near || z > far {
+            return None;
+        }
+        // The point where the segment from p to the lens's plane crosses the near plane.
+        let clear = |to: Vec3| if near > 0.0 { p + (to - p) * ((z - near) / z) } else { to };
         if self.ortho.is_some() {
             let film = self.project(p)?;
-            let to = p - self.forward * (p - self.origin).dot(self.forward);
+            let to = p - self.forward * z;
             let pdf = self.pixel_pdf_dir(self.forward);
-            return Some(CameraLink { film, to, dir: -self.forward, pdf, dist2: 1.0 });
+            return Some(CameraLink { film, to, dir: -self.forward, pdf, dist2: 1.0, clear: clear(to) });
         }
         let film = self.film_position_from(lens, p)?;
         let to_cam = lens - p;
         let dist2 = to_cam.length_squared();
         let dir = to_cam / dist2.sqrt();
-        Some(CameraLink { film, to: lens, dir, pdf: self.pixel_pdf_dir(-dir), dist2 })
+        Some(CameraLink { film, to: lens, dir, pdf: self.pixel_pdf_dir(-dir), dist2, clear: clear(lens) })
     }
 
     /// The width in the scene of one pixel at distance `t` along camera ray direction `d`, seen face on.
@@ -425,7 +460,7 @@ impl Camera {
             return pinhole;
         }
         let focus = self.origin + pinhole.d * (self.focus_distance / pinhole.d.dot(self.forward));
-        Ray::new(lens, (focus - lens).normalize())
+        self.clipped(Ray::new(lens, (focus - lens).normalize()))
     }
 
     /// Film position at which light leaving world point `p` towards lens point `lens` lands (the
@@ -496,10 +531,11 @@ impl Camera {
         let sy = 1.0 - 2.0 * y / self.height as f32;
         let [cx, cy] = self.centre;
         if let Some([hx, hy]) = self.ortho {
-            return Ray::new(self.origin + (sx * hx + cx) * self.right + (sy * hy + cy) * self.up, self.forward);
+            let o = self.origin + (sx * hx + cx) * self.right + (sy * hy + cy) * self.up;
+            return self.clipped(Ray::new(o, self.forward));
         }
         let (sx, sy) = (sx * self.tan_half[0] + cx, sy * self.tan_half[1] + cy);
-        Ray::new(self.origin, (self.forward + sx * self.right + sy * self.up).normalize())
+        self.clipped(Ray::new(self.origin, (self.forward + sx * self.right + sy * self.up).normalize()))
     }
 
     /// Distance from the pinhole to the plane on which one pixel has unit area.

@@ -101,6 +101,14 @@ pub struct CameraSpec {
     /// from `origin` to `target`). Read only with an aperture.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub focus_distance: Option<f32>,
+    /// Clipping planes (Mitsuba's `near_clip` and `far_clip`): the camera sees only what lies between
+    /// these depths, measured along the view direction from the lens (default 0 and no far plane).
+    /// What is nearer is cut away from the view (a cutaway through a wall) but still casts shadows and
+    /// shows in mirrors; where the view reaches the far plane it sees the sky.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub near_clip: Option<f32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub far_clip: Option<f32>,
 }
 
 fn is_box_filter(f: &crate::scene::camera::FilterSpec) -> bool {

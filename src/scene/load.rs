@@ -382,6 +382,15 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         }
         camera.focus_distance = f;
     }
+    let near = c.near_clip.unwrap_or(0.0);
+    if !(near.is_finite() && near >= 0.0) {
+        return Err(cx.err("camera.near_clip", format!("must be a finite depth ≥ 0, got {near}")));
+    }
+    let far = c.far_clip.unwrap_or(f32::INFINITY);
+    if far.is_nan() || far <= near {
+        return Err(cx.err("camera.far_clip", format!("must be a depth beyond near_clip ({near}), got {far}")));
+    }
+    camera.clip = [near, far];
     // Rays leave the lens's rim and aim at the corners of the plane of focus: both must be f32 points.
     let rim = camera.origin + camera.lens_radius * (camera.right + camera.up);
     if !rim.is_finite() {

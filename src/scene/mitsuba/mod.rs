@@ -106,6 +106,8 @@ fn empty_file() -> SceneFile {
         filter: crate::scene::camera::FilterSpec::Gaussian { stddev: crate::scene::camera::GAUSSIAN_STDDEV },
         aperture_radius: 0.0,
         focus_distance: None,
+        near_clip: None,
+        far_clip: None,
     };
     let mut render = RenderSettings { max_depth: UNLIMITED_DEPTH, ..Default::default() };
     render.spp = 4;
@@ -118,6 +120,9 @@ fn empty_file() -> SceneFile {
         render,
     }
 }
+
+/// Mitsuba's clipping planes unless a sensor gives its own: `near_clip`, `far_clip`.
+const MITSUBA_CLIP: [f32; 2] = [1e-2, 1e4];
 
 struct Cx<'a> {
     base: PathBuf,
@@ -219,14 +224,17 @@ impl<'a> Cx<'a> {
         (cam.origin, cam.target, cam.up) = (origin.to_array(), (origin + z).to_array(), y.to_array());
     }
 
-    /// What every sensor may hold besides its projection: clipping planes (warned about unless
-    /// Mitsuba's defaults), the film and the sampler.
+    /// What every sensor may hold besides its projection: the clipping planes (Mitsuba's defaults 0.01
+    /// and 10⁴, which Mitsuba requires to be positive and in order), the film and the sampler.
     fn sensor_common(&mut self, s: &Node, p: &Props) -> Result<(), SceneError> {
-        for (key, default) in [("near_clip", 1e-2), ("far_clip", 1e4)] {
-            if p.float(key)?.is_some_and(|v| v != default) {
-                self.warnings.push(format!("{}: sensor `{key}` is ignored (nothing is clipped)", s.file.display()));
-            }
+        let near = p.float("near_clip")?.unwrap_or(MITSUBA_CLIP[0]);
+        let far = p.float("far_clip")?.unwrap_or(MITSUBA_CLIP[1]);
+        if !(near.is_finite() && near > 0.0 && far.is_finite() && far > near) {
+            return Err(s.error(format!(
+                "near_clip ({near}) and far_clip ({far}) must be finite depths, 0 < near_clip < far_clip"
+            )));
         }
+        (self.file.camera.near_clip, self.file.camera.far_clip) = (Some(near), Some(far));
         for film in p.objects("film") {
             self.film(film)?;
         }
@@ -268,6 +276,12 @@ impl<'a> Cx<'a> {
         }
         self.place_camera(m.w_axis.truncate(), yn, zn);
         self.sensor_common(s, &p)?;
+        // The planes are read as depths in scene units, which a z scale of to_world would make ambiguous
+        // (local or scaled units): refused rather than guessed.
+        let clips = [self.file.camera.near_clip, self.file.camera.far_clip] != MITSUBA_CLIP.map(Some);
+        if clips && (sz - 1.0).abs() > 1e-3 {
+            return Err(s.error("an orthographic camera whose to_world scales z may not set near_clip or far_clip"));
+        }
         p.finish("to_world, near_clip, far_clip, film, sampler")?;
         let [w, h] = self.file.camera.resolution.map(|v| v as f32);
         let cam = &mut self.file.camera;
