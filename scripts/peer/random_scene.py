@@ -32,7 +32,8 @@ an orthographic camera, textured alpha_u/alpha_v, spots projecting a texture; a 
 film, and a principal point offset on a pinhole camera; vertex colours on half the PLY balls; a bump
 map (height.png or label.png) over about a quarter of the BSDFs of shapes with texture coordinates;
 wrap_mode clamp or mirror on a third of the bitmap textures; face colours on half the PLY balls left;
-textured principled weights; a textured `anisotropic` for half the anisotropic principled BSDFs.
+textured principled weights; a textured `anisotropic` for half the anisotropic principled BSDFs;
+clipping planes (a near plane that cuts into the scene, a far plane) for about two in five scenes.
 """
 import argparse
 import os
@@ -642,6 +643,21 @@ if args.more:
         return bitmap("anisotropic", "label.png")
 
     text = re.sub(r'<float name="anisotropic" value="([^"]*)"/>', anisotropic_texture, text)
+    # Clipping planes (caustica since session 49), from a nineteenth stream, last: a third of the scenes
+    # get a near plane 1.5 to 4.5 from the lens (the camera stands 3.7 to 5.3 from the scene's middle,
+    # so it cuts into some shapes and the floor), and half of those, or a sixth of the rest, a far plane
+    # 3 to 7 away (the far floor, the back wall and the sky behind them).
+    C = random.Random(args.seed * 4271 + 31)
+    clip = ""
+    near = 0.01
+    if C.random() < 1 / 3:
+        near = C.uniform(1.5, 4.5)
+        clip += f'<float name="near_clip" value="{f(near)}"/>'
+    if C.random() < (0.5 if clip else 1 / 6):
+        far = max(C.uniform(3.0, 7.0), near + 0.5)
+        clip += f'<float name="far_clip" value="{f(far)}"/>'
+    if clip:
+        text = re.sub(r'<sensor type="(\w+)">', lambda m: m.group(0) + clip, text, count=1)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
