@@ -194,26 +194,27 @@ fn camera_view(
     None
 }
 
-/// How much of surface point `from` the camera at `lens` sees (light tracing's connection to the
-/// camera): all of it with nothing in between, the transmittance of the see-through surfaces between
-/// (`accel::transmittance`), nothing past anything else, except, with `render.hide_emitters`, emitting
-/// surfaces, which the camera does not see (`camera_view`). A point on an emitting surface is then not
-/// seen at all. Rays past the first are added to `c`.
+/// How much of surface point `from` the camera sees along the segment to `to` (light tracing's
+/// connection to the camera: `to` is the lens point, or where the segment meets the near clipping
+/// plane, `CameraLink::clear`): all of it with nothing in between, the transmittance of the see-through
+/// surfaces between (`accel::transmittance`), nothing past anything else, except, with
+/// `render.hide_emitters`, emitting surfaces, which the camera does not see (`camera_view`). A point on
+/// an emitting surface is then not seen at all. Rays past the first are added to `c`.
 pub fn camera_sees(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
     from: &crate::scene::SurfaceHit,
-    lens: glam::Vec3,
+    to: glam::Vec3,
     c: &mut Counters,
 ) -> crate::color::Rgb {
-    let ray = from.spawn_to(lens);
+    let ray = from.spawn_to(to);
     if !scene.render.hide_emitters {
-        return crate::accel::shadow(scene, tracer, &ray, lens, &mut c.rays);
+        return crate::accel::shadow(scene, tracer, &ray, to, &mut c.rays);
     }
     if emits(scene, from.shape) {
         return crate::color::Rgb::ZERO;
     }
-    crate::accel::transmittance(scene, tracer, &ray, lens, |shape| emits(scene, shape), &mut c.rays)
+    crate::accel::transmittance(scene, tracer, &ray, to, |shape| emits(scene, shape), &mut c.rays)
 }
 
 /// Light tracing's link to the camera: the light `beta` (a light subpath's throughput, a photon's

@@ -165,7 +165,7 @@ impl<'a> Cx<'a> {
             // Mitsuba requires the radius (and renders 0 as a pinhole, its epsilon); the plane of focus
             // defaults to the far clipping plane.
             let radius = p.float("aperture_radius")?.ok_or_else(|| s.error("a `thinlens` needs `aperture_radius`"))?;
-            let far = p.float("far_clip")?.unwrap_or(1e4);
+            let far = p.float("far_clip")?.unwrap_or(MITSUBA_CLIP[1]);
             let focus = p.float("focus_distance")?.unwrap_or(far);
             (self.file.camera.aperture_radius, self.file.camera.focus_distance) = (radius, Some(focus));
         }
