@@ -443,7 +443,7 @@ impl<'a> PhotonMapper<'a> {
             let (scene, tracer, g) = (self.scene, self.tracer, self.gather[m]);
             return knn_radiance(scene, tracer, map, si, wo, lobe, g, budget, self.edges, rng, c);
         };
-        let (flux, _) = SCRATCH.with(|s| map.flux_within(si, wo, r, budget, lobe.coat, &mut s.borrow_mut()));
+        let (flux, _) = SCRATCH.with(|s| map.flux_within(si, wo, r, budget, lobe, &mut s.borrow_mut()));
         let l = flux * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r * r);
         if !self.edges || l == Rgb::ZERO {
             return l;
@@ -480,10 +480,10 @@ impl<'a> PhotonMapper<'a> {
         // The cache holds direct light too: a gather ray that finds it traces no shadow ray. It was
         // filled for a gather ray's end one bounce into the path; past glass, where less depth is left,
         // it is read only when the photons' records could not tell the difference anyway. It holds a
-        // Lambertian surface's light (per unit albedo): a plastic's coat weighs each direction, so a
-        // plastic gathers for itself.
+        // Lambertian surface's light (per unit albedo): a plastic's coat and a normal map weigh each direction, so
+        // such a surface gathers for itself.
         let cache_fits = budget + 1 >= self.scene.render.max_depth || budget >= EVENTS_CAP;
-        if in_gather && cache_fits && lobe.coat.is_none() {
+        if in_gather && cache_fits && lobe.coat.is_none() && lobe.map.is_none() {
             if let Some(l) =
                 self.cache.as_ref().and_then(|cache| SCRATCH.with(|r| cache.lookup(si, wo, &mut r.borrow_mut())))
             {

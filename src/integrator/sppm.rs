@@ -168,7 +168,7 @@ impl<'a> Sppm<'a> {
                 let lobe = vp.mat.diffuse_lobe(vp.wo, vp.si.ns).unwrap_or(DiffuseLobe::lambert(Rgb::ZERO));
                 SCRATCH.with(|s| {
                     for map in maps.maps.iter().flatten() {
-                        let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, budget, lobe.coat, &mut s.borrow_mut());
+                        let (f, c) = map.flux_within(&vp.si, vp.wo, px.r, budget, lobe, &mut s.borrow_mut());
                         flux += f;
                         m += c;
                     }

@@ -8,7 +8,7 @@ use crate::math::face_forward;
 use crate::photon::kdtree::{KdError, KdTree, KnnResult};
 use crate::photon::photon::{events, within_depth, PhotonPayload, EVENTS_CAP};
 use crate::photon::trace::MapPhotons;
-use crate::scene::material::{Coat, DiffuseLobe};
+use crate::scene::material::{Coat, DiffuseLobe, MappedFrame};
 use crate::scene::SurfaceHit;
 use glam::Vec3;
 
@@ -76,7 +76,7 @@ impl PhotonMap {
             return (Rgb::ZERO, 0.0);
         }
         let r = r2.sqrt();
-        let f = PhotonFilter::new(si, wo, r, budget, lobe.coat);
+        let f = PhotonFilter::new(si, wo, r, budget, lobe);
         let cone = g.cone_k >= 1.0;
         // When k photons were found, r is the k-th one's distance and that photon sits on the boundary:
         // given r, the other k − 1 are spread over the disc, so (k − 1)/(π r²) is the unbiased density,
@@ -101,23 +101,23 @@ impl PhotonMap {
 
     /// Flux-weighted sum Σ w_p ΔΦ_p over the photons within radius `r` of `si` that pass the surface
     /// tests (box kernel) and whose paths fit in `budget` scattering events (as in `radiance`): divided
-    /// by π r² it is the irradiance the progressive estimators accumulate. Under a plastic's `coat` each
-    /// photon also counts the share its coat lets through (`Coat::transmission`). Returns (sum,
-    /// photons counted).
+    /// by π r² it is the irradiance the progressive estimators accumulate. Under a plastic's coat each
+    /// photon also counts the share its coat lets through (`Coat::transmission`), under a normal map the
+    /// map's factor (`MappedFrame::factor`): `lobe` says which. Returns (sum, photons counted).
     pub fn flux_within(
         &self,
         si: &SurfaceHit,
         wo: Vec3,
         r: f32,
         budget: u32,
-        coat: Option<Coat>,
+        lobe: DiffuseLobe,
         res: &mut KnnResult,
     ) -> (Rgb, u32) {
         if self.is_empty() || r.is_nan() || r <= 0.0 {
             return (Rgb::ZERO, 0);
         }
         self.tree.within_res(si.p.to_array(), r * r, res);
-        let f = PhotonFilter::new(si, wo, r, budget, coat);
+        let f = PhotonFilter::new(si, wo, r, budget, lobe);
         let mut sum = Rgb::ZERO;
         let mut count = 0u32;
         for &(_, i) in res.items() {
@@ -141,10 +141,12 @@ struct PhotonFilter {
     budget: u32,
     /// A plastic's coat (smooth or rough): each photon counts the share it lets through.
     coat: Option<Coat>,
+    /// A normal or bump map's frame: each photon counts the map's factor.
+    map: Option<MappedFrame>,
 }
 
 impl PhotonFilter {
-    fn new(si: &SurfaceHit, wo: Vec3, r: f32, budget: u32, coat: Option<Coat>) -> PhotonFilter {
+    fn new(si: &SurfaceHit, wo: Vec3, r: f32, budget: u32, lobe: DiffuseLobe) -> PhotonFilter {
         PhotonFilter {
             p: si.p,
             n: si.ng,
@@ -153,7 +155,8 @@ impl PhotonFilter {
             smooth: si.ns != si.ng,
             r,
             budget,
-            coat,
+            coat: lobe.coat,
+            map: lobe.map,
         }
     }
 
@@ -161,7 +164,9 @@ impl PhotonFilter {
     /// remaining depth allows; else its weight: 1, or on
     /// smooth-shaded surfaces |wi·ns| / |wi·ng| (photons carry flux per unit of geometric area, the path
     /// tracer integrates the cosine about the shading normal: the last factor of the shading-normal
-    /// adjoint), zero for light arriving from below the shading normal.
+    /// adjoint), zero for light arriving from below the shading normal; under a normal map the map's
+    /// factor / |wi·ng| (the cosine about the mapped normal and the shadowing term). Under a coat, times
+    /// the share the coat lets through, at the normal the lobe is taken about.
     /// Inlined: called once per gathered photon (a profile put a third of a photon-mapped render's
     /// samples on its first use of the photon's position; inlining alone did not change the time).
     #[inline(always)]
@@ -184,11 +189,15 @@ impl PhotonFilter {
         if wi.dot(self.n_side) >= 0.0 {
             return None;
         }
-        let w = if self.smooth { (-wi).dot(self.ns_side).max(0.0) / wi.dot(self.n).abs().max(1e-6) } else { 1.0 };
+        let (w, about) = match &self.map {
+            None if self.smooth => ((-wi).dot(self.ns_side).max(0.0) / wi.dot(self.n).abs().max(1e-6), self.ns_side),
+            None => (1.0, self.ns_side),
+            Some(m) => (m.factor(-wi) / wi.dot(self.n).abs().max(1e-6), m.n),
+        };
         match self.coat {
             None => Some(w),
-            // Mitsuba's plastic takes the coat's factor at the shading normal.
-            Some(coat) => Some(w * coat.transmission((-wi).dot(self.ns_side))),
+            // Mitsuba's plastic takes the coat's factor at the shading normal (the mapped one under a map).
+            Some(coat) => Some(w * coat.transmission((-wi).dot(about))),
         }
     }
 }

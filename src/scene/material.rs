@@ -164,6 +164,11 @@ impl Mapped {
         Frame2 { n: n.normalize_or_zero(), ns: ns_c, which: (flip != back) as usize }
     }
 
+    /// `nested` under this map (None where it cannot be nested: a thin pane or another map).
+    fn with_nested(&self, nested: Material) -> Option<Material> {
+        Some(Material::Mapped(Mapped { nested: Nested::new(nested)?, ..*self }))
+    }
+
     /// The two normals the nested BSDF can be taken about (as lines): the map's, and its reflection
     /// about the shading normal.
     fn candidates(&self, ns: Vec3) -> [Vec3; 2] {
@@ -759,16 +764,43 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
 
 /// A diffuse lobe as the photon estimates read it: f(wo, wi) = `rho` · t(wi) / π, with t = 1 for a
 /// Lambertian surface and t = `Coat::transmission` under a plastic's coat (the factor of the photon's
-/// own direction, applied per photon).
+/// own direction, applied per photon). Under a normal or bump map (`map`) the lobe is taken about the
+/// mapped normal, and each photon also counts the map's factor for its direction
+/// (`MappedFrame::factor`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DiffuseLobe {
     pub rho: Rgb,
     pub coat: Option<Coat>,
+    pub map: Option<MappedFrame>,
 }
 
 impl DiffuseLobe {
     pub const fn lambert(rho: Rgb) -> DiffuseLobe {
-        DiffuseLobe { rho, coat: None }
+        DiffuseLobe { rho, coat: None, map: None }
+    }
+}
+
+/// The normals a normal-mapped diffuse lobe is read about for one viewing direction c (`Mapped::frame`):
+/// `n` the one the nested BSDF is taken about, `ns` the shading normal, both turned to c's side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MappedFrame {
+    pub n: Vec3,
+    pub ns: Vec3,
+}
+
+impl MappedFrame {
+    /// What a photon arriving from direction `l` (towards the light) counts under the map, relative to
+    /// the lobe about `n`: f(c, l)·|l·ns| / (f_nested(c, l) / its value where it is not 0) =
+    /// |l·n|·G(l) where `l` lies on c's side of both normals (the nested lobe's and the map's own
+    /// condition), else 0. The gather divides it by |l·ng| (photons carry flux per unit of geometric
+    /// area).
+    #[inline]
+    pub fn factor(&self, l: Vec3) -> f32 {
+        let (ln, ls) = (l.dot(self.n), l.dot(self.ns));
+        if ln <= 0.0 || ls <= 0.0 {
+            return 0.0;
+        }
+        ln * Mapped::shadowing(self.n, l, self.ns)
     }
 }
 
@@ -1158,9 +1190,14 @@ impl Material {
     }
 
     /// Whether photons are stored on the surface and gathered there: a diffuse surface, or a plastic
-    /// (its base). The others are only passed through.
+    /// (its base). The others are only passed through. Under a normal or bump map the nested BSDF decides: the photons are gathered about the mapped
+    /// normal (`DiffuseLobe::map`).
     pub fn holds_photons(&self) -> bool {
-        matches!(self, Material::Diffuse { .. } | Material::Plastic { .. })
+        match self {
+            Material::Diffuse { .. } | Material::Plastic { .. } => true,
+            Material::Mapped(m) => matches!(m.nested, Nested::Diffuse(_) | Nested::Plastic(..)),
+            _ => false,
+        }
     }
 
     /// The part of the BSDF that scatters light from a glossy lobe no photon is stored for: a rough
@@ -1181,6 +1218,11 @@ impl Material {
     /// colours' means; under a texture the texel's colour, where Mitsuba takes the texture's mean, which
     /// changes only the noise); 0 for every other BSDF.
     pub fn coat_share(&self, wo: Vec3, n: Vec3) -> f32 {
+        if let Material::Mapped(m) = self {
+            // The nested plastic's share about the normal it is seen about from `wo`: the choice its
+            // `sample` makes for the same `uc` (camera paths; light paths take it as any probability).
+            return m.nested.material().coat_share(wo, m.frame(wo, n).n);
+        }
         self.coat_fresnel_and_share(wo, n).1
     }
 
@@ -1205,14 +1247,21 @@ impl Material {
     }
 
     /// The lobe the photon estimates gather with for a path leaving along `wo` (None where no photons are
-    /// held): a diffuse surface's reflectance, or a plastic's ρ' t(θo) / η² with its coat.
+    /// held): a diffuse surface's reflectance, or a plastic's ρ' t(θo) / η² with its coat; under a
+    /// normal or bump map, the nested one's about the normal `wo` sees it about, with the map's frame.
     pub fn diffuse_lobe(&self, wo: Vec3, n: Vec3) -> Option<DiffuseLobe> {
         match self {
             Material::Diffuse { reflectance } => Some(DiffuseLobe::lambert(*reflectance)),
             Material::Plastic { ior, .. } => {
                 let coat = self.coat()?;
                 let t_o = coat.transmission(wo.dot(n));
-                Some(DiffuseLobe { rho: self.plastic_base() * (t_o / (ior * ior)), coat: Some(coat) })
+                Some(DiffuseLobe { rho: self.plastic_base() * (t_o / (ior * ior)), coat: Some(coat), map: None })
+            }
+            Material::Mapped(m) => {
+                let f = m.frame(wo, n);
+                let lobe = m.nested.material().diffuse_lobe(wo, f.n)?;
+                let side = if wo.dot(f.n) < 0.0 { -1.0 } else { 1.0 };
+                Some(DiffuseLobe { map: Some(MappedFrame { n: f.n * side, ns: f.ns * side }), ..lobe })
             }
             _ => None,
         }
@@ -1230,6 +1279,9 @@ impl Material {
     /// A rough plastic's glossy coat lobe alone, as a rough conductor whose Fresnel is the coat's
     /// (None for every other BSDF: a smooth coat's mirror is a lobe of `sample` itself).
     pub fn coat_lobe(&self) -> Option<Material> {
+        if let Material::Mapped(m) = self {
+            return m.with_nested(m.nested.material().coat_lobe()?);
+        }
         let Material::Plastic { specular, rough: Some(c), .. } = self else {
             return None;
         };
@@ -1242,6 +1294,7 @@ impl Material {
     /// coat's mirror is a delta lobe, which no light sample or `eval` sees).
     pub fn base_only(&self) -> Material {
         match *self {
+            Material::Mapped(m) => m.with_nested(m.nested.material().base_only()).unwrap_or(*self),
             Material::Plastic { rough: Some(c), diffuse, ior, nonlinear, .. } => {
                 Material::Plastic { diffuse, specular: Rgb::ZERO, ior, nonlinear, rough: Some(c) }
             }
