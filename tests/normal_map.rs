@@ -114,50 +114,24 @@ fn a_normal_mapped_scene_renders_alike_in_every_mode() {
     assert!(failed.is_empty(), "{failed:#?}");
 }
 
-/// Two normal-mapped walls side by side (diffuse on the left, smooth blue plastic on the right, the map
-/// tilting every normal 40° down) standing on a perfect mirror floor, lit by a point light, seen from
-/// above so that the lower half of the image is the walls' reflection. `floor` is appended: the mirror,
-/// or the same scene unfolded about the floor's plane.
-fn mirrored_walls(floor: &str) -> String {
-    let quad = |corner: [f32; 3], u: [f32; 3], v: [f32; 3], m: &str| {
-        format!(
-            "[[shapes]]\ntype = \"quad\"\ncorner = {corner:?}\nedge_u = {u:?}\nedge_v = {v:?}\nmaterial = \"{m}\"\n"
-        )
-    };
-    format!(
-        "[camera]\norigin = [0.6, 0.9, 3.5]\ntarget = [0.0, -0.4, -1.0]\nfov = 55.0\nresolution = [32, 32]\n\
-         [textures]\ndown = {{ type = \"checkerboard\", color0 = [0.5, 0.1786, 0.883], color1 = [0.5, 0.1786, 0.883] }}\n\
-         [materials]\nchrome = {{ type = \"mirror\", specular = [1.0, 1.0, 1.0] }}\n\
-         white = {{ type = \"diffuse\", reflectance = [0.7, 0.6, 0.5] }}\n\
-         blue = {{ type = \"plastic\", reflectance = [0.15, 0.25, 0.6], ior = 1.5 }}\n\
-         wall = {{ type = \"normalmap\", normal_map = \"down\", material = \"white\" }}\n\
-         coat = {{ type = \"normalmap\", normal_map = \"down\", material = \"blue\" }}\n\
-         {}{}[[lights]]\ntype = \"point\"\nposition = [0.3, 0.5, 0.0]\npower = [20.0, 20.0, 20.0]\n{floor}",
-        quad([-2.0, 0.0, -1.0], [2.0, 0.0, 0.0], [0.0, 2.5, 0.0], "wall"),
-        quad([0.0, 0.0, -1.0], [2.0, 0.0, 0.0], [0.0, 2.5, 0.0], "coat"),
-    )
-}
-
-/// The walls' light as the mirror shows it, compared with an exact reference without a mirror: a point
-/// light's light that reaches a normal-mapped surface by a mirror and is seen in the mirror (camera,
-/// mirror, wall, mirror, light) is found by no camera path and by no light path's link to the camera;
-/// only photons stored on the mapped surface reach it. The reference unfolds the scene about the
-/// mirror's plane (perfect and wide enough for every path here): the walls' mirror images below the
-/// plane (their normal maps mirrored with them: the quads' v edge points down), the light's image,
-/// no floor; the path tracer renders that one with light samples alone. Every photon mode's mean and
+/// Normal-mapped diffuse and plastic walls on a perfect mirror floor under a point light
+/// (`scenes/mapped-mirror.toml`), their light as the mirror shows it compared with an exact reference
+/// without a mirror: a point light's light that reaches a normal-mapped surface by a mirror and is seen
+/// in the mirror (camera, mirror, wall, mirror, light) is found by no camera path and by no light
+/// path's link to the camera; only photons stored on the mapped surface reach it. The reference
+/// (`scenes/mapped-mirror-unfolded.toml`) unfolds the scene about the mirror's plane (perfect and wide
+/// enough for every path here): the walls' mirror images below the plane (their normal maps mirrored
+/// with them: the quads' v edges point down), the light's image, no floor; the path tracer renders that
+/// one with light samples alone. Every photon mode's mean and
 /// each quarter of the image must be the reference's. Before, the photon mappers stored no photon on
 /// normal- or bump-mapped surfaces, and the three read 19% dark.
 #[test]
 fn a_point_lights_light_via_a_mirror_on_normal_mapped_walls_seen_in_the_mirror() {
-    let mirror = "[[shapes]]\ntype = \"quad\"\ncorner = [-5.0, 0.0, 5.0]\nedge_u = [10.0, 0.0, 0.0]\n\
-                  edge_v = [0.0, 0.0, -6.0]\nmaterial = \"chrome\"\n";
-    let unfolded = "[[shapes]]\ntype = \"quad\"\ncorner = [0.0, 0.0, -1.0]\nedge_u = [-2.0, 0.0, 0.0]\n\
-                    edge_v = [0.0, -2.5, 0.0]\nmaterial = \"wall\"\n\
-                    [[shapes]]\ntype = \"quad\"\ncorner = [2.0, 0.0, -1.0]\nedge_u = [-2.0, 0.0, 0.0]\n\
-                    edge_v = [0.0, -2.5, 0.0]\nmaterial = \"coat\"\n\
-                    [[lights]]\ntype = \"point\"\nposition = [0.3, -0.5, 0.0]\npower = [20.0, 20.0, 20.0]\n";
-    let reference =
-        common::render_image(&common::scene_in_mode(&mirrored_walls(unfolded), "path", &["render.spp=1024"]));
+    let reference = common::render_image(&common::scene_in_mode(
+        include_str!("scenes/mapped-mirror-unfolded.toml"),
+        "path",
+        &["render.spp=1024"],
+    ));
     let quarters = |img: &Image| -> [f64; 4] {
         let b = blocks(img);
         std::array::from_fn(|q| {
@@ -168,7 +142,7 @@ fn a_point_lights_light_via_a_mirror_on_normal_mapped_walls_seen_in_the_mirror()
     let want = quarters(&reference);
     let want_mean = want.iter().sum::<f64>() / 4.0;
     println!("reference (unfolded, path): quarters {want:.4?}");
-    let text = mirrored_walls(mirror);
+    let text = include_str!("scenes/mapped-mirror.toml");
     let cases: [(&str, &[&str]); 4] = [
         ("sppm", &["render.progressive.passes=128"]),
         ("ppm", &["render.progressive.passes=128"]),
@@ -177,7 +151,7 @@ fn a_point_lights_light_via_a_mirror_on_normal_mapped_walls_seen_in_the_mirror()
     ];
     let mut failed = Vec::new();
     for (mode, sets) in cases {
-        let got = quarters(&common::render_image(&common::scene_in_mode(&text, mode, sets)));
+        let got = quarters(&common::render_image(&common::scene_in_mode(text, mode, sets)));
         let mean = got.iter().sum::<f64>() / 4.0;
         let ratios: Vec<f64> = got.iter().zip(&want).map(|(g, w)| g / w).collect();
         println!("{mode}: mean {:.4} of the reference's; quarters {ratios:.4?}", mean / want_mean);
