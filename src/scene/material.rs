@@ -2155,6 +2155,59 @@ mod tests {
     }
 
     /// Nested BSDFs for the normal-map tests: without delta lobes, and the rest.
+    /// What the photon gathers read on a normal- or bump-mapped diffuse or plastic surface
+    /// (`diffuse_lobe`: ρ/π, the coat's transmission at the mapped normal, `MappedFrame::factor`) is the
+    /// BSDF's part they stand for, per unit of photon flux over the shading normal's cosine:
+    /// ρ·t(l)/π·factor(l) = f_base(c, l)·|l·ns| for every pair of directions, from either side, with and
+    /// without `mirror_back` (zero where f is). And a mapped rough plastic's coat lobe and base
+    /// (`coat_lobe`, `base_only`, the camera chain's split) add up to its BSDF. A lobe taken about the
+    /// shading normal instead of the mapped one, or without the shadowing term, fails the first.
+    #[test]
+    fn a_mapped_surfaces_photon_lobe_is_its_bsdf() {
+        let (pure, deltas) = sampling_cases();
+        let nested =
+            [pure[0], pure[2], deltas[1], Nested::Plastic(Rgb::new(0.7, 0.4, 0.2), Rgb::splat(0.6), 1.6, true, None)];
+        let normals = [Vec3::new(0.55, 0.1, 0.83), Vec3::new(-0.2, 0.7, 0.68), Vec3::new(0.05, 0.0, 1.0)];
+        let mut r = Rng::new(23, 0, 0);
+        let (mut nonzero, mut zero) = (0, 0);
+        for nest in nested {
+            for n0 in normals {
+                for mirror_back in [false, true] {
+                    let m = Material::Mapped(Mapped { normal: n0.normalize(), mirror_back, nested: nest });
+                    assert!(m.holds_photons(), "{nest:?}");
+                    for _ in 0..2000 {
+                        let c = sampling::uniform_sphere(r.next_2d());
+                        let l = sampling::uniform_sphere(r.next_2d());
+                        let want = m.base_only().eval(c, l, Vec3::Z, TransportMode::Radiance) * l.z.abs();
+                        let lobe = m.diffuse_lobe(c, Vec3::Z).unwrap();
+                        let map = lobe.map.unwrap();
+                        let t = lobe.coat.map_or(1.0, |k| k.transmission(l.dot(map.n)));
+                        let got = lobe.rho / PI * (t * map.factor(l));
+                        let tol = 1e-4 * want.max_element().max(1e-3);
+                        assert!(
+                            (got - want).abs().max_element() < tol,
+                            "{nest:?} {n0} {mirror_back}: c {c} l {l}: {got} vs {want}"
+                        );
+                        if want == Rgb::ZERO {
+                            zero += 1
+                        } else {
+                            nonzero += 1
+                        }
+                        // The split a camera path makes at a mapped rough plastic.
+                        if let Some(coat) = m.coat_lobe() {
+                            let whole = m.eval(c, l, Vec3::Z, TransportMode::Radiance);
+                            let parts = coat.eval(c, l, Vec3::Z, TransportMode::Radiance)
+                                + m.base_only().eval(c, l, Vec3::Z, TransportMode::Radiance);
+                            assert!((whole - parts).abs().max_element() < 1e-4 * whole.max_element().max(1e-3));
+                        }
+                    }
+                }
+            }
+        }
+        // Both kinds of pairs were met.
+        assert!(nonzero > 20_000 && zero > 20_000, "{nonzero} non-zero, {zero} zero");
+    }
+
     fn sampling_cases() -> ([Nested; 4], [Nested; 2]) {
         let coat = RoughCoat::get(0.2, Microfacet::Ggx, 1.5);
         (
