@@ -789,11 +789,10 @@ pub struct MappedFrame {
 }
 
 impl MappedFrame {
-    /// What a photon arriving from direction `l` (towards the light) counts under the map, relative to
-    /// the lobe about `n`: f(c, l)·|l·ns| / (f_nested(c, l) / its value where it is not 0) =
-    /// |l·n|·G(l) where `l` lies on c's side of both normals (the nested lobe's and the map's own
-    /// condition), else 0. The gather divides it by |l·ng| (photons carry flux per unit of geometric
-    /// area).
+    /// What a photon arriving from direction `l` (towards the light) counts under the map: f(c, l)·|l·ns|
+    /// over the nested lobe's own value about `n` (ρ t / π), which is |l·n|·G(l) where `l` lies on c's
+    /// side of both normals (the nested lobe's condition and the map's), else 0. The gather divides it
+    /// by |l·ng| (photons carry flux per unit of geometric area).
     #[inline]
     pub fn factor(&self, l: Vec3) -> f32 {
         let (ln, ls) = (l.dot(self.n), l.dot(self.ns));
@@ -1190,8 +1189,8 @@ impl Material {
     }
 
     /// Whether photons are stored on the surface and gathered there: a diffuse surface, or a plastic
-    /// (its base). The others are only passed through. Under a normal or bump map the nested BSDF decides: the photons are gathered about the mapped
-    /// normal (`DiffuseLobe::map`).
+    /// (its base). The others are only passed through. Under a normal or bump map the nested BSDF
+    /// decides; the photons are then gathered about the mapped normal (`DiffuseLobe::map`).
     pub fn holds_photons(&self) -> bool {
         match self {
             Material::Diffuse { .. } | Material::Plastic { .. } => true,
@@ -2154,7 +2153,6 @@ mod tests {
         }
     }
 
-    /// Nested BSDFs for the normal-map tests: without delta lobes, and the rest.
     /// What the photon gathers read on a normal- or bump-mapped diffuse or plastic surface
     /// (`diffuse_lobe`: ρ/π, the coat's transmission at the mapped normal, `MappedFrame::factor`) is the
     /// BSDF's part they stand for, per unit of photon flux over the shading normal's cosine:
@@ -2208,6 +2206,7 @@ mod tests {
         assert!(nonzero > 20_000 && zero > 20_000, "{nonzero} non-zero, {zero} zero");
     }
 
+    /// Nested BSDFs for the normal-map tests: without delta lobes, and the rest.
     fn sampling_cases() -> ([Nested; 4], [Nested; 2]) {
         let coat = RoughCoat::get(0.2, Microfacet::Ggx, 1.5);
         (
