@@ -122,9 +122,9 @@ fn a_normal_mapped_scene_renders_alike_in_every_mode() {
 /// (`scenes/mapped-mirror-unfolded.toml`) unfolds the scene about the mirror's plane (perfect and wide
 /// enough for every path here): the walls' mirror images below the plane (their normal maps mirrored
 /// with them: the quads' v edges point down), the light's image, no floor; the path tracer renders that
-/// one with light samples alone. Every photon mode's mean and
-/// each quarter of the image must be the reference's. Before, the photon mappers stored no photon on
-/// normal- or bump-mapped surfaces, and the three read 19% dark.
+/// one with light samples alone. Every photon mode's mean and each quarter of the image must be the
+/// reference's. Before, the photon mappers stored no photon on normal- or bump-mapped surfaces, and the
+/// three read 19% dark.
 #[test]
 fn a_point_lights_light_via_a_mirror_on_normal_mapped_walls_seen_in_the_mirror() {
     let reference = common::render_image(&common::scene_in_mode(
