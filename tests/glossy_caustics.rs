@@ -4,7 +4,10 @@
 //! light sample there. A point light's light that reaches the glossy surface through glass reaches
 //! neither: the light sample is blocked by the glass and a sampled direction never finds a point. The
 //! caustic pass therefore light-traces such photons to the camera from the glossy surface they land
-//! on (when every bounce before was a mirror or glass); BDPT's light tracing is the reference.
+//! on (when every bounce before was a mirror or glass); BDPT's light tracing is the reference. Where
+//! the camera sees the glossy surface past a mirror or glass, light tracing cannot link it to the
+//! camera (nor can BDPT): the caustic pass keeps those photons, and the camera chain's first glossy hit
+//! past a mirror or glass gathers them; an unfolded scene without the mirror is the reference.
 mod common;
 use caustica::film::Image;
 use caustica::scene::Scene;
@@ -158,4 +161,55 @@ fn a_glossy_surface_lit_by_a_glossy_caustic_is_in_every_mode() {
         }
     }
     assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// A rough gold mirror wall and a blue principled wall on a perfect mirror floor under a point light
+/// (`scenes/glossy-mirror.toml`), their light as the mirror shows it compared with an exact reference
+/// without a mirror, as `normal_map.rs` does for mapped walls: the point light's light that reaches a
+/// glossy wall by the mirror and is seen in the mirror (camera, mirror, wall, mirror, light) is found by
+/// no camera path's samples, by no light sample and by no light path's link to the camera (the camera
+/// sees the wall only in the mirror); only photons kept on the glossy walls and gathered at the first
+/// glossy hit of a camera chain past a mirror reach it. The reference
+/// (`scenes/glossy-mirror-unfolded.toml`) unfolds the scene about the mirror's plane: the walls' images
+/// below the plane, the light's image, no floor; the path tracer renders it with light samples alone.
+/// Every photon mode's mean and each quarter of the image must be the reference's (BDPT cannot find
+/// that light, VCM merges it).
+#[test]
+fn a_point_lights_light_via_a_mirror_on_glossy_walls_seen_in_the_mirror() {
+    let reference = render(&load(include_str!("scenes/glossy-mirror-unfolded.toml"), "path", &["render.spp=1024"]));
+    let quarters = |img: &Image| -> [f64; 4] {
+        let (w, h) = (img.width as usize, img.height as usize);
+        let mut q = [0.0f64; 4];
+        for (i, p) in img.pixels.iter().enumerate() {
+            let (x, y) = (i % w, i / w);
+            q[2 * (2 * y / h) + 2 * x / w] += (p.x + p.y + p.z) as f64;
+        }
+        q
+    };
+    let want = quarters(&reference);
+    let want_mean = want.iter().sum::<f64>() / 4.0;
+    println!("reference (unfolded, path): quarters {want:.4?}");
+    let text = include_str!("scenes/glossy-mirror.toml");
+    let cases: [(&str, &[&str]); 4] = [
+        ("sppm", &["render.progressive.passes=128"]),
+        ("ppm", &["render.progressive.passes=128"]),
+        ("photon_map", &["render.photons.caustic=200000", "render.pm_spp=64"]),
+        ("vcm", &["render.progressive.passes=128"]),
+    ];
+    let mut failed = Vec::new();
+    for (mode, sets) in cases {
+        let got = quarters(&render(&load(text, mode, sets)));
+        let mean = got.iter().sum::<f64>() / 4.0;
+        let ratios: Vec<f64> = got.iter().zip(&want).map(|(g, w)| g / w).collect();
+        println!("{mode}: mean {:.4} of the reference's; quarters {ratios:.4?}", mean / want_mean);
+        if (mean / want_mean - 1.0).abs() > 0.015 {
+            failed.push(format!("{mode}: mean {:.4} of the reference's", mean / want_mean));
+        }
+        for (q, r) in ratios.iter().enumerate() {
+            if (r - 1.0).abs() > 0.05 {
+                failed.push(format!("{mode}: quarter {q} {r:.4} of the reference's"));
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{failed:#?}");
 }

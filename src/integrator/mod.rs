@@ -296,6 +296,11 @@ pub enum ChainLight {
 /// light mirrored in a water surface is then seen by every sample that points at its reflection rather
 /// than by one in twenty-five of them; the expectation is unchanged (both lobes' shares add up to the
 /// whole), its variance falls.
+///
+/// With `glossy` (a camera chain of the photon mappers), the first glossy hit the chain meets past a
+/// mirror or glass that breaks the camera's line of sight also gathers the photons of delta lights
+/// that reached it past a mirror or glass (`GlossyGather`), counted as light seen on the way.
+#[allow(clippy::too_many_arguments)]
 pub fn specular_chain(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
@@ -304,8 +309,42 @@ pub fn specular_chain(
     rng: &mut crate::math::Rng,
     c: &mut Counters,
     light: ChainLight,
+    glossy: Option<&GlossyGather>,
 ) -> (crate::color::Rgb, Option<ChainEnd>) {
-    chain_from(scene, tracer, ray, beta, rng, c, light, 0)
+    chain_from(scene, tracer, ray, beta, rng, c, light, 0, glossy)
+}
+
+/// The light of point, spot and distant lights that reaches a glossy surface past a mirror or glass
+/// (L S⁺ (S|G)* G), for a camera path that reaches that surface past a mirror or glass (E S⁺ G): the
+/// paths E S (S|G)* G (S|G)* S L through no diffuse surface. Nothing else finds them: the camera chain's
+/// BSDF samples never reach a delta light, its light samples at glossy hits see only light that came
+/// straight from the light, and light tracing (the glossy splats) links to the camera only a glossy
+/// surface the camera sees directly. The photons are the caustic pass's (`PhotonMaps::glossy_photons`),
+/// counted through the glossy BSDF for their own directions (`PhotonMap::glossy_radiance`). Each such
+/// path is counted once: at the first glossy hit of the camera chain, and only where the camera does
+/// not see that hit directly (through null surfaces and thin panes alone), where the splats count it.
+pub struct GlossyGather<'a> {
+    pub map: &'a crate::photon::estimate::PhotonMap,
+    /// The k nearest photons (the fixed photon map) or a fixed radius (the progressive passes).
+    pub reach: crate::photon::estimate::Reach,
+}
+
+impl GlossyGather<'_> {
+    /// Radiance `lobe` scatters towards `wo` at `si` from the photons whose paths fit in `budget`
+    /// scattering events.
+    pub fn radiance(
+        &self,
+        si: &crate::scene::SurfaceHit,
+        wo: glam::Vec3,
+        lobe: &crate::scene::Material,
+        budget: u32,
+    ) -> crate::color::Rgb {
+        thread_local! {
+            static SCRATCH: std::cell::RefCell<crate::photon::kdtree::KnnResult> =
+                std::cell::RefCell::new(crate::photon::kdtree::KnnResult::new());
+        }
+        SCRATCH.with(|s| self.map.glossy_radiance(si, wo, lobe, self.reach, budget, &mut s.borrow_mut()))
+    }
 }
 
 /// `specular_chain` for a ray leaving its `first`-th bounce (0: from the camera): its hits count their
@@ -321,9 +360,12 @@ fn chain_from(
     c: &mut Counters,
     light: ChainLight,
     first: u32,
+    glossy: Option<&GlossyGather>,
 ) -> (crate::color::Rgb, Option<ChainEnd>) {
     use crate::color::Rgb;
     let count = light != ChainLight::Skip;
+    // Whether a glossy hit came before (only the first one gathers `glossy`'s photons).
+    let mut past_glossy = false;
     let mut emitted = Rgb::ZERO;
     // Light along the sampled lobe after a split is weighted by its share, not divided by its
     // probability: `beta * emit_scale` (the returned hit keeps `beta`).
@@ -373,7 +415,11 @@ fn chain_from(
         if !mat.holds_photons() && count && !mat.is_delta() && depth < scene.render.max_depth {
             let mis = direct::DirectStrategy::Mis;
             emitted += beta * emit_scale * direct::estimate_direct_with(scene, tracer, &si, wo, &mat, rng, c, mis);
+            if let Some(g) = glossy.filter(|_| !past_glossy && view != LineOfSight::CAMERA) {
+                emitted += beta * emit_scale * g.radiance(&si, wo, &mat, scene.render.max_depth - depth);
+            }
         }
+        past_glossy |= !mat.holds_photons() && !mat.is_delta();
         let (u, uc) = (rng.next_2d(), forced_uc.unwrap_or_else(|| rng.next_f32()));
         let Some((bs, next)) = si.scatter_with(&mat, wo, u, uc, crate::scene::TransportMode::Radiance) else {
             break;
@@ -394,7 +440,7 @@ fn chain_from(
                 } else {
                     ChainLight::Count
                 };
-                emitted += chain_from(scene, tracer, other_ray, beta * share, rng, c, light, depth + 1).0;
+                emitted += chain_from(scene, tracer, other_ray, beta * share, rng, c, light, depth + 1, glossy).0;
             }
             emit_scale = bs.pdf;
         }

@@ -1,15 +1,18 @@
 //! Photon mapping: trace and build the three maps, then the eye pass. Camera rays follow mirrors and
 //! glass by sampling until a diffuse hit, where direct light (shadow rays or the direct map), caustics
 //! (caustic map) and indirect light (indirect map, or a final gather that reads the maps one bounce
-//! further) are added. Also the map views: photon splats and single-map estimates.
+//! further) are added. The caustic pass also keeps the photons of point, spot and distant lights that
+//! land on glossy surfaces past a mirror or glass, which a camera ray's first glossy hit past a mirror
+//! or glass reads (`super::GlossyGather`). Also the map views: photon splats and single-map estimates
+//! (which leave the glossy photons out).
 use super::direct::{estimate_direct_with, DirectStrategy};
 use super::edges::{inverse_coverage, EDGE_PROBES_KEY};
-use super::{ChainLight, Counters};
+use super::{ChainLight, Counters, GlossyGather};
 use crate::accel::Tracer;
 use crate::color::{luminance, Rgb};
 use crate::film::Image;
 use crate::math::{Ray, Rng};
-use crate::photon::estimate::{Gather, PhotonMap};
+use crate::photon::estimate::{Gather, PhotonMap, Reach};
 use crate::photon::kdtree::{KdTree, KnnResult};
 use crate::photon::photon::EVENTS_CAP;
 use crate::photon::trace::{run_pass, PassSettings, PassStats, Targets, CAUSTIC, DIRECT, INDIRECT, MAP_NAMES};
@@ -26,6 +29,10 @@ pub struct PhotonMaps {
     /// to be added to the eye pass's estimate: `PassSettings::glossy_splats`); None without a caustic
     /// pass or without any such light reaching the film.
     pub glossy: Option<Image>,
+    /// The caustic pass's photons of delta lights on glossy lobes, past a mirror or glass first (the
+    /// light the glossy splats carry), for camera chains that meet a glossy surface past a mirror or
+    /// glass (`super::GlossyGather`); None when none was stored.
+    pub glossy_photons: Option<PhotonMap>,
     pub stats: MapsStats,
 }
 
@@ -47,6 +54,8 @@ pub struct MapsStats {
     pub aim_seconds: f64,
     pub aim_rays: u64,
     pub stored: [u64; 3],
+    /// Photons kept on glossy lobes (`PhotonMaps::glossy_photons`).
+    pub glossy_stored: u64,
     pub n_emitted: [u64; 3],
     pub complete: [bool; 3],
     pub bytes_per_photon: [f64; 3],
@@ -105,9 +114,10 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
     let mut maps: [Option<PhotonMap>; 3] = Default::default();
     let t0 = std::time::Instant::now();
     let mut collected: [Option<crate::photon::trace::MapPhotons>; 3] = Default::default();
+    let mut glossy_collected = None;
     let holds = scene.any_holds_photons();
     if req.want[DIRECT] + req.want[INDIRECT] > 0 {
-        let want = [req.want[DIRECT], req.want[INDIRECT], 0];
+        let want = [req.want[DIRECT], req.want[INDIRECT], 0, 0];
         let s = PassSettings {
             want: req.shots.map_or(want, |_| want.map(|w| if w > 0 { u64::MAX } else { 0 })),
             max_depth: scene.render.max_depth,
@@ -122,7 +132,7 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
         let pb = bar(want[DIRECT].saturating_add(want[INDIRECT]), "photons: direct+indirect");
         let (m, st) = run_pass(scene, tracer, &s, None, &pb);
         pb.finish_and_clear();
-        let [d, i, _] = m;
+        let [d, i, _, _] = m;
         collected[DIRECT] = (want[DIRECT] > 0).then_some(d);
         collected[INDIRECT] = (want[INDIRECT] > 0).then_some(i);
         stats.global_pass = Some(st);
@@ -144,8 +154,13 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
         // With no surface to hold them, caustic photons are traced for their glossy caustics alone: as
         // many shots as photons asked for (a count of stored photons would never be reached).
         let shots = req.shots.or((!holds).then_some(req.want[CAUSTIC]));
+        let count = if shots.is_some() { u64::MAX } else { req.want[CAUSTIC] };
+        // Photons on glossy lobes, as many as caustic photons at most, where a delta light's light can
+        // reach one past a mirror or glass.
+        let glossy =
+            if scene.lights.list.iter().any(|l| l.is_delta()) && scene.any_unheld_glossy() { count } else { 0 };
         let s = PassSettings {
-            want: [0, 0, if shots.is_some() { u64::MAX } else { req.want[CAUSTIC] }],
+            want: [0, 0, count, glossy],
             max_depth: scene.render.max_depth,
             rr_depth: scene.render.rr_depth,
             max_shots: shots.unwrap_or_else(|| req.want[CAUSTIC].saturating_mul(ps.max_shots_factor)),
@@ -156,8 +171,9 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
         let pb = bar(req.want[CAUSTIC], if holds { "photons: caustic" } else { "photons: caustic (shots)" });
         let (m, st) = run_pass(scene, tracer, &s, targeted.then_some(targets), &pb);
         pb.finish_and_clear();
-        let [_, _, c] = m;
+        let [_, _, c, g] = m;
         collected[CAUSTIC] = Some(c);
+        glossy_collected = Some(g).filter(|g| !g.photons.is_empty());
         stats.caustic_pass = Some(st);
         stats.caustic_targeted = targeted;
     }
@@ -187,9 +203,14 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
             maps[i] = Some(m);
         }
     }
+    let glossy_photons = match glossy_collected {
+        Some(g) => Some(PhotonMap::build(g).map_err(|e| anyhow::anyhow!("glossy photons: {e}"))?),
+        None => None,
+    };
+    stats.glossy_stored = glossy_photons.as_ref().map_or(0, |m| m.len() as u64);
     stats.build_seconds = t1.elapsed().as_secs_f64();
     stats.photons_per_second = stats.stored.iter().sum::<u64>() as f64 / trace_s.max(1e-9);
-    Ok(PhotonMaps { maps, glossy, stats })
+    Ok(PhotonMaps { maps, glossy, glossy_photons, stats })
 }
 
 /// Light-tracing splats of `n_emitted` photons, summed per pixel, as a radiance image.
@@ -389,6 +410,9 @@ pub struct PhotonMapper<'a> {
     /// Progressive passes: every map is read with this fixed gather radius (box kernel, all photons
     /// within it) instead of its k nearest photons.
     pub radius: Option<f32>,
+    /// Progressive passes: the glossy photons (`super::GlossyGather`) are read with this fixed radius
+    /// (box kernel) instead of the caustic map's k nearest.
+    pub glossy_radius: Option<f32>,
     /// Final gather's precomputed radiance, read by gather rays when set (the fixed photon mapper's
     /// eye pass sets it when `render.final_gather` > 0; progressive passes do not).
     pub cache: Option<RadianceCache>,
@@ -415,6 +439,7 @@ impl<'a> PhotonMapper<'a> {
             only,
             specular_spp: scene.render.specular_spp,
             radius: None,
+            glossy_radius: None,
             cache: None,
             edges: false,
         }
@@ -547,7 +572,15 @@ impl<'a> PhotonMapper<'a> {
     fn follow(&self, ray: Ray, beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32, first: u32) -> Rgb {
         let count_emission = emission && self.only.is_none();
         let light = if count_emission { ChainLight::CountSplitFirst } else { ChainLight::Skip };
-        let (mut l, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, light);
+        // Camera chains (the ones that count emission) gather the glossy photons past a mirror or glass.
+        let glossy = self.maps.glossy_photons.as_ref().filter(|_| count_emission && first == 0).map(|map| {
+            let reach = match self.glossy_radius {
+                Some(r) => Reach::Radius(r),
+                None => Reach::Knn(self.gather[CAUSTIC]),
+            };
+            GlossyGather { map, reach }
+        });
+        let (mut l, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, light, glossy.as_ref());
         if let Some(e) = end {
             // Final-gather rays are the ones that do not count emission.
             l += e.beta * self.diffuse_radiance(&e, rng, c, fg, !emission, e.budget(self.scene, first));

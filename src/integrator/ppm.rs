@@ -54,6 +54,17 @@ pub fn initial_radius(scene: &Scene) -> f32 {
     radius_for_density(scene, 30.0, p.photons_per_pass as f64, |m| scene.material_holds_photons(m))
 }
 
+/// The first pass's radius for the glossy photons (`super::GlossyGather`): `render.progressive.radius`
+/// if set, else as `initial_radius` over the surfaces with a glossy lobe no photon is stored for (30
+/// photons in a disc if one pass's shots all landed evenly on them), with the same cap.
+pub fn glossy_initial_radius(scene: &Scene) -> f32 {
+    let p = &scene.render.progressive;
+    if p.radius > 0.0 {
+        return p.radius;
+    }
+    radius_for_density(scene, 30.0, p.photons_per_pass as f64, |m| scene.material_unheld_glossy(m))
+}
+
 /// The radius of a disc holding about `k` of `points` points spread evenly over the surfaces whose
 /// material `holds` (those the points are stored on: photons on the surfaces that hold them, VCM's
 /// light vertices on every surface that is not a delta BSDF), capped at `render.gather.max_radius` of
@@ -102,6 +113,7 @@ pub fn ppm_pass(
     let mut pm = PhotonMapper::new(scene, tracer, &maps, None);
     pm.specular_spp = plan.specular_spp;
     pm.radius = Some(r);
+    pm.glossy_radius = Some(radius_at(glossy_initial_radius(scene), scene.render.progressive.alpha, i));
     pm.edges = scene.render.progressive.edge_correction;
     let cam = &scene.camera;
     // Each pass is one eye sample per pixel with its own scramble (passes must stay independent).

@@ -1,9 +1,11 @@
 //! Stochastic progressive photon mapping (Hachisuka & Jensen 2009), as pbrt-v4's SPPMIntegrator. Each
-//! iteration: a camera pass finds every pixel's visible point (the first diffuse hit after the
-//! specular chain, with the chain's throughput) and adds what is seen along the way (emission, direct
-//! light by shadow rays); a photon pass traces this iteration's photons (the shared photon tracer, into
-//! the project's k-d trees); then each pixel gathers the photons within its own radius and updates its
-//! photon count N, radius r and flux τ: N' = N + αM, r'² = r² N'/(N + M), τ' = (τ + Φ) r'²/r².
+//! iteration: a photon pass traces this iteration's photons (the shared photon tracer, into the
+//! project's k-d trees); a camera pass finds every pixel's visible point (the first diffuse hit after
+//! the specular chain, with the chain's throughput) and adds what is seen along the way (emission,
+//! direct light by shadow rays, and at the first glossy hit past a mirror or glass the glossy photons,
+//! `super::GlossyGather`, read with one radius per iteration as `ppm` reads its maps); then each pixel
+//! gathers the photons within its own radius and updates its photon count N, radius r and flux τ:
+//! N' = N + αM, r'² = r² N'/(N + M), τ' = (τ + Φ) r'²/r².
 //! Unless the scene fixes the radius, each pixel starts at the distance of the 30th nearest photon of
 //! the densest map at its first visible point (capped by the scene-wide initial radius).
 //! Pixels whose centre looks into a mirror, glass or water take `specular_spp` extra camera samples per
@@ -20,12 +22,13 @@
 use super::direct::{estimate_direct_with, DirectStrategy};
 use super::edges::{disc_coverage, EDGE_PROBES_KEY};
 use super::photon_map::build_maps;
-use super::ppm::{initial_radius, pass_request, PassRecord};
-use super::{specular_chain, ChainEnd, ChainLight, Counters};
+use super::ppm::{glossy_initial_radius, initial_radius, pass_request, radius_at, PassRecord};
+use super::{specular_chain, ChainEnd, ChainLight, Counters, GlossyGather};
 use crate::accel::Tracer;
 use crate::color::Rgb;
 use crate::film::Image;
 use crate::math::Rng;
+use crate::photon::estimate::Reach;
 use crate::photon::kdtree::KnnResult;
 use crate::plan::Plan;
 use crate::scene::file::DirectLight;
@@ -109,6 +112,16 @@ impl<'a> Sppm<'a> {
         let t0 = std::time::Instant::now();
         let (sampler, base_seed) = (self.scene.render.sampler, self.scene.render.seed);
         let width = self.scene.camera.width as usize;
+        let maps =
+            build_maps(self.scene, self.tracer, &pass_request(self.scene, self.plan, i, self.aim.as_ref()), true)?;
+        let alpha = self.scene.render.progressive.alpha;
+        // The glossy photons are gathered as probabilistic PPM gathers them (`ppm`): one radius per
+        // iteration, shrinking by its schedule; each iteration's estimate joins the light the camera
+        // pass found.
+        let glossy = maps.glossy_photons.as_ref().map(|map| GlossyGather {
+            map,
+            reach: Reach::Radius(radius_at(glossy_initial_radius(self.scene), alpha, i)),
+        });
         let camera: Vec<(Rgb, Option<ChainEnd>, Counters)> = (0..self.pixels.len())
             .into_par_iter()
             .map(|k| {
@@ -116,20 +129,17 @@ impl<'a> Sppm<'a> {
                 let mut rng = Rng::camera(sampler, base_seed, k as u64, (i - 1) as u64);
                 let mut c = Counters::default();
                 let (x, y) = ((k % width) as u32, (k / width) as u32);
-                let (mut l, vp) = self.camera_path(x, y, &mut rng, &mut c);
+                let (mut l, vp) = self.camera_path(x, y, &mut rng, &mut c, glossy.as_ref());
                 let extra = self.extra[k] as u64;
                 for j in 0..extra {
                     let index = (i - 1) as u64 * extra + j;
                     let mut rng = Rng::camera(sampler, base_seed ^ EXTRA_SAMPLES_KEY, k as u64, index);
-                    l += self.camera_path(x, y, &mut rng, &mut c).0;
+                    l += self.camera_path(x, y, &mut rng, &mut c, glossy.as_ref()).0;
                 }
                 l /= (extra + 1) as f32;
                 (l, vp, c)
             })
             .collect();
-        let maps =
-            build_maps(self.scene, self.tracer, &pass_request(self.scene, self.plan, i, self.aim.as_ref()), true)?;
-        let alpha = self.scene.render.progressive.alpha;
         let scene = self.scene;
         // Unless the scene fixes it, a pixel's radius starts where its first visible point finds
         // INITIAL_K photons in the densest map of the first iteration: small inside a caustic, large
@@ -210,14 +220,21 @@ impl<'a> Sppm<'a> {
     /// A camera sample through pixel (x, y): the light it finds before (and at) its first diffuse hit,
     /// and that hit as a visible point. Direct light there comes from shadow rays, unless the scene reads
     /// it from photons (`render.direct_light = "photon_map"`, gathered like the rest).
-    fn camera_path(&self, x: u32, y: u32, rng: &mut Rng, c: &mut Counters) -> (Rgb, Option<ChainEnd>) {
+    fn camera_path(
+        &self,
+        x: u32,
+        y: u32,
+        rng: &mut Rng,
+        c: &mut Counters,
+        glossy: Option<&GlossyGather>,
+    ) -> (Rgb, Option<ChainEnd>) {
         let scene = self.scene;
         // The filter's weight (±, for a filter with negative lobes) rides in the throughput, so the
         // visible point's photons count with it too.
         let (fx, fy, weight) = scene.camera.film_position(x, y, rng.next_2d());
         let ray = scene.camera.sample_ray(fx, fy, rng);
         let beta = Rgb::splat(weight);
-        let (mut l, end) = specular_chain(scene, self.tracer, ray, beta, rng, c, ChainLight::CountSplitFirst);
+        let (mut l, end) = specular_chain(scene, self.tracer, ray, beta, rng, c, ChainLight::CountSplitFirst, glossy);
         if let (Some(e), DirectLight::ShadowRays) = (&end, scene.render.direct_light) {
             // No light sample where the path tracer's depth leaves none (`ChainEnd::budget`).
             if e.budget(scene, 0) == 0 {

@@ -9,7 +9,7 @@ use crate::photon::kdtree::{KdError, KdTree, KnnResult};
 use crate::photon::photon::{events, within_depth, PhotonPayload, EVENTS_CAP};
 use crate::photon::trace::MapPhotons;
 use crate::scene::material::{Coat, DiffuseLobe, MappedFrame};
-use crate::scene::SurfaceHit;
+use crate::scene::{Material, SurfaceHit, TransportMode};
 use glam::Vec3;
 
 pub struct PhotonMap {
@@ -130,6 +130,82 @@ impl PhotonMap {
     }
 }
 
+/// How far a glossy estimate reaches: the k nearest photons (the fixed photon map's gather: radius from
+/// the k-th, cone filter), or every photon within a fixed radius (progressive passes, box kernel).
+#[derive(Clone, Copy, Debug)]
+pub enum Reach {
+    Knn(Gather),
+    Radius(f32),
+}
+
+impl PhotonMap {
+    /// Radiance towards `wo` that the glossy BSDF `lobe` (a rough metal, rough glass, principled surface,
+    /// rough plastic's coat) scatters at `si` from the photons around it, each counted through the BSDF
+    /// for its own direction l: Σ f(wo, l)·|l·ns|/|l·ng|·ΔΦ / (π r²) (photons carry flux per unit of
+    /// geometric area), over the photons on the surface's tangent disc that landed on a surface of the
+    /// same orientation (from either side: a rough glass lets light through), whose paths fit in `budget`
+    /// scattering events, and for which `lobe` can carry light from l to `wo` (`SurfaceHit::can_scatter`).
+    /// The k-NN reach leaves out the boundary photon and applies the cone filter, as `radiance` does.
+    pub fn glossy_radiance(
+        &self,
+        si: &SurfaceHit,
+        wo: Vec3,
+        lobe: &Material,
+        reach: Reach,
+        budget: u32,
+        res: &mut KnnResult,
+    ) -> Rgb {
+        if self.is_empty() {
+            return Rgb::ZERO;
+        }
+        let (r2, cone_k) = match reach {
+            Reach::Knn(g) if g.k > 0 => (self.tree.knn(si.p.to_array(), g.k, g.max_r2, res), g.cone_k),
+            Reach::Radius(r) if r > 0.0 => {
+                self.tree.within_res(si.p.to_array(), r * r, res);
+                (r * r, 0.0)
+            }
+            _ => return Rgb::ZERO,
+        };
+        if r2.is_nan() || r2 <= 0.0 || !r2.is_finite() {
+            return Rgb::ZERO;
+        }
+        let r = r2.sqrt();
+        let boundary = match reach {
+            Reach::Knn(g) if res.items().len() >= g.k => {
+                res.items().iter().enumerate().max_by(|a, b| a.1 .0.total_cmp(&b.1 .0)).map(|(j, _)| j)
+            }
+            _ => None,
+        };
+        let cone = cone_k >= 1.0;
+        let mut sum = Rgb::ZERO;
+        for (j, &(d2, i)) in res.items().iter().enumerate() {
+            let (item, pos) = (self.tree.item(i), self.tree.position(i));
+            if Some(j) == boundary || !on_disc(si.p, si.ng, r, budget, pos) || item.n().dot(si.ng).abs() < 0.6 {
+                continue;
+            }
+            let l = -item.wi();
+            let cos_g = l.dot(si.ng).abs();
+            if cos_g <= 1e-6 || !si.can_scatter(lobe, wo, l) {
+                continue;
+            }
+            let f = lobe.eval(wo, l, si.ns, TransportMode::Radiance) * (l.dot(si.ns).abs() / cos_g);
+            let cone_w = if cone { (1.0 - d2.sqrt() / (cone_k * r)).max(0.0) } else { 1.0 };
+            sum += f * self.phi(i) * cone_w;
+        }
+        let norm = if cone { 1.0 - 2.0 / (3.0 * cone_k) } else { 1.0 };
+        sum / (std::f32::consts::PI * r2 * norm)
+    }
+}
+
+/// Whether a photon at `pos` (its record of scattering events included) lies on the tangent disc of
+/// radius `r` at `p` (within a quarter of the radius of the plane of normal `n`: not on a nearby
+/// surface facing elsewhere) and its path fits in `budget` scattering events (with 7 or more left
+/// every record fits: no test). The position's test first: it is at hand.
+#[inline(always)]
+fn on_disc(p: Vec3, n: Vec3, r: f32, budget: u32, pos: [f32; 3]) -> bool {
+    (Vec3::from_array(pos) - p).dot(n).abs() <= 0.25 * r && (budget >= EVENTS_CAP || within_depth(events(pos), budget))
+}
+
 /// The per-photon tests and weight shared by every estimate at one surface point.
 struct PhotonFilter {
     p: Vec3,
@@ -171,13 +247,7 @@ impl PhotonFilter {
     /// samples on its first use of the photon's position; inlining alone did not change the time).
     #[inline(always)]
     fn weight(&self, item: &PhotonPayload, pos: [f32; 3]) -> Option<f32> {
-        // Cheapest test first (the position is at hand): on this surface's tangent disc, not on a
-        // nearby surface facing elsewhere.
-        if (Vec3::from_array(pos) - self.p).dot(self.n_side).abs() > 0.25 * self.r {
-            return None;
-        }
-        // (With 7 or more events left every record fits: no test.)
-        if self.budget < EVENTS_CAP && !within_depth(events(pos), self.budget) {
+        if !on_disc(self.p, self.n, self.r, self.budget, pos) {
             return None;
         }
         // Landed on a surface facing the same way (not the other side of a thin wall, not the next wall

@@ -20,6 +20,9 @@ use rayon::prelude::*;
 pub const DIRECT: usize = 0;
 pub const INDIRECT: usize = 1;
 pub const CAUSTIC: usize = 2;
+/// The caustic pass's photons on glossy lobes (`PassSettings::want`'s last entry; not one of the three
+/// maps of `MAP_NAMES`).
+pub const GLOSSY: usize = 3;
 pub const MAP_NAMES: [&str; 3] = ["direct", "indirect", "caustic"];
 
 const BATCH: u64 = 4096;
@@ -261,8 +264,12 @@ impl Tracer for CountingTracer<'_> {
 
 /// Settings of one tracing pass.
 pub struct PassSettings {
-    /// Requested stored photons per map (0 = map not built in this pass).
-    pub want: [u64; 3],
+    /// Requested stored photons per map (0 = map not built in this pass): direct, indirect, caustic,
+    /// and (`GLOSSY`) the photons of delta lights on glossy lobes, past a mirror or glass first (the
+    /// photons the glossy splats are made from, kept for camera chains that reach a glossy surface
+    /// through a mirror or glass: `integrator::GlossyGather`). The glossy count never keeps a pass
+    /// going: it stops collecting at its count, or when the other maps are done.
+    pub want: [u64; 4],
     /// Scattering events a photon path may have, counting the one at the gather point (render.max_depth).
     pub max_depth: u32,
     /// Specular bounces past which Russian roulette applies (render.rr_depth).
@@ -276,9 +283,10 @@ pub struct PassSettings {
     /// (the caustic pass): a photon from such a light whose first bounce was a mirror or glass, with no
     /// diffuse bounce since, that meets a glossy lobe no photon is stored for (rough metal, rough glass,
     /// a principled surface, a rough plastic's coat) is splatted onto the film from there. Nothing else
-    /// finds that light: a camera chain through glossy lobes takes a light sample at each (light that
-    /// came straight from the light to one of them), its BSDF samples never reach a point light, and
-    /// photons are gathered on diffuse surfaces only.
+    /// finds that light where the camera sees the glossy surface directly: a camera chain through
+    /// glossy lobes takes a light sample at each (light that came straight from the light to one of
+    /// them), its BSDF samples never reach a point light, and the glossy photons (`want[GLOSSY]`) are
+    /// read only where the camera sees the surface past a mirror or glass.
     pub glossy_splats: bool,
 }
 
@@ -299,7 +307,7 @@ fn trace_one(
     l: Launch,
     rng: &mut Rng,
     s: &PassSettings,
-    out: &mut [Vec<Stored>; 3],
+    out: &mut [Vec<Stored>; 4],
     splats: &mut Vec<(u32, Rgb)>,
     segs: &mut u64,
     camera_rays: &mut u64,
@@ -366,6 +374,12 @@ fn trace_one(
             ray = si.spawn(ray.d);
         };
         let last = depth + 1 >= s.max_depth;
+        if delta_first && specular_bounces > 0 && s.want[GLOSSY] > 0 {
+            // Kept whatever this photon's own pick at a blend: the gather weighs the camera's.
+            if mat.unheld_glossy_lobe().is_some() || scene.blend_offers(&si, wo, |m| m.unheld_glossy_lobe().is_some()) {
+                out[GLOSSY].push(record(&si, wo, phi, depth));
+            }
+        }
         if s.glossy_splats && delta_first && specular_bounces > 0 {
             if let Some(lobe) = mat.unheld_glossy_lobe() {
                 let lens = scene.camera.sample_lens(rng);
@@ -466,7 +480,7 @@ fn trace_one(
 #[allow(clippy::too_many_arguments)]
 fn store(
     s: &PassSettings,
-    out: &mut [Vec<Stored>; 3],
+    out: &mut [Vec<Stored>; 4],
     si: &crate::scene::SurfaceHit,
     wo: Vec3,
     phi: Rgb,
@@ -482,11 +496,16 @@ fn store(
         DIRECT
     };
     if s.want[map] > 0 {
-        // The position records the path's scattering events, this gather included (`with_events`), so a
-        // gather seen through glass can leave out paths the path tracer's depth would cut.
-        let p = with_events(si.p.to_array(), depth + 1);
-        out[map].push((p, Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload()));
+        out[map].push(record(si, wo, phi, depth));
     }
+}
+
+/// A photon of power `phi` arriving at `si` from `wo` after `depth` scattering events, as stored. The
+/// position records the path's scattering events, the gather's included (`with_events`), so that a
+/// gather seen through glass can leave out paths the path tracer's depth would cut.
+fn record(si: &crate::scene::SurfaceHit, wo: Vec3, phi: Rgb, depth: u32) -> Stored {
+    let p = with_events(si.p.to_array(), depth + 1);
+    (p, Photon { p: si.p, wi: -wo, phi, n: face_forward(si.ng, wo) }.payload())
 }
 
 /// Uniform emission from the lights (power-weighted choice, then position and direction on the light).
@@ -541,18 +560,19 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
 
 /// What a batch of photons left: each map's photons, the glossy caustics' splats, where the batch
 /// ended, and its rays (photon segments, links to the camera).
-type BatchOut = ([Vec<Stored>; 3], Vec<(u32, Rgb)>, u64, [u64; 2]);
+type BatchOut = ([Vec<Stored>; 4], Vec<(u32, Rgb)>, u64, [u64; 2]);
 
-/// Runs one pass until every wanted map has its photons or `max_shots` photons were shot.
+/// Runs one pass until every wanted map (of the first three) has its photons or `max_shots` photons
+/// were shot.
 pub fn run_pass(
     scene: &Scene,
     tracer: &dyn Tracer,
     s: &PassSettings,
     targets: Option<&Targets>,
     progress: &indicatif::ProgressBar,
-) -> ([MapPhotons; 3], PassStats) {
+) -> ([MapPhotons; 4], PassStats) {
     let t0 = std::time::Instant::now();
-    let mut maps: [MapPhotons; 3] = Default::default();
+    let mut maps: [MapPhotons; 4] = Default::default();
     // A map asked for a count gets its whole vector up front (the want, plus one round of batches of
     // overshoot): untouched capacity costs no memory, and no doubling ever copies the photons or
     // leaves spare capacity resident. Progressive passes (no count, a shot budget) just grow.
@@ -562,18 +582,20 @@ pub fn run_pass(
             m.photons = Vec::with_capacity((w + round) as usize);
         }
     }
-    let mut done = [s.want[0] == 0, s.want[1] == 0, s.want[2] == 0];
+    let mut done = s.want.map(|w| w == 0);
+    // The glossy photons never keep the pass going.
+    let going = |done: &[bool; 4]| done[..GLOSSY].iter().any(|d| !d);
     let mut stats = PassStats::default();
     let threads = rayon::current_num_threads() as u64;
     let mut next = 0u64;
-    while done.iter().any(|d| !d) && next < s.max_shots {
+    while going(&done) && next < s.max_shots {
         let batches = (threads * 4).max(1);
         let results: Vec<BatchOut> = (0..batches)
             .into_par_iter()
             .map(|b| {
                 let start = (next + b * BATCH).min(s.max_shots);
                 let end = (start + BATCH).min(s.max_shots);
-                let mut out: [Vec<Stored>; 3] = Default::default();
+                let mut out: [Vec<Stored>; 4] = Default::default();
                 let mut splats = Vec::new();
                 let (mut segs, mut camera_rays) = (0u64, 0u64);
                 for i in start..end {
@@ -621,18 +643,19 @@ pub fn run_pass(
                 }
             }
             next = end;
-            if done.iter().all(|d| *d) {
+            if !going(&done) {
                 break;
             }
         }
         // Each map counts up to what it wants, so the bar reaches 100% exactly when the pass is done.
         // (A pass that shoots a count instead, every map unbounded, counts its shots.)
-        let stored: u64 = maps.iter().zip(s.want).map(|(m, w)| (m.photons.len() as u64).min(w)).sum();
-        let shooting = s.want.iter().all(|&w| w == 0 || w == u64::MAX);
+        let counted = maps[..GLOSSY].iter().zip(s.want);
+        let stored: u64 = counted.map(|(m, w)| (m.photons.len() as u64).min(w)).sum();
+        let shooting = s.want[..GLOSSY].iter().all(|&w| w == 0 || w == u64::MAX);
         progress.set_position(if shooting { next } else { stored }.min(progress.length().unwrap_or(u64::MAX)));
     }
     stats.shot = next;
-    stats.budget_exhausted = done.iter().any(|d| !d);
+    stats.budget_exhausted = going(&done);
     stats.seconds = t0.elapsed().as_secs_f64();
     (maps, stats)
 }

@@ -305,8 +305,9 @@ pub enum MaterialSpec {
     /// the dielectric index as `eta` (inside over outside) or `specular` (in [0, 1], default ½: η 1.5),
     /// not both. `two_sided` (default: true unless it transmits; a transmitting one cannot be) mirrors
     /// the front onto the back (Mitsuba's `twosided`); one-sided, the back reflects only what its
-    /// transmission lobe does. Photons are not stored on it: the photon mappers follow camera paths
-    /// through it, as through rough metal.
+    /// transmission lobe does. The photon mappers follow camera paths through it, as through rough
+    /// metal; only the caustic pass's photons of point, spot and distant lights are kept on it, for
+    /// camera paths that see it past a mirror or glass.
     Principled {
         #[serde(default = "grey")]
         base_color: Reflectance,

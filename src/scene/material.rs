@@ -1203,8 +1203,9 @@ impl Material {
     /// metal's, rough glass's or principled surface's whole BSDF, a rough plastic's coat (its base holds
     /// photons); None for diffuse surfaces, smooth plastics and delta BSDFs. The photon-mapping eye
     /// passes follow camera rays through such lobes by sampling, so what lands there from a delta light
-    /// first bounced by a mirror or glass reaches the film only by light tracing (the photon tracer's
-    /// `PassSettings::glossy_splats`).
+    /// first bounced by a mirror or glass reaches the film only by light tracing where the camera sees
+    /// the surface directly (the photon tracer's `PassSettings::glossy_splats`), and from the caustic
+    /// pass's glossy photons where it sees it past a mirror or glass (`integrator::GlossyGather`).
     pub fn unheld_glossy_lobe(&self) -> Option<Material> {
         if self.holds_photons() {
             return self.coat_lobe();

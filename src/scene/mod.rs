@@ -573,6 +573,18 @@ impl Scene {
         }
     }
 
+    /// Whether a material (an index into `materials`) has a glossy lobe no photon is stored for
+    /// (`Material::unheld_glossy_lobe`: rough metal or glass, a principled surface, a rough plastic's
+    /// coat), on either side of a blend.
+    pub fn material_unheld_glossy(&self, material: u32) -> bool {
+        self.any_leaf(material, &mut |m| m.bsdf.unheld_glossy_lobe().is_some())
+    }
+
+    /// Whether any surface's material has such a lobe (`material_unheld_glossy`).
+    pub fn any_unheld_glossy(&self) -> bool {
+        self.shapes.iter().any(|s| self.material_unheld_glossy(s.material))
+    }
+
     /// On a blend, whether `f` holds for the BSDF at `si` of any material it can be there (the one picked
     /// or another); false off blends, where the BSDF a caller picked, and has already asked, is the
     /// surface's only one. Keeps photon and light-vertex storing from building that BSDF again at every
