@@ -123,8 +123,9 @@ fn glossy_caustics_the_eye_passes_find_are_counted_once() {
 /// there meets the glass, so the photons first bounced by the glass are light-traced from every glossy
 /// surface they reach until a diffuse bounce, not only from the first. Every photon mode's sum over the
 /// wall is BDPT's within 1.5%: light-traced from the first glossy surface only (this session's first
-/// version), the wall read 0.977 / 0.972 / 0.978 of BDPT's in SPPM, PPM and fixed PM (now 1.0005 /
-/// 0.9952 / 0.9980).
+/// version), the wall read 0.977 / 0.972 / 0.978 of BDPT's in SPPM, PPM and fixed PM (then 1.0005 /
+/// 0.9952 / 0.9980; since session 51, the wall seen through the ball left out of the sum, 1.0045 /
+/// 1.0050 / 0.9980, VCM 1.0009: with it, VCM read 1.0111 of BDPT's, which misses the light there).
 #[test]
 fn a_glossy_surface_lit_by_a_glossy_caustic_is_in_every_mode() {
     let wall = "[[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 0.0, -0.8]\nedge_u = [4.0, 0.0, 0.0]\nedge_v = [0.0, 2.0, 0.0]\nmaterial = \"satin\"\n";
@@ -135,12 +136,20 @@ fn a_glossy_surface_lit_by_a_glossy_caustic_is_in_every_mode() {
             1,
         )
     };
+    // Pixels whose centre sees the ball are left out: there the camera sees the wall through the
+    // glass, and the caustic's light on it (camera, glass, wall, glass, light) is what BDPT cannot find
+    // (the photon mappers gather it since session 51: `a_point_lights_light_via_a_mirror_on_glossy_walls_seen_in_the_mirror`).
     let on_wall = |s: &Scene, img: &Image| {
         let cam = &s.camera;
         let mut sum = 0.0;
         for (i, p) in img.pixels.iter().enumerate() {
             let ray = cam.ray((i as u32 % cam.width) as f32 + 0.5, (i as u32 / cam.width) as f32 + 0.5);
             let d = ray.d.normalize();
+            let oc = ray.o - glam::Vec3::new(0.0, 0.8, 0.0);
+            let b = oc.dot(d);
+            if b * b - (oc.length_squared() - 0.3 * 0.3) > 0.0 {
+                continue;
+            }
             let t = (-0.8 - ray.o.z) / d.z;
             let q = ray.o + d * t;
             if t > 0.0 && q.y > 0.05 && q.y < 2.0 && q.x.abs() < 2.0 {

@@ -543,7 +543,7 @@ fn uniform_photon_density_gives_the_glossy_radiance_for_each_direction() {
                 for q in 0..40 {
                     let x = Vec3::new(-0.6 + 0.03 * q as f32, 0.0, 0.5 - 0.025 * q as f32);
                     let si = caustica::scene::SurfaceHit { ns, ..common::surface_at(x, Vec3::Y) };
-                    mean += map.glossy_radiance(&si, wo, &mat, reach, u32::MAX, &mut res).y as f64 / 40.0;
+                    mean += map.glossy_radiance(&si, wo, &mat, reach, u32::MAX, &mut res).0.y as f64 / 40.0;
                 }
                 eprintln!("{name}, wo {wo:?}, {reach:?}: L = {mean:.5}, f·Φ/A = {expect:.5}");
                 let off = if expect > 0.0 { (mean / expect - 1.0).abs() > 0.015 } else { mean != 0.0 };

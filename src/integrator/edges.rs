@@ -27,10 +27,24 @@ fn disc_frame(si: &SurfaceHit, wo: Vec3) -> (Vec3, Frame) {
     (n, Frame::from_normal(n))
 }
 
+/// Which surfaces hold the photons an estimate reads: `Material::holds_photons` for the photon maps,
+/// `Material::unheld_glossy_lobe` for the glossy photons (`super::GlossyGather`).
+pub type Holds = fn(&crate::scene::Material) -> bool;
+
+/// The photon maps' surfaces (`Holds`).
+pub fn holds_photons(m: &crate::scene::Material) -> bool {
+    m.holds_photons()
+}
+
+/// The glossy photons' surfaces (`Holds`).
+pub fn holds_glossy_photons(m: &crate::scene::Material) -> bool {
+    m.unheld_glossy_lobe().is_some()
+}
+
 /// Whether a surface that could hold the photons accepted at a gather point of normal `n` (facing the
 /// viewer), radius `r`, lies under the point of its disc at polar coordinates (`rho`, `phi`): a ray down
-/// through the estimate's slab (±r/4 about the plane, as the photon filter) looks for a photon-holding
-/// surface facing the same way within 53°, passing through anything else (glass, a ball's underside,
+/// through the estimate's slab (±r/4 about the plane, as the photon filter) looks for a surface that
+/// `holds` facing the same way within 53°, passing through anything else (glass, a ball's underside,
 /// the back of a wall). Returns it with the rays cast.
 #[allow(clippy::too_many_arguments)]
 fn probe(
@@ -42,6 +56,7 @@ fn probe(
     r: f32,
     rho: f32,
     phi: f32,
+    holds: Holds,
 ) -> (bool, u64) {
     let h = 0.25 * r;
     let q = p + frame.to_world(Vec3::new(rho * phi.cos(), rho * phi.sin(), 0.0));
@@ -54,7 +69,7 @@ fn probe(
             break;
         };
         let s = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-        if s.ng.dot(n).abs() >= 0.6 && scene.any_bsdf_at(&s, n, |m| m.holds_photons()) {
+        if s.ng.dot(n).abs() >= 0.6 && scene.any_bsdf_at(&s, n, holds) {
             return (true, rays);
         }
         ray.tmin = hit.t + 1e-4 * h;
@@ -78,7 +93,7 @@ pub fn disc_coverage(
     for j in 0..EDGE_PROBES {
         let [u, v] = rng.next_2d();
         let phi = 2.0 * std::f32::consts::PI * (turn + (j as f32 + u) / EDGE_PROBES as f32);
-        let (hit, k) = probe(scene, tracer, si.p, n, &frame, r, r * v.sqrt(), phi);
+        let (hit, k) = probe(scene, tracer, si.p, n, &frame, r, r * v.sqrt(), phi, holds_photons);
         rays += k;
         covered += hit as usize;
     }
@@ -91,8 +106,9 @@ pub fn disc_coverage(
 /// kernel's density, probed until one is over a surface (a geometric count, whose mean is 1 / c; at most
 /// `MAX_TRIALS`). A disc wholly on its surface costs one probe and returns exactly 1, so only the
 /// bands along edges get the count's noise. Multiplying a gather's photons by it, drawn independently
-/// of them, makes the estimate read the density over the surface the disc covers. Returns it with the
-/// rays cast.
+/// of them, makes the estimate read the density over the surface the disc covers (the surfaces that
+/// `holds` its photons). Returns it with the rays cast.
+#[allow(clippy::too_many_arguments)]
 pub fn inverse_coverage(
     scene: &Scene,
     tracer: &dyn Tracer,
@@ -101,6 +117,7 @@ pub fn inverse_coverage(
     r: f32,
     cone_k: f32,
     rng: &mut Rng,
+    holds: Holds,
 ) -> (f32, u64) {
     let (n, frame) = disc_frame(si, wo);
     let mut rays = 0;
@@ -114,7 +131,7 @@ pub fn inverse_coverage(
                 break (rho, 2.0 * std::f32::consts::PI * u);
             }
         };
-        let (hit, k) = probe(scene, tracer, si.p, n, &frame, r, rho, phi);
+        let (hit, k) = probe(scene, tracer, si.p, n, &frame, r, rho, phi, holds);
         rays += k;
         if hit {
             return (trial as f32, rays);

@@ -327,23 +327,39 @@ pub struct GlossyGather<'a> {
     pub map: &'a crate::photon::estimate::PhotonMap,
     /// The k nearest photons (the fixed photon map) or a fixed radius (the progressive passes).
     pub reach: crate::photon::estimate::Reach,
+    /// Multiply what a gather finds by an estimate of 1 / (the part of its disc over a surface with a
+    /// glossy lobe), as the photon maps' gathers do (`edges::inverse_coverage`).
+    pub edges: bool,
 }
 
 impl GlossyGather<'_> {
     /// Radiance `lobe` scatters towards `wo` at `si` from the photons whose paths fit in `budget`
-    /// scattering events.
+    /// scattering events (edge probes' rays go to `c`).
+    #[allow(clippy::too_many_arguments)]
     pub fn radiance(
         &self,
+        scene: &crate::scene::Scene,
+        tracer: &dyn crate::accel::Tracer,
         si: &crate::scene::SurfaceHit,
         wo: glam::Vec3,
         lobe: &crate::scene::Material,
         budget: u32,
+        rng: &mut crate::math::Rng,
+        c: &mut Counters,
     ) -> crate::color::Rgb {
         thread_local! {
             static SCRATCH: std::cell::RefCell<crate::photon::kdtree::KnnResult> =
                 std::cell::RefCell::new(crate::photon::kdtree::KnnResult::new());
         }
-        SCRATCH.with(|s| self.map.glossy_radiance(si, wo, lobe, self.reach, budget, &mut s.borrow_mut()))
+        let (l, r) = SCRATCH.with(|s| self.map.glossy_radiance(si, wo, lobe, self.reach, budget, &mut s.borrow_mut()));
+        if !self.edges || l == crate::color::Rgb::ZERO {
+            return l;
+        }
+        let cone_k = match self.reach {
+            crate::photon::estimate::Reach::Knn(g) => g.cone_k,
+            crate::photon::estimate::Reach::Radius(_) => 0.0,
+        };
+        l * photon_map::edge_factor(scene, tracer, si, wo, r, cone_k, rng, c, edges::holds_glossy_photons)
     }
 }
 
@@ -416,7 +432,8 @@ fn chain_from(
             let mis = direct::DirectStrategy::Mis;
             emitted += beta * emit_scale * direct::estimate_direct_with(scene, tracer, &si, wo, &mat, rng, c, mis);
             if let Some(g) = glossy.filter(|_| !past_glossy && view != LineOfSight::CAMERA) {
-                emitted += beta * emit_scale * g.radiance(&si, wo, &mat, scene.render.max_depth - depth);
+                let budget = scene.render.max_depth - depth;
+                emitted += beta * emit_scale * g.radiance(scene, tracer, &si, wo, &mat, budget, rng, c);
             }
         }
         past_glossy |= !mat.holds_photons() && !mat.is_delta();

@@ -6,7 +6,7 @@
 //! or glass reads (`super::GlossyGather`). Also the map views: photon splats and single-map estimates
 //! (which leave the glossy photons out).
 use super::direct::{estimate_direct_with, DirectStrategy};
-use super::edges::{inverse_coverage, EDGE_PROBES_KEY};
+use super::edges::{holds_photons, inverse_coverage, Holds, EDGE_PROBES_KEY};
 use super::{ChainLight, Counters, GlossyGather};
 use crate::accel::Tracer;
 use crate::color::{luminance, Rgb};
@@ -230,9 +230,10 @@ thread_local! {
 
 /// An estimate of 1 / (the part of the gather disc of radius `r` about `si` that is surface, weighed by
 /// the kernel), from its own random stream keyed by two draws of `rng`'s generator (which leaves a
-/// camera sample's Sobol dimensions as they were): `edges::inverse_coverage`. Its rays go to `c`.
+/// camera sample's Sobol dimensions as they were): `edges::inverse_coverage` over the surfaces that
+/// `holds` the estimate's photons. Its rays go to `c`.
 #[allow(clippy::too_many_arguments)]
-fn edge_factor(
+pub(super) fn edge_factor(
     scene: &Scene,
     tracer: &dyn Tracer,
     si: &SurfaceHit,
@@ -241,9 +242,10 @@ fn edge_factor(
     cone_k: f32,
     rng: &mut Rng,
     c: &mut Counters,
+    holds: Holds,
 ) -> f32 {
     let mut probes = Rng::new(EDGE_PROBES_KEY, rng.next_u32() as u64, rng.next_u32() as u64);
-    let (inv, rays) = inverse_coverage(scene, tracer, si, wo, r, cone_k, &mut probes);
+    let (inv, rays) = inverse_coverage(scene, tracer, si, wo, r, cone_k, &mut probes, holds);
     c.rays += rays;
     inv
 }
@@ -266,7 +268,7 @@ fn knn_radiance(
 ) -> Rgb {
     let (l, r) = SCRATCH.with(|s| map.radiance(si, wo, lobe, g, budget, &mut s.borrow_mut()));
     if edges && l != Rgb::ZERO {
-        l * edge_factor(scene, tracer, si, wo, r, g.cone_k, rng, c)
+        l * edge_factor(scene, tracer, si, wo, r, g.cone_k, rng, c, holds_photons)
     } else {
         l
     }
@@ -474,7 +476,8 @@ impl<'a> PhotonMapper<'a> {
             return l;
         }
         // Progressive passes gather with a box kernel.
-        l * *shared.get_or_insert_with(|| edge_factor(self.scene, self.tracer, si, wo, r, 0.0, rng, c))
+        let (scene, tracer) = (self.scene, self.tracer);
+        l * *shared.get_or_insert_with(|| edge_factor(scene, tracer, si, wo, r, 0.0, rng, c, holds_photons))
     }
 
     /// Radiance leaving a diffuse point (or a plastic's base) by its diffuse lobe: direct + caustic +
@@ -578,7 +581,7 @@ impl<'a> PhotonMapper<'a> {
                 Some(r) => Reach::Radius(r),
                 None => Reach::Knn(self.gather[CAUSTIC]),
             };
-            GlossyGather { map, reach }
+            GlossyGather { map, reach, edges: self.edges }
         });
         let (mut l, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, light, glossy.as_ref());
         if let Some(e) = end {

@@ -121,6 +121,7 @@ impl<'a> Sppm<'a> {
         let glossy = maps.glossy_photons.as_ref().map(|map| GlossyGather {
             map,
             reach: Reach::Radius(radius_at(glossy_initial_radius(self.scene), alpha, i)),
+            edges: self.scene.render.progressive.edge_correction,
         });
         let camera: Vec<(Rgb, Option<ChainEnd>, Counters)> = (0..self.pixels.len())
             .into_par_iter()

@@ -146,6 +146,7 @@ impl PhotonMap {
     /// same orientation (from either side: a rough glass lets light through), whose paths fit in `budget`
     /// scattering events, and for which `lobe` can carry light from l to `wo` (`SurfaceHit::can_scatter`).
     /// The k-NN reach leaves out the boundary photon and applies the cone filter, as `radiance` does.
+    /// Returns it with the radius of the disc it gathered over (0 when it found nothing).
     pub fn glossy_radiance(
         &self,
         si: &SurfaceHit,
@@ -154,9 +155,9 @@ impl PhotonMap {
         reach: Reach,
         budget: u32,
         res: &mut KnnResult,
-    ) -> Rgb {
+    ) -> (Rgb, f32) {
         if self.is_empty() {
-            return Rgb::ZERO;
+            return (Rgb::ZERO, 0.0);
         }
         let (r2, cone_k) = match reach {
             Reach::Knn(g) if g.k > 0 => (self.tree.knn(si.p.to_array(), g.k, g.max_r2, res), g.cone_k),
@@ -164,10 +165,10 @@ impl PhotonMap {
                 self.tree.within_res(si.p.to_array(), r * r, res);
                 (r * r, 0.0)
             }
-            _ => return Rgb::ZERO,
+            _ => return (Rgb::ZERO, 0.0),
         };
         if r2.is_nan() || r2 <= 0.0 || !r2.is_finite() {
-            return Rgb::ZERO;
+            return (Rgb::ZERO, 0.0);
         }
         let r = r2.sqrt();
         let boundary = match reach {
@@ -193,7 +194,7 @@ impl PhotonMap {
             sum += f * self.phi(i) * cone_w;
         }
         let norm = if cone { 1.0 - 2.0 / (3.0 * cone_k) } else { 1.0 };
-        sum / (std::f32::consts::PI * r2 * norm)
+        (sum / (std::f32::consts::PI * r2 * norm), r)
     }
 }
 
