@@ -185,40 +185,14 @@ fn a_glossy_surface_lit_by_a_glossy_caustic_is_in_every_mode() {
 /// that light, VCM merges it).
 #[test]
 fn a_point_lights_light_via_a_mirror_on_glossy_walls_seen_in_the_mirror() {
-    let reference = render(&load(include_str!("scenes/glossy-mirror-unfolded.toml"), "path", &["render.spp=1024"]));
-    let quarters = |img: &Image| -> [f64; 4] {
-        let (w, h) = (img.width as usize, img.height as usize);
-        let mut q = [0.0f64; 4];
-        for (i, p) in img.pixels.iter().enumerate() {
-            let (x, y) = (i % w, i / w);
-            q[2 * (2 * y / h) + 2 * x / w] += (p.x + p.y + p.z) as f64;
-        }
-        q
-    };
-    let want = quarters(&reference);
-    let want_mean = want.iter().sum::<f64>() / 4.0;
-    println!("reference (unfolded, path): quarters {want:.4?}");
-    let text = include_str!("scenes/glossy-mirror.toml");
-    let cases: [(&str, &[&str]); 4] = [
-        ("sppm", &["render.progressive.passes=128"]),
-        ("ppm", &["render.progressive.passes=128"]),
-        ("photon_map", &["render.photons.caustic=200000", "render.pm_spp=64"]),
-        ("vcm", &["render.progressive.passes=128"]),
-    ];
-    let mut failed = Vec::new();
-    for (mode, sets) in cases {
-        let got = quarters(&render(&load(text, mode, sets)));
-        let mean = got.iter().sum::<f64>() / 4.0;
-        let ratios: Vec<f64> = got.iter().zip(&want).map(|(g, w)| g / w).collect();
-        println!("{mode}: mean {:.4} of the reference's; quarters {ratios:.4?}", mean / want_mean);
-        if (mean / want_mean - 1.0).abs() > 0.015 {
-            failed.push(format!("{mode}: mean {:.4} of the reference's", mean / want_mean));
-        }
-        for (q, r) in ratios.iter().enumerate() {
-            if (r - 1.0).abs() > 0.05 {
-                failed.push(format!("{mode}: quarter {q} {r:.4} of the reference's"));
-            }
-        }
-    }
-    assert!(failed.is_empty(), "{failed:#?}");
+    common::assert_matches_unfolded(
+        include_str!("scenes/glossy-mirror.toml"),
+        include_str!("scenes/glossy-mirror-unfolded.toml"),
+        &[
+            ("sppm", &["render.progressive.passes=128"]),
+            ("ppm", &["render.progressive.passes=128"]),
+            ("photon_map", &["render.photons.caustic=200000", "render.pm_spp=64"]),
+            ("vcm", &["render.progressive.passes=128"]),
+        ],
+    );
 }

@@ -127,42 +127,14 @@ fn a_normal_mapped_scene_renders_alike_in_every_mode() {
 /// three read 19% dark.
 #[test]
 fn a_point_lights_light_via_a_mirror_on_normal_mapped_walls_seen_in_the_mirror() {
-    let reference = common::render_image(&common::scene_in_mode(
+    common::assert_matches_unfolded(
+        include_str!("scenes/mapped-mirror.toml"),
         include_str!("scenes/mapped-mirror-unfolded.toml"),
-        "path",
-        &["render.spp=1024"],
-    ));
-    let quarters = |img: &Image| -> [f64; 4] {
-        let b = blocks(img);
-        std::array::from_fn(|q| {
-            let (y, x) = (2 * (q / 2), 2 * (q % 2));
-            (b[4 * y + x] + b[4 * y + x + 1] + b[4 * y + 4 + x] + b[4 * y + 5 + x]) / 4.0
-        })
-    };
-    let want = quarters(&reference);
-    let want_mean = want.iter().sum::<f64>() / 4.0;
-    println!("reference (unfolded, path): quarters {want:.4?}");
-    let text = include_str!("scenes/mapped-mirror.toml");
-    let cases: [(&str, &[&str]); 4] = [
-        ("sppm", &["render.progressive.passes=128"]),
-        ("ppm", &["render.progressive.passes=128"]),
-        ("photon_map", &["render.photons.caustic=200000", "render.photons.indirect=20000"]),
-        ("vcm", &["render.progressive.passes=128"]),
-    ];
-    let mut failed = Vec::new();
-    for (mode, sets) in cases {
-        let got = quarters(&common::render_image(&common::scene_in_mode(text, mode, sets)));
-        let mean = got.iter().sum::<f64>() / 4.0;
-        let ratios: Vec<f64> = got.iter().zip(&want).map(|(g, w)| g / w).collect();
-        println!("{mode}: mean {:.4} of the reference's; quarters {ratios:.4?}", mean / want_mean);
-        if (mean / want_mean - 1.0).abs() > 0.015 {
-            failed.push(format!("{mode}: mean {:.4} of the reference's", mean / want_mean));
-        }
-        for (q, r) in ratios.iter().enumerate() {
-            if (r - 1.0).abs() > 0.05 {
-                failed.push(format!("{mode}: quarter {q} {r:.4} of the reference's"));
-            }
-        }
-    }
-    assert!(failed.is_empty(), "{failed:#?}");
+        &[
+            ("sppm", &["render.progressive.passes=128"]),
+            ("ppm", &["render.progressive.passes=128"]),
+            ("photon_map", &["render.photons.caustic=200000", "render.photons.indirect=20000"]),
+            ("vcm", &["render.progressive.passes=128"]),
+        ],
+    );
 }

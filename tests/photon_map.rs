@@ -433,24 +433,36 @@ fn photons_follow_the_path_tracers_depth_through_a_long_mirror_tube() {
     assert!(got > 0.96 * 10.0 && got < 1.005 * 10.0, "floor receives {got} of 10 W");
 }
 
-#[test]
-fn uniform_photon_density_gives_the_lambertian_radiance_with_and_without_the_cone_filter() {
-    // Photons on a jittered grid over a 2×2 plane, total flux Φ: irradiance E = Φ/4, L = ρE/π.
-    use caustica::photon::estimate::{Gather, PhotonMap};
+/// n × n photons of total flux `phi` on a jittered grid over the 2 × 2 square of the plane y = 0
+/// (random stream `seed`), landed on its side `side`, each travelling along `wi(a, b)` of its jitter.
+fn photons_on_square(
+    n: usize,
+    phi: f32,
+    seed: u64,
+    side: Vec3,
+    wi: impl Fn(f32, f32) -> Vec3,
+) -> caustica::photon::estimate::PhotonMap {
     use caustica::photon::photon::Photon;
-    use caustica::photon::trace::MapPhotons;
-    let (n, phi, rho) = (1000usize, 8.0f32, 0.6f32);
-    let mut rng = caustica::math::Rng::new(21, 0, 0);
+    let mut rng = caustica::math::Rng::new(seed, 0, 0);
     let mut photons = Vec::with_capacity(n * n);
     for j in 0..n {
         for i in 0..n {
             let [a, b] = rng.next_2d();
             let p = Vec3::new(-1.0 + 2.0 * (i as f32 + a) / n as f32, 0.0, -1.0 + 2.0 * (j as f32 + b) / n as f32);
-            let wi = Vec3::new(0.3 * (a - 0.5), -1.0, 0.3 * (b - 0.5)).normalize();
-            photons.push(Photon { p, wi, phi: Rgb::splat(phi / (n * n) as f32), n: Vec3::Y });
+            photons.push(Photon { p, wi: wi(a, b), phi: Rgb::splat(phi / (n * n) as f32), n: side });
         }
     }
-    let map = PhotonMap::build(MapPhotons::from_photons(&photons, 1)).unwrap();
+    let m = caustica::photon::trace::MapPhotons::from_photons(&photons, 1);
+    caustica::photon::estimate::PhotonMap::build(m).unwrap()
+}
+
+#[test]
+fn uniform_photon_density_gives_the_lambertian_radiance_with_and_without_the_cone_filter() {
+    // Photons on a jittered grid over a 2×2 plane, total flux Φ: irradiance E = Φ/4, L = ρE/π.
+    use caustica::photon::estimate::Gather;
+    let (n, phi, rho) = (1000usize, 8.0f32, 0.6f32);
+    let map =
+        photons_on_square(n, phi, 21, Vec3::Y, |a, b| Vec3::new(0.3 * (a - 0.5), -1.0, 0.3 * (b - 0.5)).normalize());
     let expect = rho * (phi / 4.0) / std::f32::consts::PI;
     let mut res = KnnResult::new();
     for cone_k in [0.0f32, 1.1, 2.0] {
@@ -485,24 +497,11 @@ fn uniform_photon_density_gives_the_lambertian_radiance_with_and_without_the_con
 /// along (as its record holds it) and the side tests to 1.5%.
 #[test]
 fn uniform_photon_density_gives_the_glossy_radiance_for_each_direction() {
-    use caustica::photon::estimate::{Gather, PhotonMap, Reach};
+    use caustica::photon::estimate::{Gather, Reach};
     use caustica::photon::photon::Photon;
-    use caustica::photon::trace::MapPhotons;
     use caustica::scene::material::{Fresnel, Material, Microfacet};
     let (n, phi) = (700usize, 8.0f32);
-    let map_from = |l: Vec3| {
-        let mut rng = caustica::math::Rng::new(22, 0, 0);
-        let mut photons = Vec::with_capacity(n * n);
-        for j in 0..n {
-            for i in 0..n {
-                let [a, b] = rng.next_2d();
-                let p = Vec3::new(-1.0 + 2.0 * (i as f32 + a) / n as f32, 0.0, -1.0 + 2.0 * (j as f32 + b) / n as f32);
-                let side = if l.y > 0.0 { Vec3::Y } else { -Vec3::Y };
-                photons.push(Photon { p, wi: -l, phi: Rgb::splat(phi / (n * n) as f32), n: side });
-            }
-        }
-        PhotonMap::build(MapPhotons::from_photons(&photons, 1)).unwrap()
-    };
+    let map_from = |l: Vec3| photons_on_square(n, phi, 22, if l.y > 0.0 { Vec3::Y } else { -Vec3::Y }, |_, _| -l);
     let metal = Material::conductor(Fresnel::Schlick(Rgb::new(0.9, 0.7, 0.4)), 0.3, Microfacet::Ggx);
     let glass = Material::Dielectric {
         ior: 1.5,

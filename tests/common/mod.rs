@@ -101,3 +101,40 @@ pub const SMALL_GLASS_PM: &[&str] = &[
     "--set",
     "render.photons.indirect=20000",
 ];
+
+/// Sums of the image's four quarters (top left, top right, bottom left, bottom right).
+pub fn quarters(img: &Image) -> [f64; 4] {
+    let (w, h) = (img.width as usize, img.height as usize);
+    let mut q = [0.0f64; 4];
+    for (i, p) in img.pixels.iter().enumerate() {
+        let (x, y) = (i % w, i / w);
+        q[2 * (2 * y / h) + 2 * x / w] += (p.x + p.y + p.z) as f64;
+    }
+    q
+}
+
+/// A scene with a perfect mirror (`text`) against the same scene unfolded about the mirror's plane
+/// (`unfolded`: every path through the mirror a straight one there), path traced at 1024 spp with
+/// light samples alone, its exact reference: each of `cases` (a mode and its overrides) must read the
+/// reference's mean within 1.5% and each quarter of the image within 5%.
+pub fn assert_matches_unfolded(text: &str, unfolded: &str, cases: &[(&str, &[&str])]) {
+    let want = quarters(&render_image(&scene_in_mode(unfolded, "path", &["render.spp=1024"])));
+    let want_mean = want.iter().sum::<f64>() / 4.0;
+    println!("reference (unfolded, path): quarters {want:.4?}");
+    let mut failed = Vec::new();
+    for &(mode, sets) in cases {
+        let got = quarters(&render_image(&scene_in_mode(text, mode, sets)));
+        let mean = got.iter().sum::<f64>() / 4.0;
+        let ratios: Vec<f64> = got.iter().zip(&want).map(|(g, w)| g / w).collect();
+        println!("{mode}: mean {:.4} of the reference's; quarters {ratios:.4?}", mean / want_mean);
+        if (mean / want_mean - 1.0).abs() > 0.015 {
+            failed.push(format!("{mode}: mean {:.4} of the reference's", mean / want_mean));
+        }
+        for (q, r) in ratios.iter().enumerate() {
+            if (r - 1.0).abs() > 0.05 {
+                failed.push(format!("{mode}: quarter {q} {r:.4} of the reference's"));
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{failed:#?}");
+}
