@@ -77,13 +77,8 @@ impl PhotonMap {
         }
         let r = r2.sqrt();
         let f = PhotonFilter::new(si, wo, r, budget, lobe);
-        let cone = g.cone_k >= 1.0;
-        // When k photons were found, r is the k-th one's distance and that photon sits on the boundary:
-        // given r, the other k − 1 are spread over the disc, so (k − 1)/(π r²) is the unbiased density,
-        // and counting the boundary photon too would add k/(k − 1) (3.4% at k = 30). It is left out.
-        let boundary = (res.items().len() >= g.k)
-            .then(|| res.items().iter().enumerate().max_by(|a, b| a.1 .0.total_cmp(&b.1 .0)).map(|(j, _)| j))
-            .flatten();
+        let cone = Cone { k: g.cone_k, r };
+        let boundary = boundary_photon(res, g.k);
         let mut sum = Rgb::ZERO;
         for (j, &(d2, i)) in res.items().iter().enumerate() {
             if Some(j) == boundary {
@@ -92,11 +87,9 @@ impl PhotonMap {
             let Some(w) = f.weight(self.tree.item(i), self.tree.position(i)) else {
                 continue;
             };
-            let cone_w = if cone { (1.0 - d2.sqrt() / (g.cone_k * r)).max(0.0) } else { 1.0 };
-            sum += self.phi(i) * (w * cone_w);
+            sum += self.phi(i) * (w * cone.weight(d2));
         }
-        let norm = if cone { 1.0 - 2.0 / (3.0 * g.cone_k) } else { 1.0 };
-        (sum * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r2 * norm), r)
+        (sum * lobe.rho / (std::f32::consts::PI * std::f32::consts::PI * r2 * cone.norm()), r)
     }
 
     /// Flux-weighted sum Σ w_p ΔΦ_p over the photons within radius `r` of `si` that pass the surface
@@ -172,12 +165,10 @@ impl PhotonMap {
         }
         let r = r2.sqrt();
         let boundary = match reach {
-            Reach::Knn(g) if res.items().len() >= g.k => {
-                res.items().iter().enumerate().max_by(|a, b| a.1 .0.total_cmp(&b.1 .0)).map(|(j, _)| j)
-            }
-            _ => None,
+            Reach::Knn(g) => boundary_photon(res, g.k),
+            Reach::Radius(_) => None,
         };
-        let cone = cone_k >= 1.0;
+        let cone = Cone { k: cone_k, r };
         let mut sum = Rgb::ZERO;
         for (j, &(d2, i)) in res.items().iter().enumerate() {
             let (item, pos) = (self.tree.item(i), self.tree.position(i));
@@ -190,11 +181,45 @@ impl PhotonMap {
                 continue;
             }
             let f = lobe.eval(wo, l, si.ns, TransportMode::Radiance) * (l.dot(si.ns).abs() / cos_g);
-            let cone_w = if cone { (1.0 - d2.sqrt() / (cone_k * r)).max(0.0) } else { 1.0 };
-            sum += f * self.phi(i) * cone_w;
+            sum += f * self.phi(i) * cone.weight(d2);
         }
-        let norm = if cone { 1.0 - 2.0 / (3.0 * cone_k) } else { 1.0 };
-        (sum / (std::f32::consts::PI * r2 * norm), r)
+        (sum / (std::f32::consts::PI * r2 * cone.norm()), r)
+    }
+}
+
+/// Where a k-NN gather found k photons, the one on the boundary (its index in `res`): r is its
+/// distance, so given r the other k − 1 are spread over the disc and (k − 1)/(π r²) is the unbiased
+/// density; counting the boundary photon too would add k/(k − 1) (3.4% at k = 30). It is left out.
+fn boundary_photon(res: &KnnResult, k: usize) -> Option<usize> {
+    (res.items().len() >= k)
+        .then(|| res.items().iter().enumerate().max_by(|a, b| a.1 .0.total_cmp(&b.1 .0)).map(|(j, _)| j))
+        .flatten()
+}
+
+/// The cone filter of a gather over radius `r`: weight max(0, 1 − d/(k r)) for a photon at distance d
+/// and normalisation 1 − 2/(3k), with k ≥ 1; a box (weight and normalisation 1) otherwise.
+#[derive(Clone, Copy)]
+struct Cone {
+    k: f32,
+    r: f32,
+}
+
+impl Cone {
+    #[inline(always)]
+    fn weight(self, d2: f32) -> f32 {
+        if self.k >= 1.0 {
+            (1.0 - d2.sqrt() / (self.k * self.r)).max(0.0)
+        } else {
+            1.0
+        }
+    }
+
+    fn norm(self) -> f32 {
+        if self.k >= 1.0 {
+            1.0 - 2.0 / (3.0 * self.k)
+        } else {
+            1.0
+        }
     }
 }
 

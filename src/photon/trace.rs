@@ -374,14 +374,15 @@ fn trace_one(
             ray = si.spawn(ray.d);
         };
         let last = depth + 1 >= s.max_depth;
-        if delta_first && specular_bounces > 0 && s.want[GLOSSY] > 0 {
+        if delta_first && specular_bounces > 0 {
+            let glossy = mat.unheld_glossy_lobe();
             // Kept whatever this photon's own pick at a blend: the gather weighs the camera's.
-            if mat.unheld_glossy_lobe().is_some() || scene.blend_offers(&si, wo, |m| m.unheld_glossy_lobe().is_some()) {
+            if s.want[GLOSSY] > 0
+                && (glossy.is_some() || scene.blend_offers(&si, wo, |m| m.unheld_glossy_lobe().is_some()))
+            {
                 out[GLOSSY].push(record(&si, wo, phi, depth));
             }
-        }
-        if s.glossy_splats && delta_first && specular_bounces > 0 {
-            if let Some(lobe) = mat.unheld_glossy_lobe() {
+            if let Some(lobe) = glossy.filter(|_| s.glossy_splats) {
                 let lens = scene.camera.sample_lens(rng);
                 let mut c = crate::integrator::Counters::default();
                 let add = |pixel, val| splats.push((pixel, val));
