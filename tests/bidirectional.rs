@@ -70,6 +70,39 @@ fn the_furnace_reads_le_over_one_minus_albedo() {
     }
 }
 
+/// The furnace seen from its middle towards a corner (three walls and their edges fill the view), with
+/// a merge radius of 0.6 (the walls are 2 wide) that hardly shrinks: merging alone (a progressive photon
+/// mapper) and VCM must read `Le/(1 − a)` = 2 in every 8 × 8 block, along the edges and at the corner
+/// too. A merge that counts, at a point by an edge, the light vertices of the wall across it (the
+/// search's ball, not the disc on the surface) misreads bands one radius wide along every edge; a disc
+/// counted whole where part of it is off the wall reads dark there.
+#[test]
+fn merging_reads_the_furnace_right_at_its_edges_and_corners() {
+    let (le, a) = (1.0f32, 0.5f32);
+    let s = common::scene(&format!(
+        "[camera]\norigin = [0.3, 0.3, 0.3]\ntarget = [-1.0, -1.0, -1.0]\nfov = 100\nresolution = [32, 32]\n\
+         [materials]\nwall = {{ type = \"diffuse\", reflectance = [{a}, {a}, {a}] }}\n\
+         [render]\nmax_depth = 10000\n[render.progressive]\nradius = 0.6\nalpha = 0.99\n{}",
+        common::inward_box(-1.0, 1.0, "wall", Some(le))
+    ));
+    let a = Accel::new(&s).unwrap();
+    let merging = VcmOptions { connect: false, ..VcmOptions::vcm() };
+    let read: Vec<(&str, f64, f64)> = [("merging", merging), ("vcm", VcmOptions::vcm())]
+        .into_iter()
+        .map(|(name, opts)| {
+            let blocks = bidir_blocks(&s, &a, opts, 48, 4);
+            let mean = blocks.iter().sum::<f64>() / blocks.len() as f64;
+            let worst = blocks.iter().map(|b| (b / 2.0 - 1.0).abs()).fold(0.0, f64::max);
+            eprintln!("{name} furnace towards a corner: mean {mean:.5}, worst 4 × 4 block {worst:.4} off 2");
+            (name, mean, worst)
+        })
+        .collect();
+    for (name, mean, worst) in read {
+        assert!((mean / 2.0 - 1.0).abs() < 0.005, "{name}: the furnace reads {mean} towards a corner, expected 2");
+        assert!(worst < 0.03, "{name}: a block of the furnace reads {worst} off 2");
+    }
+}
+
 fn small(name: &str, res: u32) -> (Scene, Accel) {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
     let s = load_scene_with(&p, &[format!("camera.resolution=[{res}, {res}]")]).unwrap();

@@ -28,12 +28,18 @@ fn disc_frame(si: &SurfaceHit, wo: Vec3) -> (Vec3, Frame) {
 }
 
 /// Which surfaces hold the photons an estimate reads: `Material::holds_photons` for the photon maps,
-/// `Material::unheld_glossy_lobe` for the glossy photons (`super::GlossyGather`).
+/// `Material::unheld_glossy_lobe` for the glossy photons (`super::GlossyGather`), any BSDF not a delta
+/// for VCM's light vertices.
 pub type Holds = fn(&crate::scene::Material) -> bool;
 
 /// The photon maps' surfaces (`Holds`).
 pub fn holds_photons(m: &crate::scene::Material) -> bool {
     m.holds_photons()
+}
+
+/// The surfaces VCM keeps light vertices on and merges at: every BSDF but a mirror's or glass's.
+pub fn holds_light_vertices(m: &crate::scene::Material) -> bool {
+    !m.is_delta()
 }
 
 /// The glossy photons' surfaces (`Holds`).

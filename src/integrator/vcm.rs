@@ -18,6 +18,8 @@
 //! and light-tracing splats are summed in a fixed order (per chunk of light paths, chunks in order),
 //! so images are the same bits on any thread count.
 use super::direct::{sample_light, shadow};
+use super::edges::holds_light_vertices;
+use super::photon_map::edge_factor;
 use super::{Counters, LineOfSight};
 use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
@@ -132,6 +134,8 @@ impl LightVertex {
 #[derive(Clone, Copy, Debug, Default)]
 struct MergeVertex {
     wo: Vec3,
+    /// The geometric normal where the light landed: a merge reads only the surface it is on.
+    ng: Vec3,
     beta: Rgb,
     len: u32,
     d_vcm: f32,
@@ -630,7 +634,8 @@ pub fn iterate(scene: &Scene, tracer: &dyn Tracer, setup: &Setup, i: u32) -> Ite
             .iter()
             .filter(|lv| keep(lv))
             .map(|lv| {
-                let m = MergeVertex { wo: lv.wo, beta: lv.beta, len: lv.len, d_vcm: lv.d_vcm, s_vm: lv.s_vm };
+                let m =
+                    MergeVertex { wo: lv.wo, ng: lv.si.ng, beta: lv.beta, len: lv.len, d_vcm: lv.d_vcm, s_vm: lv.s_vm };
                 (lv.si.p.to_array(), m)
             })
             .collect();
@@ -1035,7 +1040,7 @@ impl Vcm<'_> {
                     }
                 }
                 if let Some(tree) = merge_tree {
-                    l += sp.beta * self.merge(&sp, &si, wo, &mat, eta, tree);
+                    l += sp.beta * self.merge(&sp, &si, wo, &mat, eta, tree, rng, c);
                 }
             }
             prev = si.p;
@@ -1189,7 +1194,12 @@ impl Vcm<'_> {
 
     /// Vertex merging at a non-delta camera vertex [tech. rep. (37)-(39)]: the light vertices of `tree`
     /// within the iteration's radius, as a density estimate over the disc; to be multiplied by the
-    /// camera throughput.
+    /// camera throughput. As the photon maps' gathers: only light vertices on the disc (within a quarter
+    /// of the radius of the tangent plane, on a surface facing within 53° of it) count, and the sum is
+    /// divided by the part of the disc that is surface (`edges::inverse_coverage` over the surfaces that
+    /// hold light vertices). The search's ball, counted whole, reads a point by a concave edge with the
+    /// light vertices of the wall across it, and its disc, counted whole, reads dark by a convex one.
+    #[allow(clippy::too_many_arguments)]
     fn merge(
         &self,
         sp: &SubPath,
@@ -1198,6 +1208,8 @@ impl Vcm<'_> {
         mat: &Material,
         eta: f32,
         tree: &KdTree<MergeVertex>,
+        rng: &mut Rng,
+        c: &mut Counters,
     ) -> Rgb {
         let it = &self.it;
         if it.opts.strategy.is_some() {
@@ -1207,10 +1219,15 @@ impl Vcm<'_> {
         SCRATCH.with(|s| {
             let mut s = s.borrow_mut();
             let r2 = eta / (PI * it.n_paths);
+            let slab = 0.25 * r2.sqrt();
             tree.within_res(si.p.to_array(), r2, &mut s);
             for &(_, ti) in s.items() {
                 let lv = tree.item(ti);
                 if lv.len + sp.len > it.max_len || !si.can_scatter(mat, wo, lv.wo) {
+                    continue;
+                }
+                let off = (Vec3::from_array(tree.position(ti)) - si.p).dot(si.ng);
+                if off.abs() > slab || lv.ng.dot(si.ng).abs() < 0.6 {
                     continue;
                 }
                 let f = mat.eval(wo, lv.wo, si.ns, TransportMode::Radiance);
@@ -1223,7 +1240,21 @@ impl Vcm<'_> {
                 sum += f * lv.beta * (1.0 / (w_light + 1.0 + w_camera));
             }
         });
-        sum * (1.0 / eta)
+        if sum == Rgb::ZERO {
+            return sum;
+        }
+        let edge = edge_factor(
+            self.scene,
+            self.tracer,
+            si,
+            wo,
+            (eta / (PI * it.n_paths)).sqrt(),
+            0.0,
+            rng,
+            c,
+            holds_light_vertices,
+        );
+        sum * (edge / eta)
     }
 }
 
