@@ -1216,10 +1216,10 @@ impl Vcm<'_> {
             return Rgb::ZERO;
         }
         let mut sum = Rgb::ZERO;
+        let r = (eta / (PI * it.n_paths)).sqrt();
         SCRATCH.with(|s| {
             let mut s = s.borrow_mut();
-            let r2 = eta / (PI * it.n_paths);
-            let slab = 0.25 * r2.sqrt();
+            let (r2, slab) = (r * r, 0.25 * r);
             tree.within_res(si.p.to_array(), r2, &mut s);
             for &(_, ti) in s.items() {
                 let lv = tree.item(ti);
@@ -1243,17 +1243,7 @@ impl Vcm<'_> {
         if sum == Rgb::ZERO {
             return sum;
         }
-        let edge = edge_factor(
-            self.scene,
-            self.tracer,
-            si,
-            wo,
-            (eta / (PI * it.n_paths)).sqrt(),
-            0.0,
-            rng,
-            c,
-            holds_light_vertices,
-        );
+        let edge = edge_factor(self.scene, self.tracer, si, wo, r, 0.0, rng, c, holds_light_vertices);
         sum * (edge / eta)
     }
 }
