@@ -72,8 +72,8 @@ fn the_furnace_reads_le_over_one_minus_albedo() {
 
 /// The furnace seen from its middle towards a corner (three walls and their edges fill the view), with
 /// a merge radius of 0.6 (the walls are 2 wide) that hardly shrinks: merging alone (a progressive photon
-/// mapper) and VCM must read `Le/(1 − a)` = 2 in every 8 × 8 block, along the edges and at the corner
-/// too. A merge that counts, at a point by an edge, the light vertices of the wall across it (the
+/// mapper) and VCM must read `Le/(1 − a)` = 2, the mean within 0.5% and every 4 × 4 block within 3%, along
+/// the edges and at the corner too. A merge that counts, at a point by an edge, the light vertices of the wall across it (the
 /// search's ball, not the disc on the surface) misreads bands one radius wide along every edge; a disc
 /// counted whole where part of it is off the wall reads dark there.
 #[test]

@@ -7,6 +7,7 @@
 //! by an unbiased estimate of its inverse (`inverse_coverage`).
 use crate::accel::Tracer;
 use crate::math::{Frame, Ray, Rng};
+use crate::photon::estimate::{DISC_FACING, DISC_SLAB};
 use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 
@@ -64,7 +65,7 @@ fn probe(
     phi: f32,
     holds: Holds,
 ) -> (bool, u64) {
-    let h = 0.25 * r;
+    let h = DISC_SLAB * r;
     let q = p + frame.to_world(Vec3::new(rho * phi.cos(), rho * phi.sin(), 0.0));
     let mut ray = Ray { o: q + n * h, d: -n, tmin: 0.0, tmax: 2.0 * h };
     // A few surfaces at most stand in the slab: pass through the ones that cannot hold photons.
@@ -75,7 +76,7 @@ fn probe(
             break;
         };
         let s = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-        if s.ng.dot(n).abs() >= 0.6 && scene.any_bsdf_at(&s, n, holds) {
+        if s.ng.dot(n).abs() >= DISC_FACING && scene.any_bsdf_at(&s, n, holds) {
             return (true, rays);
         }
         ray.tmin = hit.t + 1e-4 * h;

@@ -28,6 +28,7 @@ use crate::math::sampling::russian_roulette;
 use crate::math::sampling::{uniform_cone, uniform_sphere};
 use crate::math::Frame;
 use crate::math::{max_component, offset_ray_origin, Ray, Rng};
+use crate::photon::estimate::{in_disc_slab, DISC_FACING};
 use crate::photon::kdtree::{KdTree, KnnResult};
 use crate::scene::file::MergePrimary as Primary;
 use crate::scene::light::{visible_cone, EmittedRay, Lights};
@@ -1219,15 +1220,13 @@ impl Vcm<'_> {
         let r = (eta / (PI * it.n_paths)).sqrt();
         SCRATCH.with(|s| {
             let mut s = s.borrow_mut();
-            let (r2, slab) = (r * r, 0.25 * r);
-            tree.within_res(si.p.to_array(), r2, &mut s);
+            tree.within_res(si.p.to_array(), r * r, &mut s);
             for &(_, ti) in s.items() {
                 let lv = tree.item(ti);
                 if lv.len + sp.len > it.max_len || !si.can_scatter(mat, wo, lv.wo) {
                     continue;
                 }
-                let off = (Vec3::from_array(tree.position(ti)) - si.p).dot(si.ng);
-                if off.abs() > slab || lv.ng.dot(si.ng).abs() < 0.6 {
+                if !in_disc_slab(si.p, si.ng, r, tree.position(ti)) || lv.ng.dot(si.ng).abs() < DISC_FACING {
                     continue;
                 }
                 let f = mat.eval(wo, lv.wo, si.ns, TransportMode::Radiance);

@@ -172,7 +172,7 @@ impl PhotonMap {
         let mut sum = Rgb::ZERO;
         for (j, &(d2, i)) in res.items().iter().enumerate() {
             let (item, pos) = (self.tree.item(i), self.tree.position(i));
-            if Some(j) == boundary || !on_disc(si.p, si.ng, r, budget, pos) || item.n().dot(si.ng).abs() < 0.6 {
+            if Some(j) == boundary || !on_disc(si.p, si.ng, r, budget, pos) || item.n().dot(si.ng).abs() < DISC_FACING {
                 continue;
             }
             let l = -item.wi();
@@ -223,13 +223,28 @@ impl Cone {
     }
 }
 
+/// The gather disc's thickness: what lies within this fraction of the radius of a gather point's
+/// tangent plane counts as on its disc. Every estimate's filter and the edge correction's probes
+/// (`integrator::edges`) use it, so that the probes measure the part of the disc the filter accepts.
+pub const DISC_SLAB: f32 = 0.25;
+
+/// The least |cos| between the normals of a gather point and a surface its disc counts (53°): a
+/// nearby surface facing elsewhere (the next wall round a corner) is not the disc's.
+pub const DISC_FACING: f32 = 0.6;
+
+/// Whether `pos` lies in the slab of the gather disc of radius `r` at `p`, normal `n` (`DISC_SLAB`).
+#[inline(always)]
+pub fn in_disc_slab(p: Vec3, n: Vec3, r: f32, pos: [f32; 3]) -> bool {
+    (Vec3::from_array(pos) - p).dot(n).abs() <= DISC_SLAB * r
+}
+
 /// Whether a photon at `pos` (its record of scattering events included) lies on the tangent disc of
-/// radius `r` at `p` (within a quarter of the radius of the plane of normal `n`: not on a nearby
-/// surface facing elsewhere) and its path fits in `budget` scattering events (with 7 or more left
-/// every record fits: no test). The position's test first: it is at hand.
+/// radius `r` at `p` (`in_disc_slab`: not on a nearby surface facing elsewhere) and its path fits in
+/// `budget` scattering events (with 7 or more left every record fits: no test). The position's test
+/// first: it is at hand.
 #[inline(always)]
 fn on_disc(p: Vec3, n: Vec3, r: f32, budget: u32, pos: [f32; 3]) -> bool {
-    (Vec3::from_array(pos) - p).dot(n).abs() <= 0.25 * r && (budget >= EVENTS_CAP || within_depth(events(pos), budget))
+    in_disc_slab(p, n, r, pos) && (budget >= EVENTS_CAP || within_depth(events(pos), budget))
 }
 
 /// The per-photon tests and weight shared by every estimate at one surface point.
@@ -278,7 +293,7 @@ impl PhotonFilter {
         }
         // Landed on a surface facing the same way (not the other side of a thin wall, not the next wall
         // round a corner), and arrived from the viewer's side (travelled against the normal).
-        if item.n().dot(self.n_side) < 0.6 {
+        if item.n().dot(self.n_side) < DISC_FACING {
             return None;
         }
         let wi = item.wi();
