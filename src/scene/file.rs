@@ -275,7 +275,9 @@ pub enum MaterialSpec {
     /// around the `normalmap`) shows the mirror image of the front behind the surface, whatever the
     /// material's own sides. Only on a shape's own material (not inside a blend or a side of `sides`),
     /// on meshes with texture coordinates and spheres; over any material but a thin pane or a null
-    /// surface. Photons are not stored on it: the photon mappers follow camera paths across it.
+    /// surface. Photons are stored on it where its material holds them (diffuse, a plastic's base) and
+    /// gathered about the mapped normal; a mapped diffuse surface scatters diffusely (no caustic target,
+    /// no extra eye samples). Over metal or glass the photon mappers follow camera paths across it.
     Normalmap {
         normal_map: String,
         material: String,

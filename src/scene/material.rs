@@ -1342,6 +1342,16 @@ impl Material {
         matches!(self, Material::Diffuse { .. })
     }
 
+    /// Whether the BSDF scatters as a diffuse one does: Lambertian, or Lambertian about a normal or bump
+    /// map's normal. It holds photons, a photon bounced by it is an indirect one and a camera path ends
+    /// on it, so it casts no caustic and a camera ray meeting it first is no specular first hit.
+    pub fn scatters_diffusely(&self) -> bool {
+        match self {
+            Material::Mapped(m) => matches!(m.nested, Nested::Diffuse(_)),
+            m => m.is_diffuse(),
+        }
+    }
+
     /// Reflectance colour (diffuse reflectance, conductor reflectance at normal incidence, dielectric
     /// tint); its largest component is the photon's Russian-roulette survival probability at diffuse hits.
     pub fn albedo(&self) -> Rgb {

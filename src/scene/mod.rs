@@ -491,23 +491,25 @@ impl Scene {
 
     /// Whether some material a hit on `shape` can be reflects or bends light other than diffusely (a
     /// mirror, glass, metal, a coat): what caustic photons and VCM's light subpaths are aimed at. The
-    /// holes of a see-through surface only let light by, as if the surface were not there.
+    /// holes of a see-through surface only let light by, as if the surface were not there; a normal- or
+    /// bump-mapped diffuse surface scatters diffusely (`Material::scatters_diffusely`).
     pub fn casts_caustics(&self, shape: u32) -> bool {
         let see_through = self.is_see_through(shape);
         self.any_leaf(self.shapes[shape as usize].material, &mut |m| {
             let lets_by = see_through && m.bsdf.pass_through().is_some();
-            !m.bsdf.is_diffuse() && !lets_by
+            !m.bsdf.scatters_diffusely() && !lets_by
         })
     }
 
-    /// Whether every material a hit on `shape` can be is Lambertian (no mirror, glass, coat or hole).
+    /// Whether every material a hit on `shape` can be scatters diffusely (`Material::scatters_diffusely`:
+    /// Lambertian, also about a normal or bump map's normal; no mirror, glass, coat or hole).
     pub fn is_diffuse(&self, shape: u32) -> bool {
         self.material_is_diffuse(self.shapes[shape as usize].material)
     }
 
     /// `is_diffuse` of a material (an index into `materials`).
     pub fn material_is_diffuse(&self, material: u32) -> bool {
-        !self.any_leaf(material, &mut |m| !m.bsdf.is_diffuse())
+        !self.any_leaf(material, &mut |m| !m.bsdf.scatters_diffusely())
     }
 
     /// Whether some material a hit on `material` can be is not a delta BSDF: bidirectional light
