@@ -88,6 +88,14 @@ const AIM_LIGHT_TRIES: usize = 8;
 /// block: 64 each, at stratified points of the triangle).
 const AIM_PROBE_RAYS: usize = 1 << 16;
 
+/// Photons of the pilot that measures each target's yield (`Targets::pilot_yields`).
+const AIM_PILOT: u64 = 1 << 14;
+/// Shots' worth of the mean yield each target's pilot count starts from (a target few pilot photons
+/// were aimed at keeps about the mean).
+const AIM_PILOT_PRIOR: f64 = 16.0;
+/// Fewest stored pilot photons that say anything about the targets' yields.
+const AIM_PILOT_MIN_STORED: f64 = 64.0;
+
 /// Point `k` of an `n`-point Hammersley set in the unit square (stratified in the first coordinate).
 fn hammersley(k: usize, n: usize) -> [f32; 2] {
     [(k as f32 + 0.5) / n as f32, (k as u32).reverse_bits() as f32 / 4_294_967_296.0]
@@ -96,15 +104,20 @@ fn hammersley(k: usize, n: usize) -> [f32; 2] {
 /// Specular surfaces that caustic photons are aimed at. A point is drawn in two steps (a target shape,
 /// then one of its triangles, each by precomputed shares), with density over the targets' area
 ///
-///   p(y) = (1 − a) · v(T)/V + a / A,   a = `AIM_BY_AREA`,
+///   p(y) = (1 − a) · c(T)·v(T)/V + a / A,   a = `AIM_BY_AREA`,
 ///
 /// for y on triangle T: A the targets' total area, v(T) the fraction of probes for which a photon aimed
 /// at a point of T, from a light point drawn as direct lighting draws it there (facing that point: the
 /// far side of a sphere light would say nothing about T), arrives first (what `trace_one` checks of
-/// every aimed photon), V = Σ area(T)·v(T). A closed glass mesh shows a light at
-/// most half its area, and its folds hide more (the glass dragon: three aimed photons in four hit the
-/// dragon elsewhere first and were dropped); with the probes most shots arrive. A sphere is one element
-/// (uniform on it), probed at `AIM_PROBES` points.
+/// every aimed photon), c(T) the yield of T's shape: the share of the photons aimed at it (by the
+/// density with c = 1) that a caustic pass stores, measured by a pilot of `AIM_PILOT` photons where
+/// there are two target shapes or more (`pilot_yields`), V = Σ area(T)·c(T)·v(T). A closed glass mesh
+/// shows a light at most half its area, and its folds hide more (the glass dragon: three aimed photons
+/// in four hit the dragon elsewhere first and were dropped); with the probes most shots arrive. A
+/// plastic floor beside a glass ball would take most shots by its area, though a caustic pass keeps
+/// nothing of the light its base scatters and its coat sends most of the rest out of the scene; with
+/// the pilot most go to the ball. A sphere is one element (uniform on it), probed at `AIM_PROBES`
+/// points.
 pub struct Targets {
     shapes: Vec<u32>,
     /// Running sum of each target shape's share of the shots.
@@ -180,24 +193,100 @@ impl Targets {
                 }
             })
             .collect();
-        let area: f64 = elements.iter().flatten().map(|e| e.0 as f64).sum();
-        let seen: f64 = elements.iter().flatten().map(|e| e.0 as f64 * e.1 as f64).sum();
-        let a = if seen > 0.0 { AIM_BY_AREA as f64 } else { 1.0 };
-        let density = |v: f32| (1.0 - a) * v as f64 / seen.max(f64::MIN_POSITIVE) + a / area;
         let probe_rays = tracer.rays.load(std::sync::atomic::Ordering::Relaxed);
+        let by_sight = Targets::weighed(scene, shapes.clone(), &elements, None, probe_rays);
+        // With more than one target, a pilot of aimed photons measures each one's yield: what share of
+        // the photons aimed at it a caustic pass stores (its photons may also miss it, be scattered
+        // by a plastic's base, which a caustic pass does not keep, or leave the scene).
+        if by_sight.shapes.len() < 2 || !probing {
+            return by_sight;
+        }
+        let Some(yields) = by_sight.pilot_yields(scene, tracer) else {
+            return by_sight;
+        };
+        let probe_rays = tracer.rays.load(std::sync::atomic::Ordering::Relaxed);
+        Targets::weighed(scene, shapes, &elements, Some(&yields), probe_rays)
+    }
+
+    /// The targets `shapes` with their elements' (area, fraction seen) and, if measured, each shape's
+    /// yield c(T) (else 1): the density of `Targets`.
+    fn weighed(
+        scene: &Scene,
+        shapes: Vec<u32>,
+        elements: &[Vec<(f32, f32)>],
+        yields: Option<&[f64]>,
+        probe_rays: u64,
+    ) -> Targets {
+        let c = |i: usize| yields.map_or(1.0, |y| y[i]);
+        let area: f64 = elements.iter().flatten().map(|e| e.0 as f64).sum();
+        let seen: f64 = (elements.iter().enumerate())
+            .map(|(i, els)| c(i) * els.iter().map(|e| e.0 as f64 * e.1 as f64).sum::<f64>())
+            .sum();
+        let a = if seen > 0.0 { AIM_BY_AREA as f64 } else { 1.0 };
+        let density = |cv: f64| (1.0 - a) * cv / seen.max(f64::MIN_POSITIVE) + a / area;
         let mut t = Targets { shapes, probe_rays, ..Targets::none() };
         let mut total = 0.0f64;
-        for (els, &shape) in elements.iter().zip(&t.shapes) {
-            let shares: Vec<f32> = els.iter().map(|&(ar, v)| (ar as f64 * density(v)) as f32).collect();
+        for (i, els) in elements.iter().enumerate() {
+            let shares: Vec<f32> = els.iter().map(|&(ar, v)| (ar as f64 * density(c(i) * v as f64)) as f32).collect();
             total += shares.iter().map(|&x| x as f64).sum::<f64>();
             t.cdf.push(total as f32);
-            t.tri_pick.push(match scene.shapes[shape as usize].geometry {
+            t.tri_pick.push(match scene.shapes[t.shapes[i] as usize].geometry {
                 Geometry::Mesh(_) => sampling::AliasTable::new(&shares),
                 Geometry::Sphere { .. } => Default::default(),
             });
-            t.inv_density.push(els.iter().map(|&(_, v)| (1.0 / density(v)) as f32).collect());
+            t.inv_density.push(els.iter().map(|&(_, v)| (1.0 / density(c(i) * v as f64)) as f32).collect());
         }
         t
+    }
+
+    /// Per target shape, the share of the photons aimed at it that a caustic pass stores, from
+    /// `AIM_PILOT` photons aimed as `self` aims them (their rays counted by `tracer`; the photons are
+    /// not kept), each shape's count pulled towards the mean by `AIM_PILOT_PRIOR` shots' worth. None
+    /// when too few are stored to tell (no surface holds caustic photons: the pass is traced for its
+    /// glossy caustics alone).
+    fn pilot_yields(&self, scene: &Scene, tracer: &dyn Tracer) -> Option<Vec<f64>> {
+        let s = PassSettings {
+            want: [0, 0, 1, 0],
+            max_depth: scene.render.max_depth,
+            rr_depth: scene.render.rr_depth,
+            max_shots: AIM_PILOT,
+            seed: 0xA1A1_5EED,
+            pass: u64::MAX,
+            glossy_splats: false,
+        };
+        let n = self.shapes.len();
+        let batches = AIM_PILOT.div_ceil(BATCH);
+        let counts: Vec<(Vec<u64>, Vec<u64>)> = (0..batches)
+            .into_par_iter()
+            .map(|b| {
+                let (mut shots, mut stored) = (vec![0u64; n], vec![0u64; n]);
+                let mut out: [Vec<Stored>; 4] = Default::default();
+                let (mut splats, mut segs, mut camera_rays) = (Vec::new(), 0u64, 0u64);
+                for i in b * BATCH..((b + 1) * BATCH).min(AIM_PILOT) {
+                    let mut rng = Rng::new(s.seed, s.pass, i);
+                    let Some(l) = launch_targeted(scene, self, &mut rng) else {
+                        continue;
+                    };
+                    let Some(k) = l.aim.and_then(|(shape, _)| self.shapes.iter().position(|&t| t == shape)) else {
+                        continue;
+                    };
+                    let before = out[CAUSTIC].len();
+                    trace_one(scene, tracer, l, &mut rng, &s, &mut out, &mut splats, &mut segs, &mut camera_rays);
+                    shots[k] += 1;
+                    stored[k] += (out[CAUSTIC].len() - before) as u64;
+                    out[CAUSTIC].clear();
+                }
+                (shots, stored)
+            })
+            .collect();
+        let shots: Vec<f64> = (0..n).map(|k| counts.iter().map(|c| c.0[k] as f64).sum()).collect();
+        let stored: Vec<f64> = (0..n).map(|k| counts.iter().map(|c| c.1[k] as f64).sum()).collect();
+        let total = stored.iter().sum::<f64>();
+        if total < AIM_PILOT_MIN_STORED {
+            return None;
+        }
+        let mean = total / shots.iter().sum::<f64>();
+        Some((0..n).map(|k| (stored[k] + AIM_PILOT_PRIOR * mean) / (shots[k] + AIM_PILOT_PRIOR)).collect())
     }
 
     /// Whether a photon aimed at point `y` of target `shape` from a light point drawn as direct lighting
