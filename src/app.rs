@@ -256,6 +256,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     let accel = Accel::new(&scene).map_err(anyhow::Error::msg)?;
     let bvh_s = t0.elapsed().as_secs_f64();
     let plan = crate::pipeline::plan_for(&scene, &accel);
+    let aim = crate::integrator::photon_map::aim_targets(&scene, &accel, &plan);
     drop(accel);
     let tris = scene.triangle_count();
     let spheres = scene.shapes.iter().filter(|s| matches!(s.geometry, Geometry::Sphere { .. })).count();
@@ -328,6 +329,22 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     );
     for r in &plan.reasons {
         println!("  - {r}");
+    }
+    if let Some(t) = aim.filter(|t| !t.is_empty()) {
+        let parts: Vec<String> = (t.shares().iter().enumerate())
+            .map(|(i, &(shape, share))| {
+                let name = &scene.shapes[shape as usize].name;
+                match &t.yields {
+                    Some(y) => format!("{name} {:.1}% (pilot yield {:.4})", 100.0 * share, y[i]),
+                    None => format!("{name} {:.1}%", 100.0 * share),
+                }
+            })
+            .collect();
+        println!("aim         caustic shots by target: {}", parts.join(", "));
+        println!(
+            "            (by where the lights reach{}; a tenth by area)",
+            if t.yields.is_some() { " and by the share of each target's photons a caustic pass stores" } else { "" }
+        );
     }
     Ok(())
 }

@@ -18,7 +18,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to EXR (linear), PNG (preview) and JSON (stats).
     Render(RenderArgs),
-    /// Print what a scene contains: shapes, triangles, lights, bounds, memory, load and BVH times.
+    /// Print what a scene contains: shapes, triangles, lights, bounds, memory, load and BVH times, and
+    /// the plan: which photon maps, why, and how the caustic photons are shared among their targets.
     Info(InfoArgs),
     /// Write a Mitsuba 3 XML scene as caustica's TOML (mesh and image paths rebased to the output's
     /// folder). The TOML is loaded once before it is written, so what is written renders.

@@ -303,3 +303,22 @@ fn bench_photons_counts_the_rays_it_traces() {
     assert_eq!(code, 0, "{out}{err}");
     assert!(out.contains("ratio"), "{out}");
 }
+
+/// `caustica info` says how the caustic shots are shared among the targets: on the glass box both balls,
+/// their shares summing to 100%, each with the pilot's yield; on the diffuse box, with no caustic map,
+/// no aim line.
+#[test]
+fn info_shows_how_the_caustic_shots_are_aimed() {
+    let d = dir("info-aim");
+    let (code, out, err) = caustica(&["info", scene("cornell-glass.toml").as_str()], &d);
+    assert_eq!(code, 0, "{err}");
+    let line = out.lines().find(|l| l.starts_with("aim ")).unwrap_or_else(|| panic!("no aim line: {out}"));
+    let shares: Vec<f64> =
+        line.split('%').filter_map(|part| part.rsplit(' ').next().and_then(|n| n.parse().ok())).collect();
+    assert_eq!(shares.len(), 2, "{line}");
+    assert!((shares.iter().sum::<f64>() - 100.0).abs() < 0.2, "{line}");
+    assert_eq!(line.matches("pilot yield").count(), 2, "{line}");
+    let (code, out, err) = caustica(&["info", scene("cornell-box.toml").as_str()], &d);
+    assert_eq!(code, 0, "{err}");
+    assert!(!out.lines().any(|l| l.starts_with("aim ")), "{out}");
+}

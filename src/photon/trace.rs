@@ -128,6 +128,9 @@ pub struct Targets {
     inv_density: Vec<Vec<f32>>,
     /// Rays the probes traced.
     pub probe_rays: u64,
+    /// Per target shape, the pilot's yield c(T) (None where no pilot ran: one target, or too few
+    /// photons stored to tell).
+    pub yields: Option<Vec<f64>>,
 }
 
 impl Targets {
@@ -224,7 +227,7 @@ impl Targets {
             .sum();
         let a = if seen > 0.0 { AIM_BY_AREA as f64 } else { 1.0 };
         let density = |cv: f64| (1.0 - a) * cv / seen.max(f64::MIN_POSITIVE) + a / area;
-        let mut t = Targets { shapes, probe_rays, ..Targets::none() };
+        let mut t = Targets { shapes, probe_rays, yields: yields.map(<[f64]>::to_vec), ..Targets::none() };
         let mut total = 0.0f64;
         for (i, els) in elements.iter().enumerate() {
             let shares: Vec<f32> = els.iter().map(|&(ar, v)| (ar as f64 * density(c(i) * v as f64)) as f32).collect();
@@ -313,7 +316,27 @@ impl Targets {
 
     /// No targets (emission is not aimed).
     pub fn none() -> Targets {
-        Targets { shapes: Vec::new(), cdf: Vec::new(), tri_pick: Vec::new(), inv_density: Vec::new(), probe_rays: 0 }
+        Targets {
+            shapes: Vec::new(),
+            cdf: Vec::new(),
+            tri_pick: Vec::new(),
+            inv_density: Vec::new(),
+            probe_rays: 0,
+            yields: None,
+        }
+    }
+
+    /// Each target shape with its share of the aimed shots.
+    pub fn shares(&self) -> Vec<(u32, f64)> {
+        let total = self.cdf.last().copied().unwrap_or(0.0) as f64;
+        let mut before = 0.0f64;
+        (self.shapes.iter().zip(&self.cdf))
+            .map(|(&shape, &c)| {
+                let share = (c as f64 - before) / total.max(f64::MIN_POSITIVE);
+                before = c as f64;
+                (shape, share)
+            })
+            .collect()
     }
 
     pub fn is_empty(&self) -> bool {
