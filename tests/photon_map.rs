@@ -275,7 +275,9 @@ fn photons_aimed_at_glass_under_a_spot_keep_the_caustic_flux() {
 /// Both are caustic targets: the floor's coat reflects light that can make a caustic, but most of what
 /// arrives there the base scatters, which a caustic pass does not keep. Aimed by area and by what the
 /// light sees, the floor took ~96% of the shots and fixed PM's caustic pass stored 1.1% of its shots
-/// (220,903 photons of 400,000 in its whole 20M budget); now a pilot measures each target's yield.
+/// (220,903 photons of 400,000 in its whole 20M budget); now a pilot measures each target's yield. And
+/// the ball, drawn uniformly over its surface, had three shots in five land on its far side, which the
+/// light reaches only through its near side (dropped); now it is drawn where the light sees it.
 fn plastic_floor_caustic(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64, u64) {
     let s = common::scene(
         "[camera]\norigin = [0.0, 2.5, 2.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [16, 16]\n\
@@ -290,7 +292,8 @@ fn plastic_floor_caustic(want: u64, shots: Option<u64>, seed: u64) -> (f64, u64,
 
 /// Caustic photons are aimed at each target in proportion to its yield, the share of the photons aimed
 /// at it that a caustic pass stores (measured by a pilot): the caustic flux stays uniform emission's,
-/// and the shots go where caustics come from (0.011 stored per shot before, 0.29 after).
+/// and the shots go where caustics come from (0.011 stored per shot at first, 0.29 with the pilot, 0.80
+/// with the ball drawn where the light sees it).
 #[test]
 fn a_plastic_floor_does_not_take_the_glass_balls_caustic_photons() {
     let runs = 6;
@@ -306,7 +309,7 @@ fn a_plastic_floor_does_not_take_the_glass_balls_caustic_photons() {
          uniform×16 {mu:.5} ± {su:.5}"
     );
     assert!((ma - mu).abs() < 4.0 * sigma, "aimed mean {ma} vs uniform {mu} (σ {sigma})");
-    assert!(stored_per_shot > 0.04, "{stored_per_shot:.4} caustic photons stored per aimed shot");
+    assert!(stored_per_shot > 0.6, "{stored_per_shot:.4} caustic photons stored per aimed shot");
 }
 
 /// A flat water surface (a 256 × 256 heightfield, 131,072 triangles: one probe each) in full view of a
