@@ -25,13 +25,12 @@ use crate::accel::{interact, Interaction, Tracer};
 use crate::color::Rgb;
 use crate::film::Image;
 use crate::math::sampling::russian_roulette;
-use crate::math::sampling::{uniform_cone, uniform_sphere};
-use crate::math::Frame;
+use crate::math::sampling::uniform_sphere;
 use crate::math::{max_component, offset_ray_origin, Ray, Rng};
 use crate::photon::estimate::{in_disc_slab, DISC_FACING};
 use crate::photon::kdtree::{KdTree, KnnResult};
 use crate::scene::file::MergePrimary as Primary;
-use crate::scene::light::{visible_cone, EmittedRay, Lights};
+use crate::scene::light::{towards_sphere, visible_cone, EmittedRay, Lights};
 use crate::scene::Geometry;
 use crate::scene::{Material, Scene, SurfaceHit, TransportMode};
 use glam::Vec3;
@@ -388,12 +387,7 @@ impl Aim {
     fn sample(&self, x: Vec3, u_pick: f32, u: [f32; 2]) -> Vec3 {
         let k = ((u_pick * self.spheres.len() as f32) as usize).min(self.spheres.len() - 1);
         let (c, r) = self.spheres[k];
-        let d = c - x;
-        let dc2 = d.length_squared();
-        match visible_cone(r, dc2) {
-            None => uniform_sphere(u),
-            Some(one_minus) => Frame::from_normal(d / dc2.sqrt()).to_world(uniform_cone(u, one_minus)).normalize(),
-        }
+        towards_sphere(x, c, r, u).map_or_else(|| uniform_sphere(u), |(w, _)| w)
     }
 
     /// The mixture's density of direction `w` from light point `x` over the light's own density

@@ -394,15 +394,8 @@ enum AimFrom {
 fn sphere_seen_from(center: Vec3, radius: f32, from: AimFrom, u: [f32; 2]) -> Option<(Vec3, Vec3, f32)> {
     let (o, w) = match from {
         AimFrom::Point(x) => {
-            let d = center - x;
-            let one_minus = crate::scene::light::visible_cone(radius, d.length_squared())?;
-            let w = crate::math::Frame::from_normal(d.normalize())
-                .to_world(sampling::uniform_cone(u, one_minus))
-                .normalize();
-            // A direction rounded just past the silhouette still belongs to the cone: the point of
-            // closest approach lies on the sphere to rounding.
-            let t = crate::math::sphere_root(x.to_array(), w.to_array(), center.to_array(), radius, 0.0, f32::INFINITY)
-                .unwrap_or_else(|| d.dot(w).max(0.0));
+            let (w, one_minus) = crate::scene::light::towards_sphere(x, center, radius, u)?;
+            let t = crate::scene::light::near_side(x, w, center, radius);
             let y = x + w * t;
             let n = ((y - center) / radius).normalize_or_zero();
             let p = n.dot(w).abs() / (t * t * 2.0 * std::f32::consts::PI * one_minus);

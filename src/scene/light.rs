@@ -458,15 +458,8 @@ impl Lights {
                 let Geometry::Sphere { center, radius, frame } = s.geometry else {
                     return None;
                 };
-                let d = center - x;
-                let dc2 = d.length_squared();
-                let one_minus = visible_cone(radius, dc2)?;
-                let f = Frame::from_normal(d / dc2.sqrt());
-                let wi = f.to_world(sampling::uniform_cone(u, one_minus)).normalize();
-                // A direction rounded just past the silhouette still belongs to the cone: take the
-                // point of closest approach, which lies on the sphere to rounding.
-                let dist = sphere_root(x.to_array(), wi.to_array(), center.to_array(), radius, 0.0, f32::INFINITY)
-                    .unwrap_or_else(|| d.dot(wi).max(0.0));
+                let (wi, one_minus) = towards_sphere(x, center, radius, u)?;
+                let dist = near_side(x, wi, center, radius);
                 let y = x + wi * dist;
                 let p = offset_ray_origin(y, (y - center).normalize_or_zero(), -wi, radius);
                 let pdf = p_sel / (2.0 * PI * one_minus);
@@ -824,6 +817,24 @@ pub fn visible_cone(radius: f32, dc2: f32) -> Option<f32> {
     }
     let one_minus = cone_of(radius, dc2);
     (one_minus > 0.0).then_some(one_minus)
+}
+
+/// A direction from `x` drawn (from `u`) uniformly in the cone the sphere (`center`, `radius`) subtends,
+/// and the cone's 1 − cos θmax (`visible_cone`; the direction's density is 1 / (2π · that)); None from
+/// a point on or in the sphere.
+pub fn towards_sphere(x: Vec3, center: Vec3, radius: f32, u: [f32; 2]) -> Option<(Vec3, f32)> {
+    let d = center - x;
+    let dc2 = d.length_squared();
+    let one_minus = visible_cone(radius, dc2)?;
+    Some((Frame::from_normal(d / dc2.sqrt()).to_world(sampling::uniform_cone(u, one_minus)).normalize(), one_minus))
+}
+
+/// The distance from `x` along `w`, a direction of `towards_sphere`'s cone, to the sphere's near side. A
+/// direction rounded just past the silhouette still belongs to the cone: then the point of closest
+/// approach, which lies on the sphere to rounding.
+pub fn near_side(x: Vec3, w: Vec3, center: Vec3, radius: f32) -> f32 {
+    sphere_root(x.to_array(), w.to_array(), center.to_array(), radius, 0.0, f32::INFINITY)
+        .unwrap_or_else(|| (center - x).dot(w).max(0.0))
 }
 
 /// 1 − cos θmax of the cone a sphere of `radius` subtends from distance² `dc2`, computed as
