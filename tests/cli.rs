@@ -322,3 +322,38 @@ fn info_shows_how_the_caustic_shots_are_aimed() {
     assert_eq!(code, 0, "{err}");
     assert!(!out.lines().any(|l| l.starts_with("aim ")), "{out}");
 }
+
+/// A map the shot budget cannot fill says what to do about it: an open floor whose light comes back to
+/// it only by a small mirror ball keeps few indirect photons per shot, and the warning names the share
+/// stored, the setting that would fill the map (`render.photons.max_shots_factor`, with a value that
+/// would), and that the estimate stays right from fewer photons. Raised to that value, the map fills.
+#[test]
+fn an_unfilled_map_says_which_setting_would_fill_it() {
+    let d = dir("budget");
+    let text = "[camera]\norigin = [0.0, 2.5, 2.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
+         [materials]\nchrome = { type = \"mirror\" }\nwhite = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 0.0, 2.0]\nedge_u = [4.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -4.0]\nmaterial = \"white\"\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.3, 0.5, 0.0]\nradius = 0.3\nmaterial = \"chrome\"\n\
+         [[lights]]\ntype = \"point\"\nposition = [-0.5, 1.5, 0.2]\npower = [30.0, 30.0, 30.0]\n\
+         [render]\npm_spp = 1\nphotons = { indirect = 2000, caustic = 2000, max_shots_factor = 20 }\n";
+    std::fs::write(d.join("open.toml"), text).unwrap();
+    let render = |extra: &[&str]| {
+        let args = [&["render", "open.toml", "--mode", "photon_map", "-q", "-o", "out"][..], extra].concat();
+        let (code, _, err) = caustica(&args, &d);
+        assert_eq!(code, 0, "{err}");
+        err
+    };
+    let err = render(&[]);
+    let line = err.lines().find(|l| l.contains("indirect map got")).unwrap_or_else(|| panic!("no warning: {err}"));
+    assert!(line.contains("stored") && line.contains("render.photons.indirect"), "{line}");
+    let factor: u64 = line
+        .split("render.photons.max_shots_factor = ")
+        .nth(1)
+        .and_then(|rest| rest.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no factor suggested: {line}"));
+    assert!(factor > 20, "{line}");
+    let set = format!("render.photons.max_shots_factor={}", factor * 3 / 2);
+    let err = render(&["--set", &set]);
+    assert!(!err.contains("indirect map got"), "with {set}: {err}");
+}

@@ -106,6 +106,35 @@ impl MapRequest {
     }
 }
 
+/// What a user is told of map `i` left with `stored` of its `want[i]` photons after `shot` photons,
+/// the pass's budget `factor` × its largest request: the share of shots that stored one, that the
+/// estimate stays right (normalised by every shot, from fewer photons over a wider gather), and the
+/// factor that would about fill it at that share, or the smaller request.
+fn unfilled(i: usize, stored: u64, shot: u64, want: [u64; 3], factor: u64) -> String {
+    let name = MAP_NAMES[i];
+    let head = format!(
+        "the {name} map got {stored} photons of {} requested before the shot budget ran out ({shot} shot",
+        want[i]
+    );
+    // The budget of the pass that traces this map: the global pass shoots for its larger request.
+    let pass_want = if i == CAUSTIC { want[CAUSTIC] } else { want[DIRECT].max(want[INDIRECT]) };
+    if stored == 0 {
+        return format!(
+            "{head}, none of them stored one): light seldom or never reaches a surface that keeps {name} \
+             photons. render.photons.max_shots_factor (now {factor}) shoots more; render.photons.{name} = 0 \
+             leaves the map out"
+        );
+    }
+    let needed = (want[i] as f64 * shot as f64 / stored as f64 / pass_want.max(1) as f64).ceil() as u64;
+    format!(
+        "{head}, {:.2}% of them stored one); its estimate is right, from fewer photons over a wider gather. \
+         render.photons.max_shots_factor = {} (now {factor}) would about fill it, or ask for fewer \
+         (render.photons.{name})",
+        100.0 * stored as f64 / shot.max(1) as f64,
+        needed.max(factor + 1)
+    )
+}
+
 pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: bool) -> anyhow::Result<PhotonMaps> {
     let ps = &scene.render.photons;
     // One bar per photon pass, named, each running to 100% (progressive passes have their own line).
@@ -188,11 +217,8 @@ pub fn build_maps(scene: &Scene, tracer: &dyn Tracer, req: &MapRequest, quiet: b
             // (A caustic pass with nothing to hold its photons shoots a count, not to a count.)
             if !c.complete && req.shots.is_none() && (i != CAUSTIC || holds) {
                 eprintln!(
-                    "warning: the {} map got {} photons of {} requested before the shot budget ran out ({} shot)",
-                    MAP_NAMES[i],
-                    c.photons.len(),
-                    req.want[i],
-                    c.n_emitted
+                    "warning: {}",
+                    unfilled(i, c.photons.len() as u64, c.n_emitted, req.want, ps.max_shots_factor)
                 );
             }
             let m = PhotonMap::build(c).map_err(|e| anyhow::anyhow!("{} map: {e}", MAP_NAMES[i]))?;
