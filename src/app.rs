@@ -146,6 +146,12 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     // Lights that reach nothing in view are left out of next-event estimation (unbiased: MIS follows).
     let plan = crate::pipeline::plan_for(&scene, &accel);
     scene.lights.restrict_nee(|i| plan.nee_lights[i]);
+    use crate::scene::file::Mode;
+    if matches!(scene.render.mode, Mode::PhotonMap | Mode::Both | Mode::Ppm | Mode::Sppm) {
+        for w in &plan.left_out {
+            eprintln!("warning: {}: {w}", a.scene.display());
+        }
+    }
     if !a.quiet {
         eprintln!(
             "{}: {} shapes, {} triangles, loaded in {:.2} s, BVH in {:.2} s",
@@ -329,6 +335,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     );
     for r in &plan.reasons {
         println!("  - {r}");
+    }
+    for w in &plan.left_out {
+        println!("  ! {w}");
     }
     if let Some(t) = aim.filter(|t| !t.is_empty()) {
         let parts: Vec<String> = (t.shares().iter().enumerate())

@@ -21,6 +21,9 @@ pub struct Plan {
     pub nee_lights: Vec<bool>,
     /// One line per decision.
     pub reasons: Vec<String>,
+    /// Maps the scene's light needs that `render.photons` asks 0 photons of: the light each would carry
+    /// is left out of the photon mappers' images (one line each, for a warning).
+    pub left_out: Vec<String>,
 }
 
 /// The two questions the planner asks of the ray tracer.
@@ -94,6 +97,17 @@ fn may_be_lit(scene: &Scene, s: usize) -> bool {
 pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
     let r = &scene.render;
     let mut reasons = Vec::new();
+    let mut left_out = Vec::new();
+    // A map this scene's light needs, asked for `count` photons: none asked, its light is left out.
+    let mut wanted = |key: &str, count: u64, light: &str| {
+        if count == 0 {
+            left_out.push(format!(
+                "render.photons.{key} = 0: the {key} map is not built, so {light} is left out of the photon mappers' \
+                 images (path tracing, BDPT and VCM keep it)"
+            ));
+        }
+        count
+    };
     // A plastic is both: its base holds photons, its coat is a mirror.
     let is_diffuse = |s: usize| scene.is_diffuse(s as u32);
     let holds = |s: usize| scene.holds_photons(s as u32);
@@ -136,14 +150,14 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
             ""
         };
         reasons.push(format!("caustic map: {} specular shape(s) lit by a light{glossy}", targets.len()));
-        r.photons.caustic
+        wanted("caustic", r.photons.caustic, "light that reaches diffuse surfaces through mirrors and glass")
     } else if glossy_caustics {
         reasons.push(format!(
             "caustic photons, no map: {} specular shape(s) lit by a point, spot or distant light, whose caustics \
              on glossy surfaces are traced to the camera (no surface holds photons)",
             targets.len()
         ));
-        r.photons.caustic
+        wanted("caustic", r.photons.caustic, "the caustics of point, spot and distant lights on glossy surfaces")
     } else if !targets.is_empty() {
         reasons.push(
             "no caustic map: no surface holds photons (every one is specular or glossy, and no mirror or glass \
@@ -168,14 +182,14 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
         } else {
             "indirect map: diffuse surfaces can light each other".into()
         });
-        r.photons.indirect
+        wanted("indirect", r.photons.indirect, "light that bounced off a diffuse surface before")
     } else {
         reasons.push("no indirect map: no diffuse surface can light another, or itself via a mirror".into());
         0
     };
     let direct = if r.force_all_passes || r.direct_light == DirectLight::PhotonMap {
         reasons.push("direct map: direct light read from photons (render.direct_light = \"photon_map\")".into());
-        r.photons.direct
+        wanted("direct", r.photons.direct, "direct light")
     } else {
         reasons.push("no direct map: direct light uses shadow rays".into());
         0
@@ -199,7 +213,7 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
         reasons.push("no extra eye samples: the camera sees no specular surface".into());
         0
     };
-    Plan { photons: [direct, indirect, caustic], caustic_targets: targets, specular_spp, nee_lights, reasons }
+    Plan { photons: [direct, indirect, caustic], caustic_targets: targets, specular_spp, nee_lights, reasons, left_out }
 }
 
 /// For each light, whether the path tracer's next-event estimation should sample it. Only area lights

@@ -188,6 +188,14 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["shapes[0].material", "no MTL colour", "gone.mtl"],
         ),
         (
+            // No photon gathered: the map's light would be silently left out (the Cornell box's mean
+            // read 0.78 with `gather.indirect = 0`).
+            "gather_nothing",
+            format!("{GOOD}\n[render.gather]\nindirect = 0\n"),
+            vec![],
+            vec!["render.gather.indirect", "≥ 1"],
+        ),
+        (
             "vcm_does_nothing",
             format!("{GOOD}\n[render]\nmode = \"vcm\"\n[render.vcm]\nconnect = false\nmerge = false\n"),
             vec![],

@@ -357,3 +357,27 @@ fn an_unfilled_map_says_which_setting_would_fill_it() {
     let err = render(&["--set", &set]);
     assert!(!err.contains("indirect map got"), "with {set}: {err}");
 }
+
+/// A map the scene's light needs, asked for no photons (`render.photons.caustic = 0` on the glass box):
+/// the photon mappers render without that light (the glass box's mean 0.972 of its full image), and
+/// say so naming the key; the path tracer, which does not use the maps, does not; nor does the default.
+/// A gather of no photons (`render.gather.indirect = 0`, which read the box at 0.78 of its mean) is
+/// refused (`bad_input.rs`).
+#[test]
+fn a_map_asked_for_no_photons_is_warned_of() {
+    let d = dir("no-photons");
+    let glass = scene("cornell-glass.toml");
+    let render = |extra: &[&str]| {
+        let base = ["render", glass.as_str(), "-q", "-o", "out", "--set", "camera.resolution=[8,8]", "--spp", "1"];
+        let (code, _, err) = caustica(&[&base[..], extra].concat(), &d);
+        assert_eq!(code, 0, "{err}");
+        err
+    };
+    let pm = ["--mode", "photon_map", "--set", "render.pm_spp=1", "--set", "render.photons.indirect=1000"];
+    let err = render(&[&pm[..], &["--set", "render.photons.caustic=0"]].concat());
+    assert!(err.contains("warning") && err.contains("render.photons.caustic = 0"), "{err}");
+    let err = render(&["--mode", "path", "--set", "render.photons.caustic=0"]);
+    assert!(!err.contains("render.photons.caustic = 0"), "{err}");
+    let err = render(&[&pm[..], &["--set", "render.photons.caustic=1000"]].concat());
+    assert!(!err.contains("= 0:"), "{err}");
+}

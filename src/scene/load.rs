@@ -462,6 +462,19 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
             return Err(cx.err(key, format!("{v} is more than the {max} this setting accepts")));
         }
     }
+    // A gather of no photons reads nothing: the map's light would be left out of the image unsaid.
+    for (key, k) in [
+        ("render.gather.direct", r.gather.direct),
+        ("render.gather.indirect", r.gather.indirect),
+        ("render.gather.caustic", r.gather.caustic),
+    ] {
+        if k == 0 {
+            return Err(cx.err(
+                key,
+                "must be ≥ 1: the photons each estimate gathers (0 would leave the map's light out of the image)",
+            ));
+        }
+    }
     if !(r.gather.cone_k.is_finite() && r.gather.cone_k >= 0.0) {
         return Err(cx.err("render.gather.cone_k", "must be ≥ 0 (values below 1 disable the cone filter)"));
     }
