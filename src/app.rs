@@ -146,8 +146,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     // Lights that reach nothing in view are left out of next-event estimation (unbiased: MIS follows).
     let plan = crate::pipeline::plan_for(&scene, &accel);
     scene.lights.restrict_nee(|i| plan.nee_lights[i]);
-    use crate::scene::file::Mode;
-    if matches!(scene.render.mode, Mode::PhotonMap | Mode::Both | Mode::Ppm | Mode::Sppm) {
+    if scene.render.mode.uses_photon_maps() {
         for w in &plan.left_out {
             eprintln!("warning: {}: {w}", a.scene.display());
         }

@@ -121,8 +121,8 @@ fn unfilled(i: usize, stored: u64, shot: u64, want: [u64; 3], factor: u64) -> St
     if stored == 0 {
         return format!(
             "{head}, none of them stored one): light seldom or never reaches a surface that keeps {name} \
-             photons. render.photons.max_shots_factor (now {factor}) shoots more; render.photons.{name} = 0 \
-             leaves the map out"
+             photons. render.photons.max_shots_factor (now {factor}) shoots more; render.photons.{name} = 0 leaves \
+             the map and its light out"
         );
     }
     let needed = (want[i] as f64 * shot as f64 / stored as f64 / pass_want.max(1) as f64).ceil() as u64;

@@ -805,6 +805,11 @@ impl Mode {
         matches!(self, Mode::Ppm | Mode::Sppm | Mode::Bdpt | Mode::Vcm)
     }
 
+    /// Modes whose images are made from photon maps (built to the counts of `render.photons`).
+    pub fn uses_photon_maps(self) -> bool {
+        matches!(self, Mode::PhotonMap | Mode::Both | Mode::Ppm | Mode::Sppm)
+    }
+
     /// The name of the mode's image layer (and of `--mode`).
     pub fn layer_name(self) -> &'static str {
         match self {

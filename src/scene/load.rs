@@ -451,24 +451,19 @@ fn check_render(cx: &Ctx, r: &RenderSettings) -> Result<(), SceneError> {
     if r.pm_spp == 0 {
         return Err(cx.err("render.pm_spp", "must be ≥ 1"));
     }
-    for (key, v, max) in [
-        ("render.final_gather", r.final_gather, 4096),
-        ("render.specular_spp", r.specular_spp, 4096),
-        ("render.gather.direct", r.gather.direct, 100_000),
-        ("render.gather.indirect", r.gather.indirect, 100_000),
-        ("render.gather.caustic", r.gather.caustic, 100_000),
+    // (key, value, the most it accepts, whether it counts the photons a gather reads: 0 would read
+    // nothing and leave the map's light out of the image unsaid).
+    for (key, v, max, gather) in [
+        ("render.final_gather", r.final_gather, 4096, false),
+        ("render.specular_spp", r.specular_spp, 4096, false),
+        ("render.gather.direct", r.gather.direct, 100_000, true),
+        ("render.gather.indirect", r.gather.indirect, 100_000, true),
+        ("render.gather.caustic", r.gather.caustic, 100_000, true),
     ] {
         if v > max {
             return Err(cx.err(key, format!("{v} is more than the {max} this setting accepts")));
         }
-    }
-    // A gather of no photons reads nothing: the map's light would be left out of the image unsaid.
-    for (key, k) in [
-        ("render.gather.direct", r.gather.direct),
-        ("render.gather.indirect", r.gather.indirect),
-        ("render.gather.caustic", r.gather.caustic),
-    ] {
-        if k == 0 {
+        if gather && v == 0 {
             return Err(cx.err(
                 key,
                 "must be ≥ 1: the photons each estimate gathers (0 would leave the map's light out of the image)",
