@@ -114,3 +114,80 @@ fn rays_from_inside_a_sphere_hit_its_far_side_exactly() {
         assert!((h.t - 0.7).abs() < 1e-5, "t = {}", h.t);
     }
 }
+
+/// Debian's Embree keeps its assertions, and one of them (`ray.valid()`) aborted the process on a ray
+/// whose origin and direction both had a subnormal component: a spot light placed at y = 1e-40 over a
+/// floor (found by `hostile_input`'s fuzz). Such components are zero to any geometry; rays carrying them,
+/// or NaN, infinite and huge values, must get the brute-force tracer's answer (or none), never an abort.
+#[test]
+fn rays_with_subnormal_or_huge_components_get_answers_not_an_abort() {
+    let floor = TriMesh {
+        positions: vec![
+            Vec3::new(-5.0, 0.0, -5.0),
+            Vec3::new(5.0, 0.0, -5.0),
+            Vec3::new(5.0, 0.0, 5.0),
+            Vec3::new(-5.0, 0.0, 5.0),
+        ],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        ..TriMesh::default()
+    };
+    let shape = |name: &str, geometry| Shape {
+        name: name.into(),
+        geometry,
+        material: 0,
+        emission: Vec3::ZERO,
+        emission_texture: None,
+    };
+    let scene = common::shapes_scene(vec![
+        shape("floor", Geometry::Mesh(floor)),
+        shape("ball", Geometry::Sphere { center: Vec3::new(0.0, 0.7, 0.0), radius: 0.3, frame: None }),
+    ]);
+    let (fast, slow) = (Accel::new(&scene).unwrap(), Brute::new(&scene));
+    let tiny = [1e-40f32, -2.8e-41, f32::MIN_POSITIVE / 2.0, -1e-45];
+    // Rays lying in the floor's plane, or leaving it, to within a subnormal (the fuzz's ray first):
+    // whether they meet it is beyond float precision, so any answer will do, as long as there is one.
+    let mut grazing = Vec::new();
+    // Rays with subnormal components that cross the floor or the ball plainly: the brute force's answer.
+    let mut plain = Vec::new();
+    for (i, &a) in tiny.iter().enumerate() {
+        let b = tiny[(i + 1) % tiny.len()];
+        grazing.push(Ray::new(Vec3::new(0.0, a, -0.4), Vec3::new(0.4488477, b, 0.89360833)));
+        grazing.push(Ray::new(Vec3::new(a, b, a), Vec3::new(a, b, 1.0)));
+        plain.push(Ray::new(Vec3::new(a, 1.0, b), Vec3::new(b, -1.0, a)));
+        plain.push(Ray::new(Vec3::new(0.0, 0.7, -2.0), Vec3::new(a, b, 1.0)));
+        grazing.push(Ray::new(Vec3::new(0.0, a, -0.4), Vec3::new(b, 1.0, 0.0)));
+        let mut r = Ray::new(Vec3::new(0.1, 2.0, 0.1), Vec3::new(b, -1.0, a));
+        r.tmin = a.abs();
+        plain.push(r);
+    }
+    for ray in &plain {
+        let (a, b) = (fast.intersect(ray), slow.intersect(ray));
+        assert_eq!(a.map(|h| (h.shape, h.prim)), b.map(|h| (h.shape, h.prim)), "{ray:?}");
+        if let (Some(a), Some(b)) = (a, b) {
+            assert!((a.t - b.t).abs() <= 1e-5 * b.t.max(1.0), "{ray:?}: t {} against {}", a.t, b.t);
+        }
+        assert_eq!(fast.occluded(ray), slow.occluded(ray), "{ray:?}");
+    }
+    for ray in &grazing {
+        assert!(fast.intersect(ray).is_none_or(|h| h.shape == 0), "{ray:?}");
+        fast.occluded(ray);
+    }
+    // NaN, infinite and huge values: no hit.
+    let mut bad = Vec::new();
+    for v in [f32::NAN, f32::INFINITY, -f32::INFINITY, 1e30, -3e18] {
+        bad.push(Ray::new(Vec3::new(v, 1.0, 0.0), Vec3::new(0.0, -1.0, 0.0)));
+        bad.push(Ray::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, v, 0.0)));
+    }
+    for ray in &bad {
+        assert_eq!(fast.intersect(ray), None, "{ray:?}");
+        assert!(!fast.occluded(ray), "{ray:?}");
+    }
+    let rays: Vec<Ray> = [plain, grazing, bad].concat();
+    for chunk in rays.chunks(16).chain(rays.chunks(8)) {
+        let mut out = vec![None; chunk.len()];
+        fast.intersect_packet(chunk, &mut out);
+        for (p, o) in chunk.iter().zip(out) {
+            assert_eq!(o, fast.intersect(p), "packet and single-ray answers differ for {p:?}");
+        }
+    }
+}

@@ -254,13 +254,13 @@ macro_rules! to_packet {
         // SAFETY: Embree's packet structs are plain old data; all-zero is a valid bit pattern.
         let mut p: $ty = unsafe { std::mem::zeroed() };
         for (i, r) in $rays.iter().enumerate() {
-            p.ray.org_x[i] = r.o.x;
-            p.ray.org_y[i] = r.o.y;
-            p.ray.org_z[i] = r.o.z;
-            p.ray.dir_x[i] = r.d.x;
-            p.ray.dir_y[i] = r.d.y;
-            p.ray.dir_z[i] = r.d.z;
-            p.ray.tnear[i] = r.tmin;
+            p.ray.org_x[i] = flushed(r.o.x);
+            p.ray.org_y[i] = flushed(r.o.y);
+            p.ray.org_z[i] = flushed(r.o.z);
+            p.ray.dir_x[i] = flushed(r.d.x);
+            p.ray.dir_y[i] = flushed(r.d.y);
+            p.ray.dir_z[i] = flushed(r.d.z);
+            p.ray.tnear[i] = flushed(r.tmin);
             p.ray.tfar[i] = r.tmax;
             p.ray.mask[i] = u32::MAX;
             p.hit.geomID[i] = INVALID;
@@ -339,15 +339,27 @@ fn rtc_ray_hit(r: &Ray) -> RTCRayHit {
     }
 }
 
+/// A ray component as Embree gets it: subnormal values (nonzero, below `f32::MIN_POSITIVE` in size) as
+/// zero. Debian's Embree aborted on its `ray.valid()` assertion for a ray whose origin and direction each
+/// had a subnormal component (a light placed at y = 1e-40 over a floor); to any geometry they are zero.
+#[inline(always)]
+fn flushed(x: f32) -> f32 {
+    if x.abs() < f32::MIN_POSITIVE {
+        0.0
+    } else {
+        x
+    }
+}
+
 fn rtc_ray(r: &Ray) -> RTCRay {
     RTCRay {
-        org_x: r.o.x,
-        org_y: r.o.y,
-        org_z: r.o.z,
-        tnear: r.tmin,
-        dir_x: r.d.x,
-        dir_y: r.d.y,
-        dir_z: r.d.z,
+        org_x: flushed(r.o.x),
+        org_y: flushed(r.o.y),
+        org_z: flushed(r.o.z),
+        tnear: flushed(r.tmin),
+        dir_x: flushed(r.d.x),
+        dir_y: flushed(r.d.y),
+        dir_z: flushed(r.d.z),
         time: 0.0,
         tfar: r.tmax,
         mask: u32::MAX,
