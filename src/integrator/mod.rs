@@ -199,14 +199,22 @@ fn camera_view(
 /// plane, `CameraLink::clear`): all of it with nothing in between, the transmittance of the see-through
 /// surfaces between (`accel::transmittance`), nothing past anything else, except, with
 /// `render.hide_emitters`, emitting surfaces, which the camera does not see (`camera_view`). A point on
-/// an emitting surface is then not seen at all. Rays past the first are added to `c`.
+/// an emitting surface is then not seen at all. A point `beyond_far` (the far clipping plane) is seen
+/// only if the camera's first hit towards it, past the near plane, is a surface its line of sight goes
+/// straight on through (see-through, or emitting and hidden), within the far plane: camera rays are
+/// clipped on their first segment only, and go on unclipped past such a crossing
+/// (`LineOfSight::cross_from`, `camera_view`). Rays past the first are added to `c`.
 pub fn camera_sees(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
     from: &crate::scene::SurfaceHit,
     to: glam::Vec3,
+    beyond_far: bool,
     c: &mut Counters,
 ) -> crate::color::Rgb {
+    if beyond_far && !crossed_within_far(scene, tracer, from.p, to, c) {
+        return crate::color::Rgb::ZERO;
+    }
     let ray = from.spawn_to(to);
     if !scene.render.hide_emitters {
         return crate::accel::shadow(scene, tracer, &ray, to, &mut c.rays);
@@ -215,6 +223,28 @@ pub fn camera_sees(
         return crate::color::Rgb::ZERO;
     }
     crate::accel::transmittance(scene, tracer, &ray, to, |shape| emits(scene, shape), &mut c.rays)
+}
+
+/// Whether the camera's first hit on the way from `to` (the lens point, or the near plane's point) to
+/// `p` is a surface its line of sight crosses (see-through, or emitting under `render.hide_emitters`)
+/// within the far clipping plane: the camera then sees on to `p` past that plane.
+#[cold]
+fn crossed_within_far(
+    scene: &crate::scene::Scene,
+    tracer: &dyn crate::accel::Tracer,
+    p: glam::Vec3,
+    to: glam::Vec3,
+    c: &mut Counters,
+) -> bool {
+    let mut ray = crate::math::Ray::new(to, p - to);
+    // Short of `p`'s own surface (a hit there is `p`, beyond the plane).
+    ray.tmax = 1.0 - 1e-4;
+    c.rays += 1;
+    let Some(hit) = tracer.intersect(&ray) else {
+        return false;
+    };
+    let crossed = scene.is_see_through(hit.shape) || (scene.render.hide_emitters && emits(scene, hit.shape));
+    crossed && scene.camera.depth(ray.at(hit.t)) <= scene.camera.clip[1]
 }
 
 /// Light tracing's link to the camera: the light `beta` (a light subpath's throughput, a photon's
@@ -256,7 +286,7 @@ pub fn link_to_camera(
         return;
     }
     c.rays += 1;
-    let seen = camera_sees(scene, tracer, si, link.clear, c);
+    let seen = camera_sees(scene, tracer, si, link.clear, link.beyond_far, c);
     if seen == crate::color::Rgb::ZERO {
         return;
     }

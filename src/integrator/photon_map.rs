@@ -644,7 +644,7 @@ pub fn splat_photons(scene: &Scene, tracer: &dyn Tracer, maps: &PhotonMaps, whic
         let tint = PHOTON_TINTS[m];
         for i in 0..map.len() as u32 {
             let p = glam::Vec3::from_array(map.tree.position(i));
-            let Some(link) = cam.link(cam.origin, p) else {
+            let Some(link) = cam.link(cam.origin, p).filter(|l| !l.beyond_far) else {
                 continue;
             };
             let (x, y) = link.film;

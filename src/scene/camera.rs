@@ -299,6 +299,10 @@ pub struct CameraLink {
     /// without one): what lies beyond it, nearer the camera, the camera sees through, so a shadow ray
     /// to the camera stops there.
     pub clear: Vec3,
+    /// The point lies beyond the far clipping plane. Only the segment from the camera is clipped: the
+    /// camera sees such a point only through a surface its line of sight goes straight on through (a
+    /// thin pane, a null surface, a hidden emitter) that lies within the plane (`camera_sees`).
+    pub beyond_far: bool,
 }
 
 impl Camera {
@@ -396,26 +400,28 @@ impl Camera {
 
     /// Where light leaving world point `p` reaches the camera through lens point `lens` (the pinhole, or
     /// ignored for an orthographic camera), if `p` is in front of the camera and lands on the film.
-    /// Outside the clipping planes the camera does not see `p`.
+    /// Nearer than the near clipping plane the camera does not see `p`; beyond the far one, only through
+    /// what its line of sight crosses (`CameraLink::beyond_far`).
     pub fn link(&self, lens: Vec3, p: Vec3) -> Option<CameraLink> {
         let [near, far] = self.clip;
         let z = self.depth(p);
-        if z < near || z > far {
+        if z < near {
             return None;
         }
+        let beyond_far = z > far;
         // The point where the segment from p to the lens's plane crosses the near plane.
         let clear = |to: Vec3| if near > 0.0 { p + (to - p) * ((z - near) / z) } else { to };
         if self.ortho.is_some() {
             let film = self.project(p)?;
             let to = p - self.forward * z;
             let pdf = self.pixel_pdf_dir(self.forward);
-            return Some(CameraLink { film, to, dir: -self.forward, pdf, dist2: 1.0, clear: clear(to) });
+            return Some(CameraLink { film, to, dir: -self.forward, pdf, dist2: 1.0, clear: clear(to), beyond_far });
         }
         let film = self.film_position_from(lens, p)?;
         let to_cam = lens - p;
         let dist2 = to_cam.length_squared();
         let dir = to_cam / dist2.sqrt();
-        Some(CameraLink { film, to: lens, dir, pdf: self.pixel_pdf_dir(-dir), dist2, clear: clear(lens) })
+        Some(CameraLink { film, to: lens, dir, pdf: self.pixel_pdf_dir(-dir), dist2, clear: clear(lens), beyond_far })
     }
 
     /// The width in the scene of one pixel at distance `t` along camera ray direction `d`, seen face on.
