@@ -153,9 +153,9 @@ fn rays_with_subnormal_or_huge_components_get_answers_not_an_abort() {
         let b = tiny[(i + 1) % tiny.len()];
         grazing.push(Ray::new(Vec3::new(0.0, a, -0.4), Vec3::new(0.4488477, b, 0.89360833)));
         grazing.push(Ray::new(Vec3::new(a, b, a), Vec3::new(a, b, 1.0)));
+        grazing.push(Ray::new(Vec3::new(0.0, a, -0.4), Vec3::new(b, 1.0, 0.0)));
         plain.push(Ray::new(Vec3::new(a, 1.0, b), Vec3::new(b, -1.0, a)));
         plain.push(Ray::new(Vec3::new(0.0, 0.7, -2.0), Vec3::new(a, b, 1.0)));
-        grazing.push(Ray::new(Vec3::new(0.0, a, -0.4), Vec3::new(b, 1.0, 0.0)));
         let mut r = Ray::new(Vec3::new(0.1, 2.0, 0.1), Vec3::new(b, -1.0, a));
         r.tmin = a.abs();
         plain.push(r);
