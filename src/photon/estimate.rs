@@ -1,8 +1,10 @@
 //! Photon maps and the radiance estimate: k nearest photons within a maximum radius,
 //! L ≈ C/(π r²) Σ f_r ΔΦ_p w_p with the cone filter w_p = max(0, 1 − d_p/(k r)), C = 1/(1 − 2/(3k))
-//! (k < 1 disables it), counting only photons that arrived from the viewer's side of the surface, landed
-//! on a surface facing the same way and lie on its tangent disc (so light does not leak through thin walls or around corners),
-//! and whose paths fit in the scattering events `render.max_depth` leaves after the eye side's bounces.
+//! (k < 1 disables it), counting only photons that arrived from the viewer's side of the surface (of the
+//! normal its BSDF is taken about, on smooth-shaded or mapped surfaces), landed on a surface facing the
+//! same way (either way on those) and lie on its tangent disc (so light does not leak through thin walls
+//! or around corners), and whose paths fit in the scattering events `render.max_depth` leaves after the
+//! eye side's bounces.
 use crate::color::Rgb;
 use crate::math::face_forward;
 use crate::photon::kdtree::{KdError, KdTree, KnnResult};
@@ -254,6 +256,9 @@ struct PhotonFilter {
     n_side: Vec3,
     ns_side: Vec3,
     smooth: bool,
+    /// The normal the BSDF is taken about differs from the facet's (smooth shading or a map): light
+    /// from behind the facet can reach the viewer's side of that normal.
+    bent: bool,
     r: f32,
     budget: u32,
     /// A plastic's coat (smooth or rough): each photon counts the share it lets through.
@@ -270,6 +275,7 @@ impl PhotonFilter {
             n_side: face_forward(si.ng, wo),
             ns_side: face_forward(si.ns, wo),
             smooth: si.ns != si.ng,
+            bent: si.ns != si.ng || lobe.map.is_some(),
             r,
             budget,
             coat: lobe.coat,
@@ -283,7 +289,10 @@ impl PhotonFilter {
     /// tracer integrates the cosine about the shading normal: the last factor of the shading-normal
     /// adjoint), zero for light arriving from below the shading normal; under a normal map the map's
     /// factor / |wi·ng| (the cosine about the mapped normal and the shadowing term). Under a coat, times
-    /// the share the coat lets through, at the normal the lobe is taken about.
+    /// the share the coat lets through, at the normal the lobe is taken about. On such bent normals a
+    /// photon that landed on the back of the facet counts too where it arrived from the viewer's side
+    /// of the shading normal: the path tracer's reflections below the facet go through it and find
+    /// that light (`SurfaceHit::scatter_with`).
     /// Inlined: called once per gathered photon (a profile put a third of a photon-mapped render's
     /// samples on its first use of the photon's position; inlining alone did not change the time).
     #[inline(always)]
@@ -293,11 +302,14 @@ impl PhotonFilter {
         }
         // Landed on a surface facing the same way (not the other side of a thin wall, not the next wall
         // round a corner), and arrived from the viewer's side (travelled against the normal).
-        if item.n().dot(self.n_side) < DISC_FACING {
-            return None;
-        }
         let wi = item.wi();
-        if wi.dot(self.n_side) >= 0.0 {
+        if self.bent {
+            // Either side of the facet: the weight below is zero unless the light came from the
+            // viewer's side of the normal the BSDF is taken about.
+            if item.n().dot(self.n_side).abs() < DISC_FACING {
+                return None;
+            }
+        } else if item.n().dot(self.n_side) < DISC_FACING || wi.dot(self.n_side) >= 0.0 {
             return None;
         }
         let (w, about) = match &self.map {

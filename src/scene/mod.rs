@@ -288,10 +288,12 @@ impl SurfaceHit {
     }
 
     /// Samples `mat` at this surface for the direction `wo` the path arrived along (pointing away), and
-    /// returns the sample with the ray it spawns; None when sampling fails or the shading normal sent the
-    /// direction to the wrong side of the geometric surface (reflection below it, refraction that does
-    /// not cross it). In `Importance` mode the weight carries Veach's shading-normal correction
-    /// |wo·ns||wi·ng| / (|wo·ng||wi·ns|) (thesis §5.3), so photons and light paths see the adjoint BSDF.
+    /// returns the sample with the ray it spawns; None when sampling fails. The sample is the BSDF's about
+    /// the shading normal alone, as in Mitsuba 3 and pbrt-v4: a reflection the shading normal sends below
+    /// the geometric surface goes on through it (the ray leaves from that side), and a refraction that
+    /// does not cross it stays on its side. In `Importance` mode the weight carries Veach's shading-normal
+    /// correction |wo·ns||wi·ng| / (|wo·ng||wi·ns|) (thesis §5.3), so photons and light paths see the
+    /// adjoint BSDF.
     pub fn scatter(
         &self,
         mat: &Material,
@@ -313,24 +315,19 @@ impl SurfaceHit {
         mode: TransportMode,
     ) -> Option<(material::BsdfSample, crate::math::Ray)> {
         let mut bs = mat.sample(wo, self.ns, u, uc, mode)?;
-        let same_side = bs.wi.dot(self.ng) * wo.dot(self.ng) > 0.0;
-        if same_side == bs.transmitted {
-            return None;
-        }
         if mode == TransportMode::Importance {
             bs.weight *= self.shading_correction(wo, bs.wi);
         }
         Some((bs, self.spawn(bs.wi)))
     }
 
-    /// Whether `mat` here can carry light between `wo` and `wi` (both pointing away): a reflection must
-    /// keep to one side of the geometric surface, a transmission (dielectrics only) cross it, and the
-    /// shading normal must see the same (the BSDF decides reflection or transmission by it; where the two
-    /// normals disagree the light would leak through the surface, or be refracted where it reflects).
+    /// Whether `mat` here can carry light between `wo` and `wi` (both pointing away), by the shading
+    /// normal alone as `scatter_with` samples: a reflection keeps to one side of it, a transmission
+    /// (dielectrics only) crosses it. Which side of the geometric surface `wi` lies on does not matter
+    /// (a reflection below it reaches what lies behind the surface, as Mitsuba 3's and pbrt-v4's do).
     pub fn can_scatter(&self, mat: &Material, wo: Vec3, wi: Vec3) -> bool {
-        let geometric = wo.dot(self.ng) * wi.dot(self.ng);
         let shading = wo.dot(self.ns) * wi.dot(self.ns);
-        (geometric > 0.0 && shading > 0.0) || (geometric < 0.0 && shading < 0.0 && mat.transmits())
+        shading > 0.0 || (shading < 0.0 && mat.transmits())
     }
 
     /// |wo·ns||wi·ng| / (|wo·ng||wi·ns|): the factor by which the adjoint BSDF differs from the BSDF
