@@ -1,13 +1,14 @@
 //! Mutation fuzzing over the bundled scene files: truncations, swapped types, huge and negative
 //! numbers, deep nesting, random bytes, dropped and doubled lines. Every case must either load and
-//! render (tiny, both modes, finite) or stop with an error naming the file — never panic.
+//! render (tiny, every mode, finite) or stop with an error naming the file — never panic.
 //! CI runs 1,000 seeded cases; `CAUSTICA_FUZZ_CASES=10000 cargo test --release --test hostile_input`
-//! runs the full set. The dragon scenes are left out of the corpus (each case would re-read a 30 MB mesh).
+//! runs more, and `CAUSTICA_FUZZ_SEED=N` (added to each block's fixed seed) other ones. The dragon scenes are left out of the corpus (each case would re-read a 30 MB mesh).
 //! The Mitsuba XML scenes of `tests/mitsuba/` get a quarter as many cases, with XML-specific damage too
 //! (other plugin types, deep nesting, includes of themselves, files of the wrong kind, degenerate
 //! transforms and values), and the files they read (sky, mesh, texture) are damaged on disk.
 use caustica::accel::Accel;
-use caustica::pipeline::{render_path, render_pm_default};
+use caustica::pipeline::{plan_for, render_layers, render_path, render_pm_default};
+use caustica::scene::file::Mode;
 use caustica::scene::load_scene_str;
 use proptest::prelude::*;
 use std::path::PathBuf;
@@ -173,7 +174,7 @@ fn run_case(name: &str, bytes: &[u8]) {
     }
 }
 
-/// Renders a scene that loaded tiny in both modes: whatever a mutation kept must not break the renderer.
+/// Renders a scene that loaded tiny in every mode: whatever a mutation kept must not break the renderer.
 fn render_tiny(mut scene: caustica::scene::Scene, what: &str) {
     scene.camera.width = scene.camera.width.min(6);
     scene.camera.height = scene.camera.height.min(6);
@@ -191,14 +192,37 @@ fn render_tiny(mut scene: caustica::scene::Scene, what: &str) {
     let pt = render_path(&scene, &accel, 1, true);
     let pm = render_pm_default(&scene, &accel, true).expect("photon maps");
     assert_eq!(pt.counters.nonfinite + pm.counters.nonfinite, 0, "{what}");
+    // The progressive and bidirectional modes, one small pass each: their radius schedules, light
+    // subpaths, splats and merges meet the same scene.
+    let r = &mut scene.render;
+    r.progressive.passes = 1;
+    r.progressive.first_pass = 1;
+    r.progressive.time_s = 0.0;
+    r.progressive.photons_per_pass = r.progressive.photons_per_pass.min(500);
+    r.vcm.light_paths = r.vcm.light_paths.min(64);
+    for mode in [Mode::Ppm, Mode::Sppm, Mode::Bdpt, Mode::Vcm] {
+        scene.render.mode = mode;
+        let plan = plan_for(&scene, &accel);
+        let layers = render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true)
+            .unwrap_or_else(|e| panic!("{mode:?} failed on a scene that loaded: {e}\n{what}"));
+        for l in &layers {
+            let bad = l.stats["nonfinite_samples"].as_u64().unwrap_or(0);
+            assert_eq!(bad, 0, "{mode:?}: {bad} non-finite samples\n{what}");
+        }
+    }
 }
 
 fn cases() -> u32 {
     std::env::var("CAUSTICA_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(1000)
 }
 
+/// A fuzz block's fixed seed, or that seed plus `CAUSTICA_FUZZ_SEED` (to draw cases CI has not run).
+fn seed(base: u64) -> u64 {
+    base.wrapping_add(std::env::var("CAUSTICA_FUZZ_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(0))
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: cases(), rng_seed: proptest::test_runner::RngSeed::Fixed(0xF022), failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(), rng_seed: proptest::test_runner::RngSeed::Fixed(seed(0xF022)), failure_persistence: None, ..ProptestConfig::default() })]
 
     #[test]
     fn mutated_scenes_load_or_fail_cleanly(which in any::<usize>(), m in mutation()) {
@@ -421,7 +445,7 @@ fn apply_xml(text: &str, m: &Mutation, which: usize, extra: usize) -> Vec<u8> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: cases() / 4, rng_seed: proptest::test_runner::RngSeed::Fixed(0x3A1), failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases() / 4, rng_seed: proptest::test_runner::RngSeed::Fixed(seed(0x3A1)), failure_persistence: None, ..ProptestConfig::default() })]
 
     #[test]
     fn mutated_mitsuba_scenes_load_or_fail_cleanly(which in any::<usize>(), (m, at, extra) in xml_mutation()) {
@@ -461,7 +485,7 @@ const ASSETS: &[(&str, &str)] = &[
 ];
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: cases() / 4, rng_seed: proptest::test_runner::RngSeed::Fixed(0xA55E7), failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases() / 4, rng_seed: proptest::test_runner::RngSeed::Fixed(seed(0xA55E7)), failure_persistence: None, ..ProptestConfig::default() })]
 
     /// A sky, a mesh, a texture (one a light's radiance) or a spectrum file damaged on disk (truncated, bytes overwritten, inserted or cut): the
     /// scene that reads it renders or stops with an error naming the damaged file, never a panic.
@@ -495,4 +519,18 @@ proptest! {
             }
         });
     }
+}
+
+#[test]
+fn a_wall_1e30_high_renders_finite_in_every_mode() {
+    // Found by the fuzz once it rendered every mode: the wall's area and the scene's diagonal overflowed
+    // f32 (their squares pass 3.4e38), so VCM's merge radius was infinite and its samples NaN.
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let text = std::fs::read_to_string(dir.join("spotlight.toml")).unwrap();
+    let huge = text.replacen("edge_v = [0.0, 3.0, 0.0]", "edge_v = [0.0, 1e30, 0.0]", 1);
+    assert_ne!(huge, text, "the wall's edge is no longer in spotlight.toml");
+    let scene = load_scene_str(&huge, "spotlight.toml", &dir, &[]).unwrap_or_else(|e| panic!("{e}"));
+    let r1 = caustica::integrator::vcm::initial_radius(&scene);
+    assert!(r1.is_finite() && r1 > 0.0, "VCM's first merge radius {r1}");
+    render_tiny(scene, "spotlight.toml with a wall 1e30 high");
 }

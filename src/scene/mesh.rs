@@ -79,9 +79,11 @@ impl TriMesh {
         (b - a, c - a)
     }
 
+    /// Triangle `i`'s area, worked out in f64: in f32 the squared length of the cross product overflows
+    /// for edges beyond about 1e19 (an area of 1e30 read as infinite).
     pub fn area(&self, i: usize) -> f32 {
-        let [a, b, c] = self.triangle(i);
-        0.5 * (b - a).cross(c - a).length()
+        let [a, b, c] = self.triangle(i).map(|v| v.as_dvec3());
+        (0.5 * (b - a).cross(c - a).length()) as f32
     }
 
     pub fn total_area(&self) -> f32 {

@@ -807,8 +807,10 @@ impl Scene {
             .sum()
     }
 
+    /// The length of the bounds' diagonal, worked out in f64 (in f32 its square overflows for a scene
+    /// wider than about 1e19), at most f32::MAX.
     pub fn diagonal(&self) -> f32 {
-        (self.bounds.1 - self.bounds.0).length()
+        (self.bounds.1.as_dvec3() - self.bounds.0.as_dvec3()).length().min(f32::MAX as f64) as f32
     }
 
     /// Radiance a shape emits at the point whose texture coordinates `uv` gives (its emission, times
