@@ -146,6 +146,9 @@ fn each_malformed_scene_gets_its_own_message() {
     let mut negative = caustica::film::Image::new(2, 1);
     negative.pixels[1] = glam::Vec3::new(1.0, -0.5, 1.0);
     caustica::output::write_exr(&d.join("negative.exr"), &negative).unwrap();
+    let mut blinding = caustica::film::Image::new(2, 1);
+    blinding.pixels[0] = glam::Vec3::splat(1e32);
+    caustica::output::write_exr(&d.join("blinding.exr"), &blinding).unwrap();
     std::fs::write(d.join("nouv.obj"), "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n").unwrap();
     let ply = |props: &str, rows: &str| {
         format!("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{props}element face 1\nproperty list uchar int vertex_indices\nend_header\n{rows}3 0 2 1\n")
@@ -617,6 +620,17 @@ fn each_malformed_scene_gets_its_own_message() {
             ),
             vec![],
             vec!["shapes[0].emission", "texture `glow` (negative.exr) reaches -0.5", "≥ 0"],
+        ),
+        (
+            // Found by the damaged-file fuzz: a damaged sky.exr read as an emitter's radiance emitted
+            // 6e32 W, and the error named the scene and the shape but not the file to look at.
+            "emission_texture_beyond_f32",
+            with_textures(
+                GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\""),
+                "glow = { type = \"bitmap\", file = \"blinding.exr\" }",
+            ),
+            vec![],
+            vec!["shapes[0]", "at most 1e30 W", "blinding.exr"],
         ),
         (
             "blend_weight_range",

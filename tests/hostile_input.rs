@@ -534,3 +534,16 @@ fn a_wall_1e30_high_renders_finite_in_every_mode() {
     assert!(r1.is_finite() && r1 > 0.0, "VCM's first merge radius {r1}");
     render_tiny(scene, "spotlight.toml with a wall 1e30 high");
 }
+
+#[test]
+fn a_ring_1e30_wide_renders_finite_in_every_mode() {
+    // Found by the fuzz (CAUSTICA_FUZZ_SEED=2): a lathe profile point moved to 1e30 makes a ring whose
+    // area is beyond f32; the merge radius fell back to its cap, a fraction of the scene's diagonal
+    // (1.4e29), whose square times the light subpaths made VCM's η infinite and 12 samples NaN.
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let text = std::fs::read_to_string(dir.join("checker-glass.toml")).unwrap();
+    let huge = text.replacen("profile = [[0.42, 0.0]", "profile = [[1e30, 0.0]", 1);
+    assert_ne!(huge, text, "the ring's profile is no longer in checker-glass.toml");
+    let scene = load_scene_str(&huge, "checker-glass.toml", &dir, &[]).unwrap_or_else(|e| panic!("{e}"));
+    render_tiny(scene, "checker-glass.toml with a ring 1e30 wide");
+}

@@ -65,19 +65,20 @@ pub fn glossy_initial_radius(scene: &Scene) -> f32 {
     radius_for_density(scene, 30.0, p.photons_per_pass as f64, |m| scene.material_unheld_glossy(m))
 }
 
+/// The most π r² × points a radius may make: VCM's η (π r² times its light subpaths) and the MIS sums
+/// it enters stay finite in f32 (a scene stretched over 1e30 units made η infinite and VCM's samples NaN).
+const MAX_DISC_POINTS_AREA: f64 = 1e30;
+
 /// The radius of a disc holding about `k` of `points` points spread evenly over the surfaces whose
 /// material `holds` (those the points are stored on: photons on the surfaces that hold them, VCM's
 /// light vertices on every surface that is not a delta BSDF), capped at `render.gather.max_radius` of
-/// the scene diagonal.
+/// the scene diagonal, and so that π r² × `points` stays within `MAX_DISC_POINTS_AREA`.
 pub fn radius_for_density(scene: &Scene, k: f64, points: f64, holds: impl Fn(u32) -> bool) -> f32 {
     let area: f64 = scene.shapes.iter().filter(|s| holds(s.material)).map(|s| s.area() as f64).sum();
-    let r = (k * area / (std::f64::consts::PI * points)).sqrt() as f32;
-    let cap = scene.render.gather.max_radius * scene.diagonal();
-    if r.is_finite() && r > 0.0 {
-        r.min(cap)
-    } else {
-        cap
-    }
+    let r = (k * area / (std::f64::consts::PI * points)).sqrt();
+    let cap = scene.render.gather.max_radius as f64 * scene.diagonal() as f64;
+    let r = if r.is_finite() && r > 0.0 { r.min(cap) } else { cap };
+    r.min((MAX_DISC_POINTS_AREA / (std::f64::consts::PI * points.max(1.0))).sqrt()) as f32
 }
 
 /// Seed of pass `i`'s eye samples: every pass of every seed draws its own pixel samples (the seed is

@@ -1524,7 +1524,12 @@ fn check_power(cx: &Ctx, scene: &Scene, keys: &[String]) -> Result<(), SceneErro
     let (i, p) =
         lights.power.iter().enumerate().max_by(|a, b| a.1.max_element().total_cmp(&b.1.max_element())).unwrap();
     let key = keys.get(i).cloned().or_else(|| lights.list[i].shape().map(|s| scene.shapes[s as usize].name.clone()));
-    let why = if lights.list[i].at_infinity() {
+    let texture = lights.list[i].shape().and_then(|s| scene.shapes[s as usize].emission_texture);
+    let why = if let Some(crate::scene::texture::Texture::Bitmap { file, .. }) =
+        texture.map(|t| &scene.textures[t as usize])
+    {
+        format!(" (its radiance is read from {file}: are its texels right?)")
+    } else if lights.list[i].at_infinity() {
         format!(
             " (a light at infinity emits its radiance times the area of the scene's bounding disc, here of \
              radius {:.3e}: keep the shapes within about 1e12 of one another)",
