@@ -31,6 +31,14 @@ fn with_white(line: &str) -> String {
     GOOD.replace("white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }", line)
 }
 
+/// `GOOD` with its quad emitting the radiance the image `file` holds (a texture named `glow`).
+fn glowing(file: &str) -> String {
+    with_textures(
+        GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\""),
+        &format!("glow = {{ type = \"bitmap\", file = \"{file}\" }}"),
+    )
+}
+
 /// `scene` with a `[textures]` table of `lines` (whole `name = { … }` lines) before its materials.
 fn with_textures(scene: String, lines: &str) -> String {
     scene.replace("[materials]", &format!("[textures]\n{lines}\n\n[materials]"))
@@ -614,10 +622,7 @@ fn each_malformed_scene_gets_its_own_message() {
         ),
         (
             "emission_negative_texture",
-            with_textures(
-                GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\""),
-                "glow = { type = \"bitmap\", file = \"negative.exr\" }",
-            ),
+            glowing("negative.exr"),
             vec![],
             vec!["shapes[0].emission", "texture `glow` (negative.exr) reaches -0.5", "≥ 0"],
         ),
@@ -625,10 +630,7 @@ fn each_malformed_scene_gets_its_own_message() {
             // Found by the damaged-file fuzz: a damaged sky.exr read as an emitter's radiance emitted
             // 6e32 W, and the error named the scene and the shape but not the file to look at.
             "emission_texture_beyond_f32",
-            with_textures(
-                GOOD.replace("material = \"white\"", "material = \"white\"\nemission = \"glow\""),
-                "glow = { type = \"bitmap\", file = \"blinding.exr\" }",
-            ),
+            glowing("blinding.exr"),
             vec![],
             vec!["shapes[0]", "at most 1e30 W", "blinding.exr"],
         ),

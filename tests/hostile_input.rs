@@ -521,18 +521,24 @@ proptest! {
     }
 }
 
+/// The bundled scene `name` with its first `from` replaced by `to`, loaded (it must load) and rendered
+/// tiny in every mode (a panic on an infinite merge radius or a non-finite sample).
+fn render_edited(name: &str, from: &str, to: &str) {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let text = std::fs::read_to_string(dir.join(name)).unwrap();
+    let edited = text.replacen(from, to, 1);
+    assert_ne!(edited, text, "`{from}` is no longer in {name}");
+    let scene = load_scene_str(&edited, name, &dir, &[]).unwrap_or_else(|e| panic!("{e}"));
+    let r1 = caustica::integrator::vcm::initial_radius(&scene);
+    assert!(r1.is_finite() && r1 > 0.0, "{name} with {to}: VCM's first merge radius {r1}");
+    render_tiny(scene, &format!("{name} with `{from}` made `{to}`"));
+}
+
 #[test]
 fn a_wall_1e30_high_renders_finite_in_every_mode() {
     // Found by the fuzz once it rendered every mode: the wall's area and the scene's diagonal overflowed
     // f32 (their squares pass 3.4e38), so VCM's merge radius was infinite and its samples NaN.
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let text = std::fs::read_to_string(dir.join("spotlight.toml")).unwrap();
-    let huge = text.replacen("edge_v = [0.0, 3.0, 0.0]", "edge_v = [0.0, 1e30, 0.0]", 1);
-    assert_ne!(huge, text, "the wall's edge is no longer in spotlight.toml");
-    let scene = load_scene_str(&huge, "spotlight.toml", &dir, &[]).unwrap_or_else(|e| panic!("{e}"));
-    let r1 = caustica::integrator::vcm::initial_radius(&scene);
-    assert!(r1.is_finite() && r1 > 0.0, "VCM's first merge radius {r1}");
-    render_tiny(scene, "spotlight.toml with a wall 1e30 high");
+    render_edited("spotlight.toml", "edge_v = [0.0, 3.0, 0.0]", "edge_v = [0.0, 1e30, 0.0]");
 }
 
 #[test]
@@ -540,10 +546,5 @@ fn a_ring_1e30_wide_renders_finite_in_every_mode() {
     // Found by the fuzz (CAUSTICA_FUZZ_SEED=2): a lathe profile point moved to 1e30 makes a ring whose
     // area is beyond f32; the merge radius fell back to its cap, a fraction of the scene's diagonal
     // (1.4e29), whose square times the light subpaths made VCM's η infinite and 12 samples NaN.
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let text = std::fs::read_to_string(dir.join("checker-glass.toml")).unwrap();
-    let huge = text.replacen("profile = [[0.42, 0.0]", "profile = [[1e30, 0.0]", 1);
-    assert_ne!(huge, text, "the ring's profile is no longer in checker-glass.toml");
-    let scene = load_scene_str(&huge, "checker-glass.toml", &dir, &[]).unwrap_or_else(|e| panic!("{e}"));
-    render_tiny(scene, "checker-glass.toml with a ring 1e30 wide");
+    render_edited("checker-glass.toml", "profile = [[0.42, 0.0]", "profile = [[1e30, 0.0]");
 }
