@@ -139,6 +139,18 @@ pub fn sphere_root(o: [f32; 3], d: [f32; 3], c: [f32; 3], r: f32, tmin: f32, tma
     [t0, t1].into_iter().map(|t| t as f32).find(|&t| t > tmin && t < tmax)
 }
 
+/// |v|: f32's own `length` wherever its square fits in f32, else worked out in f64 (components beyond
+/// about 1e19 square past f32::MAX, and a triangle's area, say, would read infinite).
+#[inline]
+pub fn length_wide(v: Vec3) -> f32 {
+    let l = v.length();
+    if l.is_finite() {
+        l
+    } else {
+        v.as_dvec3().length() as f32
+    }
+}
+
 /// Largest component of a vector.
 pub fn max_component(v: Vec3) -> f32 {
     v.x.max(v.y).max(v.z)

@@ -79,11 +79,11 @@ impl TriMesh {
         (b - a, c - a)
     }
 
-    /// Triangle `i`'s area, worked out in f64: in f32 the squared length of the cross product overflows
-    /// for edges beyond about 1e19 (an area of 1e30 read as infinite).
+    /// Triangle `i`'s area, as `Geometry::point` reports it (`length_wide`: an area of 1e30, whose cross
+    /// product squares past f32, is not read as infinite).
     pub fn area(&self, i: usize) -> f32 {
-        let [a, b, c] = self.triangle(i).map(|v| v.as_dvec3());
-        (0.5 * (b - a).cross(c - a).length()) as f32
+        let [a, b, c] = self.triangle(i);
+        0.5 * crate::math::length_wide((b - a).cross(c - a))
     }
 
     pub fn total_area(&self) -> f32 {
@@ -1070,6 +1070,20 @@ mod tests {
         for i in 0..m.indices.len() {
             let [a, b, c] = m.triangle(i);
             assert!((b - a).cross(c - a).y > 0.0);
+        }
+    }
+
+    /// A triangle's area is the one its sampled points report, bit for bit (a light's pdf divides by the
+    /// one, its samples by the other), also where the cross product squares past f32 (edges of 1e30).
+    #[test]
+    fn a_triangles_area_is_its_sampled_points_area_even_beyond_f32() {
+        for s in [1e-3f32, 1.0, 7.3, 1e30] {
+            let positions = vec![Vec3::ZERO, Vec3::new(2.0 * s, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0)];
+            let m = TriMesh { positions, indices: vec![[0, 1, 2]], ..Default::default() };
+            let p = crate::scene::Geometry::Mesh(m.clone()).point(0, [0.3, 0.6]);
+            assert_eq!(m.area(0).to_bits(), p.area.to_bits(), "edge {s}");
+            assert!((m.area(0) / (3.0 * s) - 1.0).abs() < 1e-6, "edge {s}: area {}", m.area(0));
+            assert!((p.n - Vec3::Z).length() < 1e-6, "edge {s}: normal {}", p.n);
         }
     }
 

@@ -105,8 +105,9 @@ impl Geometry {
                 let [a, b, c] = m.triangle(prim);
                 let bc = crate::math::sampling::uniform_triangle(u);
                 let cross = (b - a).cross(c - a);
-                // One square root for the normal and the area (normalize_or_zero's own arithmetic).
-                let len = cross.length();
+                // One square root for the normal and the area (normalize_or_zero's own arithmetic;
+                // `Mesh::area`'s, so that a light's sampled area and its pdf agree bit for bit).
+                let len = crate::math::length_wide(cross);
                 let rcp = len.recip();
                 SurfacePoint {
                     p: a * (1.0 - bc[0] - bc[1]) + b * bc[0] + c * bc[1],
