@@ -4,6 +4,9 @@
 //! bucket the search starts from a radius guessed from the local density (see `knn`).
 use super::KdTree;
 
+// A bucket's points are picked out by a 32-bit mask.
+const _: () = assert!(super::BUCKET == 32);
+
 /// How many points the guessed starting ball should hold, per point asked for: the margin that makes
 /// a second pass rare where the density is even (about 1 query in 25 on uniform points, 1M, k = 50).
 const GUESS_MARGIN: f32 = 1.5;
@@ -193,12 +196,21 @@ impl<T> KdTree<T> {
         self.traverse(q, bound0, &mut stack, |lo, hi, bound| {
             let n = self.bucket_d2(q, lo, hi, &mut d2s);
             let b = *bound;
+            // Which of the bucket's points lie within the bound, as a bit mask (one vector compare
+            // over the whole buffer; entries past `n` are masked off), then only those are written.
+            // Once k are known, a tie with the bound cannot change the k smallest distances.
+            let mut mask = 0u32;
+            for (i, &d2) in d2s.iter().enumerate() {
+                mask |= ((d2 < b || (!have_bound && d2 == b)) as u32) << i;
+            }
+            mask &= u32::MAX.checked_shr((super::BUCKET - n) as u32).unwrap_or(0);
             let slots = &mut res.found[len..len + n];
             let mut kept = 0usize;
-            for (i, &d2) in d2s[..n].iter().enumerate() {
-                slots[kept] = (d2, lo + i as u32);
-                // Once k are known, a tie with the bound cannot change the k smallest distances.
-                kept += if have_bound { d2 < b } else { d2 <= b } as usize;
+            while mask != 0 {
+                let i = mask.trailing_zeros();
+                slots[kept] = (d2s[i as usize], lo + i);
+                kept += 1;
+                mask &= mask - 1;
             }
             len += kept;
             if len >= cap || (seek && !have_bound && len >= k) {
