@@ -69,6 +69,18 @@ impl KnnResult {
     }
 }
 
+/// Which of a bucket's points (the first `n` squared distances of `d2s`) lie within `bound`, as a bit
+/// mask: d2 < bound, or d2 ≤ bound with `ties`. One vector compare over the whole buffer (entries past
+/// `n` are masked off), so that only the points kept cost a scalar step.
+#[inline(always)]
+pub(super) fn within_mask(d2s: &[f32; super::BUCKET], n: usize, bound: f32, ties: bool) -> u32 {
+    let mut mask = 0u32;
+    for (i, &d2) in d2s.iter().enumerate() {
+        mask |= ((d2 < bound || (ties && d2 == bound)) as u32) << i;
+    }
+    mask & u32::MAX.checked_shr((super::BUCKET - n) as u32).unwrap_or(0)
+}
+
 /// Moves the `k` smallest entries to the front of `v` and returns the k-th smallest squared distance.
 fn select_k(v: &mut [(f32, u32)], k: usize) -> f32 {
     v.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
@@ -186,7 +198,7 @@ impl<T> KdTree<T> {
     fn gather(&self, q: [f32; 3], k: usize, bound0: f32, seek: bool, res: &mut KnnResult) -> usize {
         // Never more slots than points: k beyond the tree's size only means "all within the radius".
         let cap = 2 * k.min(self.len()).max(super::BUCKET);
-        // Slots are written unconditionally and kept by advancing `len` (branch-free compaction).
+        // Room for a whole bucket past `cap`: a bucket's points are written before the buffer is trimmed.
         res.found.clear();
         res.found.resize(cap + super::BUCKET, (0.0, 0));
         let mut len = 0usize;
@@ -196,14 +208,9 @@ impl<T> KdTree<T> {
         self.traverse(q, bound0, &mut stack, |lo, hi, bound| {
             let n = self.bucket_d2(q, lo, hi, &mut d2s);
             let b = *bound;
-            // Which of the bucket's points lie within the bound, as a bit mask (one vector compare
-            // over the whole buffer; entries past `n` are masked off), then only those are written.
-            // Once k are known, a tie with the bound cannot change the k smallest distances.
-            let mut mask = 0u32;
-            for (i, &d2) in d2s.iter().enumerate() {
-                mask |= ((d2 < b || (!have_bound && d2 == b)) as u32) << i;
-            }
-            mask &= u32::MAX.checked_shr((super::BUCKET - n) as u32).unwrap_or(0);
+            // Only the points within the bound are written. Once k are known, a tie with the bound
+            // cannot change the k smallest distances.
+            let mut mask = within_mask(&d2s, n, b, !have_bound);
             let slots = &mut res.found[len..len + n];
             let mut kept = 0usize;
             while mask != 0 {

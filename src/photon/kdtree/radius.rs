@@ -1,5 +1,5 @@
 //! Fixed-radius search: every point with squared distance ≤ r² from the query, into a reusable buffer.
-use super::knn::Entry;
+use super::knn::{within_mask, Entry};
 use super::KdTree;
 
 impl<T> KdTree<T> {
@@ -9,10 +9,11 @@ impl<T> KdTree<T> {
         let mut d2s = [0.0f32; super::BUCKET];
         self.traverse(q, r2, stack, |lo, hi, _bound| {
             let n = self.bucket_d2(q, lo, hi, &mut d2s);
-            for (i, &d2) in d2s[..n].iter().enumerate() {
-                if d2 <= r2 {
-                    out.push((d2, lo + i as u32));
-                }
+            let mut mask = within_mask(&d2s, n, r2, true);
+            while mask != 0 {
+                let i = mask.trailing_zeros();
+                out.push((d2s[i as usize], lo + i));
+                mask &= mask - 1;
             }
         });
     }
