@@ -13,7 +13,7 @@ use crate::metrics::compare;
 use crate::output::{self, with_suffix};
 use crate::photon::trace::{CAUSTIC, DIRECT, INDIRECT};
 use crate::plan::{Plan, Probe};
-use crate::render::{render_share, RenderOutput, Share, ShareOutput};
+use crate::render::{render_share, render_share_pixels, RenderOutput, Share, ShareOutput};
 use crate::scene::file::Mode;
 use crate::scene::Scene;
 use anyhow::{bail, Result};
@@ -242,23 +242,25 @@ pub fn render_photon_map_share(
     quiet: bool,
 ) -> ShareOutput {
     let mut pm = PhotonMapper::new(scene, tracer, maps, only);
-    pm.specular_spp = plan.specular_spp;
+    let probes = pm.take_extra_samples(plan.specular_spp);
     pm.edges = scene.render.gather.edge_correction;
     if scene.render.final_gather > 0 && only.is_none() {
         let stride = scene.render.gather.cache_stride;
         pm.cache = RadianceCache::build(scene, tracer, maps, &pm.gather, stride, pm.edges);
     }
     let cam = &scene.camera;
-    let mut out = render_share(
+    let seed = scene.render.seed;
+    let mut out = render_share_pixels(
         cam,
         scene.render.pm_spp,
         scene.render.sampler,
-        scene.render.seed,
+        seed,
         share,
         "eye pass",
         quiet,
-        |x, y, rng, c: &mut Counters| pm.li(cam.sample_ray(x, y, rng), rng, c),
+        |x, y, s, rng, c: &mut Counters| pm.sample(x, y, s, seed, rng, c),
     );
+    out.counters.rays += probes;
     // The caustic pass's light-traced glossy caustics, on the pixels this share renders (weighted as
     // its samples are, so that shares add up).
     if let (Some(g), None | Some(CAUSTIC)) = (&maps.glossy, only) {

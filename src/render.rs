@@ -84,6 +84,22 @@ where
     render_share(cam, spp, sampler, seed, Share::All, label, quiet, sample).finish()
 }
 
+/// As `render`, with `sample` taking a pixel's sample whole (`render_share_pixels`).
+pub fn render_pixels<F>(
+    cam: &Camera,
+    spp: u32,
+    sampler: Sampler,
+    seed: u64,
+    label: &str,
+    quiet: bool,
+    sample: F,
+) -> RenderOutput
+where
+    F: Fn(u32, u32, u32, &mut Rng, &mut Counters) -> Rgb + Sync,
+{
+    render_share_pixels(cam, spp, sampler, seed, Share::All, label, quiet, sample).finish()
+}
+
 /// `render`'s share `share`: each pixel's samples are summed in f64 in sample order, so the sums of
 /// sample-index shares add up to the whole render's sums (to f64 rounding).
 #[allow(clippy::too_many_arguments)]
@@ -99,6 +115,29 @@ pub fn render_share<F>(
 ) -> ShareOutput
 where
     F: Fn(f32, f32, &mut Rng, &mut Counters) -> Rgb + Sync,
+{
+    render_share_pixels(cam, spp, sampler, seed, share, label, quiet, |x, y, _, rng, c| {
+        let (fx, fy, weight) = cam.film_position(x, y, rng.next_2d());
+        sample(fx, fy, rng, c) * weight
+    })
+}
+
+/// As `render_share`, with `sample(x, y, s, rng, counters)` taking pixel (x, y)'s sample `s` whole: it
+/// draws its own film positions (with `rng`, the (pixel, s) sampler, for the first) and returns the
+/// filter-weighted radiance (an eye pass that takes extra samples of a pixel's area).
+#[allow(clippy::too_many_arguments)]
+pub fn render_share_pixels<F>(
+    cam: &Camera,
+    spp: u32,
+    sampler: Sampler,
+    seed: u64,
+    share: Share,
+    label: &str,
+    quiet: bool,
+    sample: F,
+) -> ShareOutput
+where
+    F: Fn(u32, u32, u32, &mut Rng, &mut Counters) -> Rgb + Sync,
 {
     let (width, height) = (cam.width, cam.height);
     let t0 = Instant::now();
@@ -119,8 +158,7 @@ where
                     let mut sum = [0.0f64; 3];
                     for s in range.clone() {
                         let mut rng = Rng::camera(sampler, seed, pixel, s as u64);
-                        let (fx, fy, weight) = cam.film_position(x, y, rng.next_2d());
-                        let v = sample(fx, fy, &mut rng, &mut c) * weight;
+                        let v = sample(x, y, s, &mut rng, &mut c);
                         if v.is_finite() {
                             for k in 0..3 {
                                 sum[k] += v[k] as f64;

@@ -933,3 +933,69 @@ fn the_split_first_glass_lobe_keeps_the_depth_limit() {
         photon_modes_match_pt_within(&label, &text, 0.02);
     }
 }
+
+/// A light's edge mirrored across a pixel: a camera looks at a mirror (its first hit specular) that
+/// shows a quad light covering x < x0, with x0 placed so the light's reflection covers `f` = 0.3 of the
+/// width of column 4 of an 8 × 8 image (box filter). Columns 0–3 see the light over their whole area,
+/// column 4 over 30% of it, columns 5–7 not at all.
+fn mirrored_edge(mode: &str, sets: &[&str]) -> Scene {
+    // A camera ray through film coordinate t (tangent plane, x) hits the mirror at z = −1 and, reflected,
+    // reaches the light's plane z = 0.5 at x = 2.5 t. Column 4 spans t ∈ [0, w], w = 2 tan(10°) / 8.
+    let w = 2.0 * 10f32.to_radians().tan() / 8.0;
+    let x0 = 2.5 * 0.3 * w;
+    let text = format!(
+        "[camera]\norigin = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, -1.0]\nfov = 20\nresolution = [8, 8]\n\
+         [materials]\nmirror = {{ type = \"mirror\" }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-2.0, -2.0, -1.0]\nedge_u = [4.0, 0.0, 0.0]\nedge_v = [0.0, 4.0, 0.0]\n\
+         material = \"mirror\"\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [{x0}, -3.0, 0.5]\nedge_u = [-6.0, 0.0, 0.0]\nedge_v = [0.0, 6.0, 0.0]\n\
+         radiance = [1.0, 1.0, 1.0]\n"
+    );
+    common::scene_in_mode(&text, mode, sets)
+}
+
+/// The extra eye samples of pixels whose first hit is specular (`render.specular_spp`) sample the
+/// pixel's area: a light's reflection covering 30% of a pixel is found by 1 − 0.7⁵ of five-sample
+/// estimates, and one pass's value at that pixel varies by at most 0.3 · 0.7 / 5 (independent positions;
+/// less when stratified), against 0.3 · 0.7 for a single position, for every mode with an eye pass of
+/// photon mapping: one SPPM iteration, one PPM pass, a fixed photon map's single eye sample. The mean
+/// stays the light's share of the pixel, 0.3, and the lit and dark columns read exactly 1 and 0.
+#[test]
+fn extra_eye_samples_behind_a_mirror_sample_the_pixel_area() {
+    let f = 0.3f64;
+    for (mode, sets) in [
+        ("sppm", &["render.progressive.passes=1", "render.progressive.photons_per_pass=1000"][..]),
+        ("ppm", &["render.progressive.passes=1", "render.progressive.photons_per_pass=1000"][..]),
+        ("photon_map", &["render.pm_spp=1", "render.photons.caustic=1000", "render.photons.indirect=1000"][..]),
+    ] {
+        let mut edge = Vec::new();
+        for seed in 0..64u64 {
+            let mut s = mirrored_edge(mode, sets);
+            s.render.seed = seed;
+            let img = common::render_image(&s);
+            for y in 0..8 {
+                for x in [0u32, 3, 5, 7] {
+                    let want = if x < 4 { 1.0 } else { 0.0 };
+                    let v = img.get(x, y).x;
+                    assert!((v - want).abs() < 1e-4, "{mode}: pixel ({x}, {y}) reads {v}, expected {want}");
+                }
+                edge.push(img.get(4, y).x as f64);
+            }
+        }
+        let (mean, sd) = mean_std(&edge);
+        let var = sd * sd;
+        let se = (f * (1.0 - f) / edge.len() as f64).sqrt();
+        eprintln!(
+            "{mode}: the edge pixel reads {mean:.4} ± {se:.4} (expected {f}), variance {var:.4} \
+             (one area sample {:.4}, five {:.4})",
+            f * (1.0 - f),
+            f * (1.0 - f) / 5.0
+        );
+        assert!((mean - f).abs() < 4.0 * se, "{mode}: the edge pixel reads {mean}, expected {f} ± {se}");
+        assert!(
+            var < 0.4 * f * (1.0 - f),
+            "{mode}: the edge pixel's variance {var:.4} is that of one area sample ({:.4}), not five",
+            f * (1.0 - f)
+        );
+    }
+}

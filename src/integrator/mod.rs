@@ -46,12 +46,66 @@ impl ChainEnd {
 
 /// Whether `ray` first meets a non-diffuse surface (mirror, glass, metal): where the photon-mapping eye
 /// passes take their extra samples.
-pub fn first_hit_specular(
-    scene: &crate::scene::Scene,
-    tracer: &dyn crate::accel::Tracer,
-    ray: &crate::math::Ray,
-) -> bool {
+fn first_hit_specular(scene: &crate::scene::Scene, tracer: &dyn crate::accel::Tracer, ray: &crate::math::Ray) -> bool {
     tracer.intersect(ray).is_some_and(|h| !scene.is_diffuse(h.shape))
+}
+
+/// Keys the extra camera samples of pixels behind specular surfaces apart from the pixels' own.
+pub const EXTRA_SAMPLES_KEY: u64 = 0x5350_504D_4558_5452;
+
+/// The extra eye samples each pixel of the photon-mapping eye passes takes per sample of its own
+/// (row-major): `spp` where the ray through the pixel's centre first meets a mirror, glass or metal, else
+/// 0. Decided once per pixel, not per sample: a count that followed each sample's own ray would weigh
+/// the samples landing on the specular part of a pixel less than the others. Also returns the rays
+/// traced (one per pixel, none when `spp` is 0).
+pub fn extra_samples(scene: &crate::scene::Scene, tracer: &dyn crate::accel::Tracer, spp: u32) -> (Vec<u32>, u64) {
+    use rayon::prelude::*;
+    let cam = &scene.camera;
+    let (width, count) = (cam.width as usize, cam.width as usize * cam.height as usize);
+    if spp == 0 {
+        return (vec![0; count], 0);
+    }
+    let extra = (0..count)
+        .into_par_iter()
+        .map(|k| {
+            let ray = cam.ray((k % width) as f32 + 0.5, (k / width) as f32 + 0.5);
+            if first_hit_specular(scene, tracer, &ray) {
+                spp
+            } else {
+                0
+            }
+        })
+        .collect();
+    (extra, count as u64)
+}
+
+/// Camera sample `s` of pixel (x, y) for a photon-mapping eye pass, filter-weighted: `li(ray, rng)` for
+/// a film position drawn with `rng` (the pixel's own sampler for sample `s`), averaged with `extra`
+/// more, each at a film position of its own, drawn from sampler `seed ^ EXTRA_SAMPLES_KEY`'s samples
+/// s·extra … s·extra + extra − 1 of the pixel: a light's glint in a mirror that covers a sliver of the
+/// pixel is found by any of them, not by the first position alone.
+#[allow(clippy::too_many_arguments)]
+pub fn eye_sample(
+    scene: &crate::scene::Scene,
+    x: u32,
+    y: u32,
+    s: u64,
+    extra: u32,
+    seed: u64,
+    rng: &mut crate::math::Rng,
+    mut li: impl FnMut(crate::math::Ray, &mut crate::math::Rng) -> crate::color::Rgb,
+) -> crate::color::Rgb {
+    let cam = &scene.camera;
+    let (fx, fy, weight) = cam.film_position(x, y, rng.next_2d());
+    let mut l = li(cam.sample_ray(fx, fy, rng), rng) * weight;
+    let pixel = y as u64 * cam.width as u64 + x as u64;
+    for j in 0..extra as u64 {
+        let mut rng =
+            crate::math::Rng::camera(scene.render.sampler, seed ^ EXTRA_SAMPLES_KEY, pixel, s * extra as u64 + j);
+        let (fx, fy, weight) = cam.film_position(x, y, rng.next_2d());
+        l += li(cam.sample_ray(fx, fy, &mut rng), &mut rng) * weight;
+    }
+    l / (extra + 1) as f32
 }
 
 /// Most emitting surfaces one camera ray passes when they are hidden (a guard against a ray that keeps

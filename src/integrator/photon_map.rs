@@ -433,8 +433,9 @@ pub struct PhotonMapper<'a> {
     pub gather: [Gather; 3],
     /// Show one map's estimate alone (the `map:` views).
     pub only: Option<usize>,
-    /// Extra eye samples where the first hit is not diffuse (the planner may set 0).
-    pub specular_spp: u32,
+    /// Extra eye samples per sample of each pixel (row-major; `super::extra_samples`, set by
+    /// `take_extra_samples`): none unless set.
+    pub extra: Vec<u32>,
     /// Progressive passes: every map is read with this fixed gather radius (box kernel, all photons
     /// within it) instead of its k nearest photons.
     pub radius: Option<f32>,
@@ -465,7 +466,7 @@ impl<'a> PhotonMapper<'a> {
             maps,
             gather: [mk(g.direct), mk(g.indirect), mk(g.caustic)],
             only,
-            specular_spp: scene.render.specular_spp,
+            extra: Vec::new(),
             radius: None,
             glossy_radius: None,
             cache: None,
@@ -617,15 +618,23 @@ impl<'a> PhotonMapper<'a> {
         l
     }
 
-    /// One camera sample. Pixels whose first hit is not diffuse take `specular_spp` extra chains.
-    pub fn li(&self, ray: Ray, rng: &mut Rng, c: &mut Counters) -> Rgb {
+    /// Pixels whose centre looks into a mirror, glass or metal take `spp` extra eye samples per sample
+    /// of their own (`super::eye_sample`); returns the rays the choice traced.
+    pub fn take_extra_samples(&mut self, spp: u32) -> u64 {
+        let (extra, rays) = super::extra_samples(self.scene, self.tracer, spp);
+        self.extra = extra;
+        rays
+    }
+
+    /// Camera sample `s` of pixel (x, y), filter-weighted, with the pixel's extra samples (keyed by
+    /// `seed`, the eye pass's), `rng` the pixel's sampler for sample `s`.
+    pub fn sample(&self, x: u32, y: u32, s: u32, seed: u64, rng: &mut Rng, c: &mut Counters) -> Rgb {
         let fg = self.scene.render.final_gather;
-        let extra = if super::first_hit_specular(self.scene, self.tracer, &ray) { self.specular_spp } else { 0 };
-        let mut sum = Rgb::ZERO;
-        for _ in 0..=extra {
-            sum += self.follow(ray, Rgb::ONE, rng, c, true, fg, 0);
-        }
-        sum / (extra + 1) as f32
+        let k = y as usize * self.scene.camera.width as usize + x as usize;
+        let extra = self.extra.get(k).copied().unwrap_or(0);
+        super::eye_sample(self.scene, x, y, s as u64, extra, seed, rng, |ray, rng| {
+            self.follow(ray, Rgb::ONE, rng, c, true, fg, 0)
+        })
     }
 }
 

@@ -9,7 +9,7 @@ use super::Counters;
 use crate::film::Image;
 use crate::photon::trace::Targets;
 use crate::plan::Plan;
-use crate::render::render;
+use crate::render::render_pixels;
 use crate::scene::Scene;
 use serde::Serialize;
 use std::sync::Arc;
@@ -112,7 +112,7 @@ pub fn ppm_pass(
     let t0 = std::time::Instant::now();
     let maps = build_maps(scene, tracer, &pass_request(scene, plan, i, aim), true)?;
     let mut pm = PhotonMapper::new(scene, tracer, &maps, None);
-    pm.specular_spp = plan.specular_spp;
+    let probes = pm.take_extra_samples(plan.specular_spp);
     pm.radius = Some(r);
     pm.glossy_radius = Some(radius_at(glossy_initial_radius(scene), scene.render.progressive.alpha, i));
     pm.edges = scene.render.progressive.edge_correction;
@@ -120,7 +120,8 @@ pub fn ppm_pass(
     // Each pass is one eye sample per pixel with its own scramble (passes must stay independent).
     let (sampler, seed) = (scene.render.sampler, pass_seed(scene.render.seed, i));
     let mut out =
-        render(cam, 1, sampler, seed, "eye pass", true, |x, y, rng, c| pm.li(cam.sample_ray(x, y, rng), rng, c));
+        render_pixels(cam, 1, sampler, seed, "eye pass", true, |x, y, s, rng, c| pm.sample(x, y, s, seed, rng, c));
+    out.counters.rays += probes;
     if let Some(g) = &maps.glossy {
         for (o, v) in out.image.pixels.iter_mut().zip(&g.pixels) {
             *o += *v;

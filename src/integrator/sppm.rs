@@ -40,9 +40,6 @@ use std::cell::RefCell;
 /// Photons a pixel's first radius is chosen to hold (in the densest map), when the scene sets none.
 const INITIAL_K: usize = 30;
 
-/// Keys the extra camera samples of pixels behind specular surfaces apart from the visible points'.
-const EXTRA_SAMPLES_KEY: u64 = 0x5350_504D_4558_5452;
-
 thread_local! {
     static SCRATCH: RefCell<KnnResult> = RefCell::new(KnnResult::new());
 }
@@ -85,25 +82,9 @@ impl<'a> Sppm<'a> {
     ) -> Sppm<'a> {
         let r = initial_radius(scene);
         let px = PixelState { ld: [0.0; 3], n: 0.0, r, tau: Rgb::ZERO, discs: 0.0 };
-        let cam = &scene.camera;
-        let count = cam.width as usize * cam.height as usize;
-        let width = cam.width as usize;
-        let extra = if plan.specular_spp == 0 {
-            vec![0; count]
-        } else {
-            (0..count)
-                .into_par_iter()
-                .map(|k| {
-                    let ray = cam.ray((k % width) as f32 + 0.5, (k / width) as f32 + 0.5);
-                    if super::first_hit_specular(scene, tracer, &ray) {
-                        plan.specular_spp
-                    } else {
-                        0
-                    }
-                })
-                .collect()
-        };
-        let counters = Counters { rays: if plan.specular_spp > 0 { count as u64 } else { 0 }, nonfinite: 0 };
+        let count = scene.camera.width as usize * scene.camera.height as usize;
+        let (extra, rays) = super::extra_samples(scene, tracer, plan.specular_spp);
+        let counters = Counters { rays, nonfinite: 0 };
         Sppm { scene, tracer, plan, pixels: vec![px; count], extra, aim, iterations: 0, counters }
     }
 
@@ -134,7 +115,7 @@ impl<'a> Sppm<'a> {
                 let extra = self.extra[k] as u64;
                 for j in 0..extra {
                     let index = (i - 1) as u64 * extra + j;
-                    let mut rng = Rng::camera(sampler, base_seed ^ EXTRA_SAMPLES_KEY, k as u64, index);
+                    let mut rng = Rng::camera(sampler, base_seed ^ super::EXTRA_SAMPLES_KEY, k as u64, index);
                     l += self.camera_path(x, y, &mut rng, &mut c, glossy.as_ref()).0;
                 }
                 l /= (extra + 1) as f32;
