@@ -241,8 +241,9 @@ pub fn render_photon_map_share(
     share: Share,
     quiet: bool,
 ) -> ShareOutput {
+    let (extra, probes) = crate::integrator::extra_samples(scene, tracer, plan.specular_spp);
     let mut pm = PhotonMapper::new(scene, tracer, maps, only);
-    let probes = pm.take_extra_samples(plan.specular_spp);
+    pm.extra = &extra;
     pm.edges = scene.render.gather.edge_correction;
     if scene.render.final_gather > 0 && only.is_none() {
         let stride = scene.render.gather.cache_stride;
@@ -538,12 +539,18 @@ pub fn render_progressive_share(
     let photon_passes = matches!(mode, Mode::Ppm | Mode::Sppm);
     let aim = if photon_passes { crate::integrator::photon_map::aim_targets(scene, tracer, plan) } else { None };
     let mut sppm = sppm_mode.then(|| crate::integrator::sppm::Sppm::new(scene, tracer, plan, aim.clone()));
+    // PPM's extra eye samples per pixel, chosen once for every pass.
+    let (ppm_extra, extra_rays) = if mode == Mode::Ppm {
+        crate::integrator::extra_samples(scene, tracer, plan.specular_spp)
+    } else {
+        (Vec::new(), 0)
+    };
     let first = if sppm_mode { 1 } else { p.first_pass };
     let (part, parts) = if sppm_mode { (0, 1) } else { (part.0, part.1.max(1)) };
     let passes: Vec<u32> = (first..first + p.passes).filter(|k| (k - first) % parts == part).collect();
     let pb = crate::progress::progress(passes.len() as u64, mode.layer_name(), quiet);
     let (mut records, mut shots) = (Vec::new(), Vec::new());
-    let mut counters = Counters::default();
+    let mut counters = Counters { rays: extra_rays, nonfinite: 0 };
     let vcm_setup = matches!(mode, Mode::Bdpt | Mode::Vcm).then(|| {
         let opts = vcm::VcmOptions::of_scene(scene);
         let setup = vcm::Setup::new(scene, tracer, opts, Some(&plan.caustic_targets));
@@ -597,7 +604,8 @@ pub fn render_progressive_share(
                 }
             }
             (None, None) => {
-                let (img, c, record) = ppm_pass(scene, tracer, plan, i, radius_at(r1, p.alpha, i), aim.as_ref())?;
+                let (img, c, record) =
+                    ppm_pass(scene, tracer, plan, &ppm_extra, i, radius_at(r1, p.alpha, i), aim.as_ref())?;
                 sums.add_image(&img);
                 counters += c;
                 record

@@ -433,9 +433,8 @@ pub struct PhotonMapper<'a> {
     pub gather: [Gather; 3],
     /// Show one map's estimate alone (the `map:` views).
     pub only: Option<usize>,
-    /// Extra eye samples per sample of each pixel (row-major; `super::extra_samples`, set by
-    /// `take_extra_samples`): none unless set.
-    pub extra: Vec<u32>,
+    /// Extra eye samples per sample of each pixel (row-major, `super::extra_samples`): none unless set.
+    pub extra: &'a [u32],
     /// Progressive passes: every map is read with this fixed gather radius (box kernel, all photons
     /// within it) instead of its k nearest photons.
     pub radius: Option<f32>,
@@ -466,7 +465,7 @@ impl<'a> PhotonMapper<'a> {
             maps,
             gather: [mk(g.direct), mk(g.indirect), mk(g.caustic)],
             only,
-            extra: Vec::new(),
+            extra: &[],
             radius: None,
             glossy_radius: None,
             cache: None,
@@ -616,14 +615,6 @@ impl<'a> PhotonMapper<'a> {
             l += e.beta * self.diffuse_radiance(&e, rng, c, fg, !emission, e.budget(self.scene, first));
         }
         l
-    }
-
-    /// Pixels whose centre looks into a mirror, glass or metal take `spp` extra eye samples per sample
-    /// of their own (`super::eye_sample`); returns the rays the choice traced.
-    pub fn take_extra_samples(&mut self, spp: u32) -> u64 {
-        let (extra, rays) = super::extra_samples(self.scene, self.tracer, spp);
-        self.extra = extra;
-        rays
     }
 
     /// Camera sample `s` of pixel (x, y), filter-weighted, with the pixel's extra samples (keyed by

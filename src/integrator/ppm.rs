@@ -99,12 +99,13 @@ pub fn pass_request(scene: &Scene, plan: &Plan, i: u32, aim: Option<&Arc<Targets
     }
 }
 
-/// Pass `i` of probabilistic PPM at radius `r`: its image (one eye sample per pixel, more where the
-/// plan asks for them behind specular surfaces), counters and record.
+/// Pass `i` of probabilistic PPM at radius `r`: its image (one eye sample per pixel, and `extra[k]` more
+/// for pixel k, `super::extra_samples` of the plan's `specular_spp`), counters and record.
 pub fn ppm_pass(
     scene: &Scene,
     tracer: &dyn crate::accel::Tracer,
     plan: &Plan,
+    extra: &[u32],
     i: u32,
     r: f32,
     aim: Option<&Arc<Targets>>,
@@ -112,7 +113,7 @@ pub fn ppm_pass(
     let t0 = std::time::Instant::now();
     let maps = build_maps(scene, tracer, &pass_request(scene, plan, i, aim), true)?;
     let mut pm = PhotonMapper::new(scene, tracer, &maps, None);
-    let probes = pm.take_extra_samples(plan.specular_spp);
+    pm.extra = extra;
     pm.radius = Some(r);
     pm.glossy_radius = Some(radius_at(glossy_initial_radius(scene), scene.render.progressive.alpha, i));
     pm.edges = scene.render.progressive.edge_correction;
@@ -121,7 +122,6 @@ pub fn ppm_pass(
     let (sampler, seed) = (scene.render.sampler, pass_seed(scene.render.seed, i));
     let mut out =
         render_pixels(cam, 1, sampler, seed, "eye pass", true, |x, y, s, rng, c| pm.sample(x, y, s, seed, rng, c));
-    out.counters.rays += probes;
     if let Some(g) = &maps.glossy {
         for (o, v) in out.image.pixels.iter_mut().zip(&g.pixels) {
             *o += *v;
