@@ -84,22 +84,6 @@ where
     render_share(cam, spp, sampler, seed, Share::All, label, quiet, sample).finish()
 }
 
-/// As `render`, with `sample` taking a pixel's sample whole (`render_share_pixels`).
-pub fn render_pixels<F>(
-    cam: &Camera,
-    spp: u32,
-    sampler: Sampler,
-    seed: u64,
-    label: &str,
-    quiet: bool,
-    sample: F,
-) -> RenderOutput
-where
-    F: Fn(u32, u32, u32, &mut Rng, &mut Counters) -> Rgb + Sync,
-{
-    render_share_pixels(cam, spp, sampler, seed, Share::All, label, quiet, sample).finish()
-}
-
 /// `render`'s share `share`: each pixel's samples are summed in f64 in sample order, so the sums of
 /// sample-index shares add up to the whole render's sums (to f64 rounding).
 #[allow(clippy::too_many_arguments)]

@@ -9,7 +9,7 @@ use super::Counters;
 use crate::film::Image;
 use crate::photon::trace::Targets;
 use crate::plan::Plan;
-use crate::render::render_pixels;
+use crate::render::{render_share_pixels, Share};
 use crate::scene::Scene;
 use serde::Serialize;
 use std::sync::Arc;
@@ -120,8 +120,10 @@ pub fn ppm_pass(
     let cam = &scene.camera;
     // Each pass is one eye sample per pixel with its own scramble (passes must stay independent).
     let (sampler, seed) = (scene.render.sampler, pass_seed(scene.render.seed, i));
-    let mut out =
-        render_pixels(cam, 1, sampler, seed, "eye pass", true, |x, y, s, rng, c| pm.sample(x, y, s, seed, rng, c));
+    let mut out = render_share_pixels(cam, 1, sampler, seed, Share::All, "eye pass", true, |x, y, s, rng, c| {
+        pm.sample(x, y, s, seed, rng, c)
+    })
+    .finish();
     if let Some(g) = &maps.glossy {
         for (o, v) in out.image.pixels.iter_mut().zip(&g.pixels) {
             *o += *v;
