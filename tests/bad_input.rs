@@ -157,6 +157,7 @@ fn each_malformed_scene_gets_its_own_message() {
     let mut blinding = caustica::film::Image::new(2, 1);
     blinding.pixels[0] = glam::Vec3::splat(1e32);
     caustica::output::write_exr(&d.join("blinding.exr"), &blinding).unwrap();
+    std::fs::write(d.join("far.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 1e15\nf 1 2 3\n").unwrap();
     std::fs::write(d.join("nouv.obj"), "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n").unwrap();
     let ply = |props: &str, rows: &str| {
         format!("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{props}element face 1\nproperty list uchar int vertex_indices\nend_header\n{rows}3 0 2 1\n")
@@ -774,7 +775,19 @@ fn each_malformed_scene_gets_its_own_message() {
                 "type = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n[[shapes]]\ntype = \"sphere\"\ncenter = [1e30, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\"",
             ),
             vec![],
-            vec!["lights[0]", "emits inf W", "bounding disc", "radius 5.000e29"],
+            vec!["lights[0]", "emits inf W", "bounding disc", "radius 5.000e29", "reached by shapes[1]"],
+        ),
+        (
+            // The same with a mesh one of whose vertices (a damaged file's) lies 1e15 away: the message
+            // names the mesh and its file, the real culprit, not the sky alone (found by the XML fuzz,
+            // seed 7: a damaged PLY's vertex at 8e14 under a sky).
+            "sky_around_a_mesh_with_a_far_vertex",
+            GOOD.replace(
+                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
+                "type = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n[[shapes]]\ntype = \"mesh\"\nfile = \"far.obj\"\nmaterial = \"white\"",
+            ),
+            vec![],
+            vec!["lights[0]", "emits", "bounding disc", "reached by shapes[1] (far.obj)"],
         ),
         (
             "lights_beyond_f32",

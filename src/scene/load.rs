@@ -248,7 +248,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     scene.see_through = scene.see_through_shapes();
     scene.lights = Lights::build(&scene, &points, &distant, env);
     let keys: Vec<String> = env_key.into_iter().chain(distant_keys).chain(point_keys).collect();
-    check_power(&cx, &scene, &keys)?;
+    check_power(&cx, &scene, &keys, &file.shapes)?;
     if scene.lights.is_empty() {
         return Err(
             cx.err("lights", "the scene has no light with positive power (add [[lights]] or an emissive shape)")
@@ -1514,8 +1514,9 @@ const MAX_POWER: f64 = 1e30;
 /// Refuses lights whose power overflows f32 or whose total exceeds `MAX_POWER`, naming the brightest:
 /// two point lights of 3e38 W each, or a sky around a scene stretched over 1e20 units (a light at
 /// infinity emits its radiance times the area of the scene's bounding disc), would turn into NaN.
-/// `keys`: the file's key of each light at infinity and point light, in `Lights` order.
-fn check_power(cx: &Ctx, scene: &Scene, keys: &[String]) -> Result<(), SceneError> {
+/// `keys`: the file's key of each light at infinity and point light, in `Lights` order; `specs` the
+/// file's shapes (to name the mesh file of the shape that stretches the scene).
+fn check_power(cx: &Ctx, scene: &Scene, keys: &[String], specs: &[ShapeSpec]) -> Result<(), SceneError> {
     let lights = &scene.lights;
     let total: f64 = lights.power.iter().map(|p| p.max_element() as f64).sum();
     if total <= MAX_POWER {
@@ -1530,9 +1531,17 @@ fn check_power(cx: &Ctx, scene: &Scene, keys: &[String]) -> Result<(), SceneErro
     {
         format!(" (its radiance is read from {file}: are its texels right?)")
     } else if lights.list[i].at_infinity() {
+        let reach = farthest_shape(scene).map_or(String::new(), |k| {
+            let name = &scene.shapes[k].name;
+            let index = name.strip_prefix("shapes[").and_then(|r| r.strip_suffix(']')?.parse::<usize>().ok());
+            match index.and_then(|i| specs.get(i)) {
+                Some(ShapeSpec::Mesh { file, .. }) => format!(", reached by {name} ({file})"),
+                _ => format!(", reached by {name}"),
+            }
+        });
         format!(
             " (a light at infinity emits its radiance times the area of the scene's bounding disc, here of \
-             radius {:.3e}: keep the shapes within about 1e12 of one another)",
+             radius {:.3e}{reach}: keep the shapes within about 1e12 of one another)",
             0.5 * (scene.bounds.1.as_dvec3() - scene.bounds.0.as_dvec3()).length()
         )
     } else {
@@ -1542,6 +1551,17 @@ fn check_power(cx: &Ctx, scene: &Scene, keys: &[String]) -> Result<(), SceneErro
         &key.unwrap_or_else(|| "lights".into()),
         format!("emits {:.3e} W{why}; the lights may emit at most {MAX_POWER:e} W in all", p.max_element()),
     ))
+}
+
+/// The shape reaching farthest from the camera (where the scene's content is): the one to name when a
+/// scene is stretched too far.
+fn farthest_shape(scene: &Scene) -> Option<usize> {
+    let eye = scene.camera.origin.as_dvec3();
+    let reach = |k: usize| {
+        let (lo, hi) = scene.shapes[k].geometry.bounds();
+        (lo.as_dvec3() - eye).abs().max((hi.as_dvec3() - eye).abs()).max_element()
+    };
+    (0..scene.shapes.len()).filter(|&k| reach(k).is_finite()).max_by(|&a, &b| reach(a).total_cmp(&reach(b)))
 }
 
 /// An environment light (`Lights::build` places it around the scene).
