@@ -1557,11 +1557,12 @@ fn check_power(cx: &Ctx, scene: &Scene, keys: &[String], specs: &[ShapeSpec]) ->
 /// scene is stretched too far.
 fn farthest_shape(scene: &Scene) -> Option<usize> {
     let eye = scene.camera.origin.as_dvec3();
-    let reach = |k: usize| {
-        let (lo, hi) = scene.shapes[k].geometry.bounds();
+    let reach = |shape: &Shape| {
+        let (lo, hi) = shape.geometry.bounds();
         (lo.as_dvec3() - eye).abs().max((hi.as_dvec3() - eye).abs()).max_element()
     };
-    (0..scene.shapes.len()).filter(|&k| reach(k).is_finite()).max_by(|&a, &b| reach(a).total_cmp(&reach(b)))
+    let reaches = scene.shapes.iter().map(reach).enumerate().filter(|(_, r)| r.is_finite());
+    reaches.max_by(|a, b| a.1.total_cmp(&b.1)).map(|(k, _)| k)
 }
 
 /// An environment light (`Lights::build` places it around the scene).
