@@ -117,8 +117,31 @@ pub fn encode_exr(file: &Path, img: &Image) -> Result<()> {
         .map_err(|e| anyhow!("{}: EXR write failed: {e}", file.display()))
 }
 
+/// Refuses an EXR whose header claims a layer of more than `MAX_TEXELS` texels (or of more than 16
+/// bytes a texel over that many), before any of its pixels is decoded: the EXR crate sizes each
+/// block's buffer by the header, and a damaged one claiming 10^9 columns made it allocate hundreds of
+/// GB, which aborts the process (no error to catch). Returns the first layer's width and height.
+pub fn check_exr_header(path: &Path) -> std::result::Result<(usize, usize), String> {
+    use crate::scene::texture::MAX_TEXELS;
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| format!("cannot read EXR: {e}"))?;
+    for (i, h) in meta.headers.iter().enumerate() {
+        let (w, ht) = (h.layer_size.width(), h.layer_size.height());
+        let texels = w as u64 * ht as u64;
+        if texels > MAX_TEXELS || texels.saturating_mul(h.channels.bytes_per_pixel as u64) > 16 * MAX_TEXELS {
+            let layer = if meta.headers.len() > 1 { format!("layer {i} of ") } else { String::new() };
+            return Err(format!(
+                "the EXR's header claims {layer}{w}×{ht} texels of {} bytes, larger than this reader takes ({MAX_TEXELS} texels of at most 16 bytes): damaged?",
+                h.channels.bytes_per_pixel
+            ));
+        }
+    }
+    let first = meta.headers.first().ok_or("cannot read EXR: no layer")?;
+    Ok((first.layer_size.width(), first.layer_size.height()))
+}
+
 pub fn read_exr(path: &Path) -> Result<Image> {
     crate::scene::regular_file(path).map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
+    check_exr_header(path).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let img = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |res, _| Image::new(res.width() as u32, res.height() as u32),

@@ -1,5 +1,7 @@
 //! Malformed scenes: each must end with a non-zero exit, no panic, and a message naming the file and
 //! the key (or line) that is wrong. A failed run must not touch existing outputs.
+mod common;
+use common::widened_exr;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -158,6 +160,9 @@ fn each_malformed_scene_gets_its_own_message() {
     blinding.pixels[0] = glam::Vec3::splat(1e32);
     caustica::output::write_exr(&d.join("blinding.exr"), &blinding).unwrap();
     std::fs::write(d.join("far.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 1e15\nf 1 2 3\n").unwrap();
+    // Found by fuzz seed 11: a damaged PIZ-compressed sky whose data window claims 10^9 columns. The EXR
+    // crate sized one block's buffer by the window (192 GB; the fuzz's, 238 GB) and the allocation aborted the process.
+    std::fs::write(d.join("wide.exr"), widened_exr()).unwrap();
     std::fs::write(d.join("nouv.obj"), "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n").unwrap();
     let ply = |props: &str, rows: &str| {
         format!("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{props}element face 1\nproperty list uchar int vertex_indices\nend_header\n{rows}3 0 2 1\n")
@@ -634,6 +639,12 @@ fn each_malformed_scene_gets_its_own_message() {
             glowing("blinding.exr"),
             vec![],
             vec!["shapes[0]", "at most 1e30 W", "blinding.exr"],
+        ),
+        (
+            "exr_window_beyond_any_image",
+            glowing("wide.exr"),
+            vec![],
+            vec!["textures.glow.file", "wide.exr", "1000000000×32", "larger than"],
         ),
         (
             "blend_weight_range",

@@ -1,4 +1,5 @@
 //! `caustica compare` on synthetic EXRs whose RMSE is known, and its refusal of mismatched sizes.
+mod common;
 use caustica::film::Image;
 use caustica::output::write_exr;
 use glam::Vec3;
@@ -50,7 +51,9 @@ fn compare_refuses_images_of_different_sizes_and_unreadable_files() {
     write_exr(&d.join("s1.exr"), &Image::new(4, 4)).unwrap();
     write_exr(&d.join("s2.exr"), &Image::new(5, 4)).unwrap();
     std::fs::write(d.join("junk.exr"), b"not an exr").unwrap();
-    for (other, expect) in [("s2.exr", "same size"), ("junk.exr", "cannot read EXR")] {
+    // A header claiming 10^9 × 32 pixels over a 64 × 32 image's blocks: sizing the image by it aborted.
+    std::fs::write(d.join("wide.exr"), common::widened_exr()).unwrap();
+    for (other, expect) in [("s2.exr", "same size"), ("junk.exr", "cannot read EXR"), ("wide.exr", "larger than")] {
         let o = Command::new(env!("CARGO_BIN_EXE_caustica"))
             .args([
                 "compare",

@@ -231,6 +231,7 @@ pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String
     }
     crate::scene::regular_file(path)?;
     if name.ends_with(".exr") {
+        crate::output::check_exr_header(path)?;
         let img = exr::prelude::read_first_rgba_layer_from_file(
             path,
             |res, _| {

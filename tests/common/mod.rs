@@ -138,3 +138,15 @@ pub fn assert_matches_unfolded(text: &str, unfolded: &str, cases: &[(&str, &[&st
     }
     assert!(failed.is_empty(), "{failed:#?}");
 }
+
+/// `tests/mitsuba/sky.exr` (64 × 32, PIZ) with its data window's x max raised to 999,999,999: a header
+/// that claims 10^9 × 32 texels over the same compressed blocks (the EXR crate refuses 2^30 and more).
+pub fn widened_exr() -> Vec<u8> {
+    let mut bytes = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba/sky.exr")).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes.windows(key.len()).position(|w| w == key).expect("sky.exr has a data window") + key.len();
+    // The attribute's size (16), then x min, y min, x max, y max as little-endian i32.
+    assert_eq!(bytes[at..at + 4], 16u32.to_le_bytes());
+    bytes[at + 12..at + 16].copy_from_slice(&999_999_999i32.to_le_bytes());
+    bytes
+}
