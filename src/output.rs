@@ -1,6 +1,6 @@
 //! Writing results: linear EXR, sRGB PNG preview with exposure, JSON stats; every write goes to a
 //! temporary file in the same folder and is renamed into place, so a failed run never clobbers a file.
-use crate::color::srgb_encode;
+use crate::color::{srgb_encode, Rgb};
 use crate::film::Image;
 use anyhow::{anyhow, Context, Result};
 use std::path::{Path, PathBuf};
@@ -139,18 +139,46 @@ pub fn check_exr_header(path: &Path) -> std::result::Result<(usize, usize), Stri
     Ok((first.layer_size.width(), first.layer_size.height()))
 }
 
+/// The first RGB(A) layer of an EXR as (width, height, pixels, row 0 first), its header checked first
+/// (`check_exr_header`). Images under 2^20 texels are decoded on this thread: a thread pool for a
+/// small texture costs more than it saves.
+pub fn read_exr_pixels(path: &Path) -> std::result::Result<(usize, usize, Vec<Rgb>), String> {
+    let (w, h) = check_exr_header(path)?;
+    let create = |res: exr::prelude::Vec2<usize>, _: &_| {
+        let (w, h) = (res.width(), res.height());
+        let n = if (w as u64 * h as u64) <= crate::scene::texture::MAX_TEXELS { w * h } else { 0 };
+        // Zeroed arrays of floats come from the allocator untouched, so a damaged header's claim of a
+        // large image costs nothing until its pixels are really read.
+        (w, h, vec![[0.0f32; 3]; n])
+    };
+    let set = |img: &mut (usize, usize, Vec<[f32; 3]>),
+               pos: exr::prelude::Vec2<usize>,
+               (r, g, b, _a): (f32, f32, f32, f32)| {
+        if let Some(t) = img.2.get_mut(pos.y() * img.0 + pos.x()) {
+            *t = [r, g, b];
+        }
+    };
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let reader = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(create, set)
+        .first_valid_layer()
+        .all_attributes();
+    let read =
+        if (w as u64 * h as u64) < 1 << 20 { reader.non_parallel().from_file(path) } else { reader.from_file(path) };
+    let img = read.map_err(|e| format!("cannot read EXR: {e}"))?;
+    let (w, h, pixels) = img.layer_data.channel_data.pixels;
+    if pixels.is_empty() || w == 0 || h == 0 {
+        return Err(format!("{w}×{h} EXR is empty or larger than {} texels", crate::scene::texture::MAX_TEXELS));
+    }
+    Ok((w, h, pixels.into_iter().map(Rgb::from_array).collect()))
+}
+
 pub fn read_exr(path: &Path) -> Result<Image> {
     crate::scene::regular_file(path).map_err(|e| anyhow!("{}: cannot read: {e}", path.display()))?;
-    check_exr_header(path).map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    let img = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |res, _| Image::new(res.width() as u32, res.height() as u32),
-        |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            img.set(pos.x() as u32, pos.y() as u32, glam::Vec3::new(r, g, b))
-        },
-    )
-    .map_err(|e| anyhow!("{}: cannot read EXR: {e}", path.display()))?;
-    Ok(img.layer_data.channel_data.pixels)
+    let (w, h, pixels) = read_exr_pixels(path).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    Ok(Image { width: w as u32, height: h as u32, pixels })
 }
 
 /// 8-bit sRGB encoding of an image scaled by 2^exposure.

@@ -231,25 +231,7 @@ pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String
     }
     crate::scene::regular_file(path)?;
     if name.ends_with(".exr") {
-        crate::output::check_exr_header(path)?;
-        let img = exr::prelude::read_first_rgba_layer_from_file(
-            path,
-            |res, _| {
-                let (w, h) = (res.width(), res.height());
-                let n = if (w as u64 * h as u64) <= MAX_TEXELS { w * h } else { 0 };
-                (w, h, vec![Rgb::ZERO; n])
-            },
-            |img: &mut (usize, usize, Vec<Rgb>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                if let Some(t) = img.2.get_mut(pos.y() * img.0 + pos.x()) {
-                    *t = Rgb::new(r, g, b);
-                }
-            },
-        )
-        .map_err(|e| format!("cannot read EXR: {e}"))?;
-        let (w, h, texels) = img.layer_data.channel_data.pixels;
-        if texels.is_empty() || w == 0 || h == 0 {
-            return Err(format!("{w}×{h} EXR is empty or larger than {MAX_TEXELS} texels"));
-        }
+        let (w, h, texels) = crate::output::read_exr_pixels(path)?;
         if let Some(i) = texels.iter().position(|t| !t.is_finite()) {
             return Err(format!("texel ({}, {}) is not finite", i % w, i / w));
         }
