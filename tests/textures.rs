@@ -70,3 +70,48 @@ fn bad_textures_are_refused_naming_the_key() {
         assert!(msg.contains(want), "`{want}` not in: {msg}");
     }
 }
+
+/// Radiance HDR, BMP and TGA are read as Mitsuba's `Bitmap` reads them. `sky.hdr` is `sky.exr` written
+/// out by Mitsuba 3.9.1's own RGBE writer: it must read as the EXR's linear values to RGBE's precision
+/// (one 8-bit exponent a texel: within 1/128 of the texel's largest channel), not sRGB-decoded (which
+/// would take 0.5 to 0.21), also when `raw`. `label.png` saved again as BMP and TGA (the `image`
+/// crate's encoders) must read back texel for texel as the PNG does, sRGB-decoded unless `raw`.
+#[test]
+fn hdr_bmp_and_tga_images_read_as_mitsuba_reads_them() {
+    use caustica::color::srgb_decode;
+    use caustica::scene::texture::load_image;
+    let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba");
+    let (w, h, exr) = load_image(&src.join("sky.exr"), false).unwrap();
+    for raw in [false, true] {
+        let (w2, h2, hdr) = load_image(&src.join("sky.hdr"), raw).unwrap();
+        assert_eq!((w2, h2), (w, h));
+        let mut worst = 0.0f32;
+        for (i, (a, b)) in exr.iter().zip(&hdr).enumerate() {
+            let off = (*a - *b).abs().max_element() / a.max_element().max(1e-6);
+            assert!(off <= 1.0 / 128.0, "sky.hdr (raw {raw}) texel {i}: {b} against the EXR's {a}");
+            worst = worst.max(off);
+        }
+        assert!(worst > 0.0, "sky.hdr read exactly as the EXR: is it the EXR?");
+    }
+    let dir = std::env::temp_dir().join(format!("caustica-formats-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let label = image::open(src.join("label.png")).unwrap();
+    for raw in [false, true] {
+        let png = load_image(&src.join("label.png"), raw).unwrap();
+        for ext in ["bmp", "tga"] {
+            let file = dir.join(format!("label.{ext}"));
+            label.save(&file).unwrap();
+            assert_eq!(load_image(&file, raw).unwrap(), png, "label.{ext}, raw {raw}");
+        }
+    }
+    // Unless raw, each texel is the sRGB decoding of its raw value (8-bit 128 reads 0.2158, not 0.502).
+    let (decoded, raw) =
+        (load_image(&src.join("label.png"), false).unwrap(), load_image(&src.join("label.png"), true).unwrap());
+    let decode = |c: Vec3| Vec3::new(srgb_decode(c.x), srgb_decode(c.y), srgb_decode(c.z));
+    assert!(decoded.2.iter().zip(&raw.2).all(|(d, r)| (*d - decode(*r)).abs().max_element() < 1e-6));
+    assert!(
+        decoded.2.iter().zip(&raw.2).any(|(d, r)| (*d - *r).abs().max_element() > 0.1),
+        "label.png has no mid-tone"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

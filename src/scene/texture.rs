@@ -222,8 +222,9 @@ fn wrapped(texels: &[Rgb], width: u32, height: u32, wrap: Wrap) -> impl Fn(i64, 
     move |x, y| texels[(wrap.index(y, h) * w + wrap.index(x, w)) as usize]
 }
 
-/// Reads an image as linear RGB, row 0 first: EXR as stored, PNG and JPEG decoded from sRGB unless
-/// `raw` (then 8/16-bit values are divided by their maximum and kept). Returns (width, height, texels).
+/// Reads an image as linear RGB, row 0 first, as Mitsuba's `Bitmap` reads it: EXR and Radiance RGBE
+/// (`.hdr`) as stored (float formats are linear); PNG, JPEG, BMP and TGA decoded from sRGB unless `raw`
+/// (then 8/16-bit values are divided by their maximum and kept). Returns (width, height, texels).
 pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String> {
     let name = path.to_string_lossy().to_lowercase();
     if !path.exists() {
@@ -237,20 +238,31 @@ pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String
         }
         return Ok((w as u32, h as u32, texels));
     }
-    let reader =
-        image::ImageReader::open(path).map_err(|e| e.to_string())?.with_guessed_format().map_err(|e| e.to_string())?;
-    let (w, h) = reader.into_dimensions().map_err(|e| format!("cannot read image: {e}"))?;
+    let mut bytes = std::fs::read(path).map_err(|e| format!("cannot read image: {e}"))?;
+    // Radiance files open with `#?RADIANCE` or, from other writers (Mitsuba's among them), `#?RGBE`;
+    // the decoder knows the first only.
+    if bytes.starts_with(b"#?RGBE") {
+        bytes.splice(..6, *b"#?RADIANCE");
+    }
+    // By content, or by the extension for formats without a signature (TGA).
+    let reader = || {
+        let mut r = image::ImageReader::new(std::io::Cursor::new(&bytes[..]));
+        if let Ok(f) = image::ImageFormat::from_path(path) {
+            r.set_format(f);
+        }
+        r.with_guessed_format().map_err(|e| e.to_string())
+    };
+    let (w, h) = reader()?.into_dimensions().map_err(|e| format!("cannot read image: {e}"))?;
     if w as u64 * h as u64 > MAX_TEXELS || w == 0 || h == 0 {
         return Err(format!("{w}×{h} image is empty or larger than {MAX_TEXELS} texels"));
     }
-    let img = image::ImageReader::open(path)
-        .map_err(|e| e.to_string())?
-        .with_guessed_format()
-        .map_err(|e| e.to_string())?
+    let img = reader()?
         .decode()
-        .map_err(|e| format!("cannot decode image (PNG, JPEG or EXR accepted): {e}"))?
-        .into_rgb32f();
-    let decode = |x: f32| if raw { x } else { crate::color::srgb_decode(x) };
+        .map_err(|e| format!("cannot decode image (EXR, HDR, PNG, JPEG, BMP or TGA accepted): {e}"))?;
+    // Radiance's RGBE decodes to floats, which are linear light (Mitsuba keeps them as they are).
+    let linear = raw || matches!(img, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_));
+    let img = img.into_rgb32f();
+    let decode = |x: f32| if linear { x } else { crate::color::srgb_decode(x) };
     let texels = img.pixels().map(|p| Rgb::new(decode(p[0]), decode(p[1]), decode(p[2]))).collect();
     Ok((w, h, texels))
 }
