@@ -238,33 +238,52 @@ pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String
         }
         return Ok((w as u32, h as u32, texels));
     }
-    let mut bytes = std::fs::read(path).map_err(|e| format!("cannot read image: {e}"))?;
-    // Radiance files open with `#?RADIANCE` or, from other writers (Mitsuba's among them), `#?RGBE`;
-    // the decoder knows the first only.
-    if bytes.starts_with(b"#?RGBE") {
-        bytes.splice(..6, *b"#?RADIANCE");
-    }
-    // By content, or by the extension for formats without a signature (TGA).
-    let reader = || {
-        let mut r = image::ImageReader::new(std::io::Cursor::new(&bytes[..]));
-        if let Ok(f) = image::ImageFormat::from_path(path) {
-            r.set_format(f);
+    // Radiance files open with `#?RADIANCE` or, from other writers (Mitsuba's among them), `#?RGBE`,
+    // which the decoder does not know: such a file is read into memory (RGBE takes about 4 bytes a
+    // texel) and its first line made `#?RADIANCE`. Anything else is read from the file as it decodes.
+    let mut head = [0u8; 6];
+    let rgbe = std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+        .is_ok_and(|()| &head == b"#?RGBE");
+    let img = if rgbe {
+        let len = std::fs::metadata(path).map_err(|e| e.to_string())?.len();
+        if len > 5 * MAX_TEXELS {
+            return Err(format!("a Radiance file of {len} bytes is larger than any image of {MAX_TEXELS} texels"));
         }
-        r.with_guessed_format().map_err(|e| e.to_string())
+        let mut bytes = std::fs::read(path).map_err(|e| format!("cannot read image: {e}"))?;
+        bytes.splice(..6, *b"#?RADIANCE");
+        decode_image(path, || Ok(std::io::Cursor::new(&bytes[..])))?
+    } else {
+        decode_image(path, || std::fs::File::open(path).map(std::io::BufReader::new).map_err(|e| e.to_string()))?
     };
-    let (w, h) = reader()?.into_dimensions().map_err(|e| format!("cannot read image: {e}"))?;
-    if w as u64 * h as u64 > MAX_TEXELS || w == 0 || h == 0 {
-        return Err(format!("{w}×{h} image is empty or larger than {MAX_TEXELS} texels"));
-    }
-    let img = reader()?
-        .decode()
-        .map_err(|e| format!("cannot decode image (EXR, HDR, PNG, JPEG, BMP or TGA accepted): {e}"))?;
+    let (w, h) = (img.width(), img.height());
     // Radiance's RGBE decodes to floats, which are linear light (Mitsuba keeps them as they are).
     let linear = raw || matches!(img, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_));
     let img = img.into_rgb32f();
     let decode = |x: f32| if linear { x } else { crate::color::srgb_decode(x) };
     let texels = img.pixels().map(|p| Rgb::new(decode(p[0]), decode(p[1]), decode(p[2]))).collect();
     Ok((w, h, texels))
+}
+
+/// Decodes the image `open` reads (by its content, or by `path`'s extension for formats without a
+/// signature, TGA), refusing one of more than `MAX_TEXELS` texels before its pixels are decoded.
+fn decode_image<R: std::io::BufRead + std::io::Seek>(
+    path: &Path,
+    open: impl Fn() -> Result<R, String>,
+) -> Result<image::DynamicImage, String> {
+    const ACCEPTED: &str = "EXR, HDR, PNG, JPEG, BMP or TGA accepted";
+    let reader = || {
+        let mut r = image::ImageReader::new(open()?);
+        if let Ok(f) = image::ImageFormat::from_path(path) {
+            r.set_format(f);
+        }
+        r.with_guessed_format().map_err(|e| e.to_string())
+    };
+    let (w, h) = reader()?.into_dimensions().map_err(|e| format!("cannot read image ({ACCEPTED}): {e}"))?;
+    if w as u64 * h as u64 > MAX_TEXELS || w == 0 || h == 0 {
+        return Err(format!("{w}×{h} image is empty or larger than {MAX_TEXELS} texels"));
+    }
+    reader()?.decode().map_err(|e| format!("cannot decode image ({ACCEPTED}): {e}"))
 }
 
 #[cfg(test)]
