@@ -121,7 +121,7 @@ pub fn encode_exr(file: &Path, img: &Image) -> Result<()> {
 /// bytes a texel over that many), before any of its pixels is decoded: the EXR crate sizes each
 /// block's buffer by the header, and a damaged one claiming 10^9 columns made it allocate hundreds of
 /// GB, which aborts the process (no error to catch). Returns the first layer's width and height.
-pub fn check_exr_header(path: &Path) -> std::result::Result<(usize, usize), String> {
+fn check_exr_header(path: &Path) -> std::result::Result<(usize, usize), String> {
     use crate::scene::texture::MAX_TEXELS;
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| format!("cannot read EXR: {e}"))?;
     for (i, h) in meta.headers.iter().enumerate() {
@@ -144,13 +144,9 @@ pub fn check_exr_header(path: &Path) -> std::result::Result<(usize, usize), Stri
 /// small texture costs more than it saves.
 pub fn read_exr_pixels(path: &Path) -> std::result::Result<(usize, usize, Vec<Rgb>), String> {
     let (w, h) = check_exr_header(path)?;
-    let create = |res: exr::prelude::Vec2<usize>, _: &_| {
-        let (w, h) = (res.width(), res.height());
-        let n = if (w as u64 * h as u64) <= crate::scene::texture::MAX_TEXELS { w * h } else { 0 };
-        // Zeroed arrays of floats come from the allocator untouched, so a damaged header's claim of a
-        // large image costs nothing until its pixels are really read.
-        (w, h, vec![[0.0f32; 3]; n])
-    };
+    // The header check bounds every layer's size. Zeroed arrays of floats come from the allocator
+    // untouched, so a damaged header's claim of a large image costs nothing until its pixels are read.
+    let create = |res: exr::prelude::Vec2<usize>, _: &_| (res.width(), res.height(), vec![[0.0f32; 3]; res.area()]);
     let set = |img: &mut (usize, usize, Vec<[f32; 3]>),
                pos: exr::prelude::Vec2<usize>,
                (r, g, b, _a): (f32, f32, f32, f32)| {
@@ -169,8 +165,8 @@ pub fn read_exr_pixels(path: &Path) -> std::result::Result<(usize, usize, Vec<Rg
         if (w as u64 * h as u64) < 1 << 20 { reader.non_parallel().from_file(path) } else { reader.from_file(path) };
     let img = read.map_err(|e| format!("cannot read EXR: {e}"))?;
     let (w, h, pixels) = img.layer_data.channel_data.pixels;
-    if pixels.is_empty() || w == 0 || h == 0 {
-        return Err(format!("{w}×{h} EXR is empty or larger than {} texels", crate::scene::texture::MAX_TEXELS));
+    if pixels.is_empty() {
+        return Err(format!("{w}×{h} EXR is empty"));
     }
     Ok((w, h, pixels.into_iter().map(Rgb::from_array).collect()))
 }
