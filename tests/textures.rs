@@ -115,3 +115,61 @@ fn hdr_bmp_and_tga_images_read_as_mitsuba_reads_them() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// PFM and PPM are read as Mitsuba's `Bitmap` reads them. `label.pfm` is `label.png` converted to linear
+/// 32-bit floats and written by Mitsuba 3.9.1 (`Bitmap.convert(RGB, Float32, False).write`); `label.ppm`
+/// is `label.png` written by it as it is (8-bit P6). The PFM must read as the PNG's sRGB-decoded texels,
+/// also when `raw` (floats are linear); the PPM texel for texel as the PNG, sRGB-decoded unless `raw`.
+/// PFM rows run from the bottom up (the label's rows differ, so a flip is seen). Hand-made PFMs: a
+/// positive scale means big-endian floats times the scale, a negative one little-endian times its
+/// magnitude (Mitsuba multiplies too: 2.0 big-endian reads 0.5 as 1.0, −4.0 reads 0.5 as 2.0), `Pf` is
+/// grey; and damaged ones are refused before their pixels are read.
+#[test]
+fn pfm_and_ppm_images_read_as_mitsuba_reads_them() {
+    use caustica::scene::texture::load_image;
+    let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba");
+    let png = load_image(&src.join("label.png"), false).unwrap();
+    let (w, h) = (png.0 as usize, png.1 as usize);
+    assert!((0..h / 2).any(|y| png.2[y * w..][..w] != png.2[(h - 1 - y) * w..][..w]), "label.png is symmetric");
+    for raw in [false, true] {
+        let pfm = load_image(&src.join("label.pfm"), raw).unwrap();
+        assert_eq!((pfm.0, pfm.1), (png.0, png.1));
+        for (i, (a, b)) in png.2.iter().zip(&pfm.2).enumerate() {
+            assert!((*a - *b).abs().max_element() < 1e-6, "label.pfm (raw {raw}) texel {i}: {b} against the PNG's {a}");
+        }
+        assert_eq!(load_image(&src.join("label.ppm"), raw).unwrap(), load_image(&src.join("label.png"), raw).unwrap());
+    }
+    let dir = std::env::temp_dir().join(format!("caustica-pfm-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let write = |name: &str, head: &str, values: &[f32], big: bool| {
+        let mut bytes = head.as_bytes().to_vec();
+        for v in values {
+            bytes.extend(if big { v.to_be_bytes() } else { v.to_le_bytes() });
+        }
+        let file = dir.join(name);
+        std::fs::write(&file, bytes).unwrap();
+        file
+    };
+    // Two rows of two: the file's first row is the image's bottom one.
+    let rgb = [0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0];
+    let v = |a: f32, b: f32, c: f32| Vec3::new(a, b, c);
+    let want = |k: f32| vec![v(6.0, 7.0, 8.0) * k, v(9.0, 10.0, 11.0) * k, v(0.5, 1.0, 2.0) * k, v(3.0, 4.0, 5.0) * k];
+    assert_eq!(load_image(&write("le.pfm", "PF\n2 2\n-1.0\n", &rgb, false), false).unwrap(), (2, 2, want(1.0)));
+    assert_eq!(load_image(&write("be.pfm", "PF\n2 2\n2.0\n", &rgb, true), false).unwrap(), (2, 2, want(2.0)));
+    assert_eq!(load_image(&write("sc.pfm", "PF 2 2 -4 ", &rgb, false), true).unwrap(), (2, 2, want(4.0)));
+    let grey = load_image(&write("g.pfm", "Pf\n3 1\n-1\n", &[0.25, 1.0, 7.0], false), false).unwrap();
+    assert_eq!(grey, (3, 1, vec![Vec3::splat(0.25), Vec3::splat(1.0), Vec3::splat(7.0)]));
+    let refused = [
+        (write("short.pfm", "PF\n2 2\n-1\n", &rgb[..11], false), "truncated"),
+        (write("huge.pfm", "PF\n100000 100000\n-1\n", &rgb, false), "larger than"),
+        (write("nan.pfm", "PF\n2 2\n-1\n", &[f32::NAN; 12], false), "texel (0, 0) is not finite"),
+        (write("zero.pfm", "PF\n2 0\n-1\n", &rgb, false), "height `0`"),
+        (write("scale.pfm", "PF\n2 2\n0\n", &rgb, false), "scale `0`"),
+        (write("cut.pfm", "PF\n2 2", &[], false), "incomplete"),
+    ];
+    for (file, want) in refused {
+        let msg = load_image(&file, false).unwrap_err();
+        assert!(msg.contains(want), "{}: `{want}` not in: {msg}", file.display());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -468,7 +468,8 @@ pub enum TextureSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         matrix: Option<[[f32; 3]; 2]>,
     },
-    /// PNG, JPEG (sRGB-decoded unless `raw`) or EXR (linear), relative to the scene file.
+    /// An image (`texture::load_image`: PNG, JPEG, BMP, TGA, PPM sRGB-decoded unless `raw`; EXR, Radiance
+    /// `.hdr`, PFM linear), relative to the scene file.
     Bitmap {
         file: String,
         #[serde(default, skip_serializing_if = "is_false")]

@@ -1,5 +1,5 @@
-//! Textures a diffuse reflectance can read per hit: a procedural checkerboard and bitmaps (PNG and JPEG
-//! decoded from sRGB, EXR read as linear), both through a 2-D affine `to_uv` map, wrapping (repeat).
+//! Textures a diffuse reflectance can read per hit: a procedural checkerboard and bitmaps (`load_image`:
+//! 8/16-bit formats decoded from sRGB, float ones linear), both through a 2-D affine `to_uv` map.
 //!
 //! ```toml
 //! [textures]
@@ -222,29 +222,37 @@ fn wrapped(texels: &[Rgb], width: u32, height: u32, wrap: Wrap) -> impl Fn(i64, 
     move |x, y| texels[(wrap.index(y, h) * w + wrap.index(x, w)) as usize]
 }
 
-/// Reads an image as linear RGB, row 0 first, as Mitsuba's `Bitmap` reads it: EXR and Radiance RGBE
-/// (`.hdr`) as stored (float formats are linear); PNG, JPEG, BMP and TGA decoded from sRGB unless `raw`
-/// (then 8/16-bit values are divided by their maximum and kept). Returns (width, height, texels).
+/// Reads an image as linear RGB, row 0 first, as Mitsuba's `Bitmap` reads it: EXR, Radiance RGBE
+/// (`.hdr`) and PFM as stored (float formats are linear; a PFM's values times its scale's magnitude);
+/// PNG, JPEG, BMP, TGA and PNM (PPM, PGM) decoded from sRGB unless `raw` (then 8/16-bit values are
+/// divided by their maximum and kept). Returns (width, height, texels).
 pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String> {
     let name = path.to_string_lossy().to_lowercase();
     if !path.exists() {
         return Err("file not found".into());
     }
     crate::scene::regular_file(path)?;
-    if name.ends_with(".exr") {
-        let (w, h, texels) = crate::output::read_exr_pixels(path)?;
+    let mut head = Vec::with_capacity(6);
+    std::fs::File::open(path)
+        .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, 6), &mut head))
+        .map_err(|e| format!("cannot read image: {e}"))?;
+    let pfm = head.len() == 6 && matches!(&head[..2], b"PF" | b"Pf") && head[2].is_ascii_whitespace();
+    if name.ends_with(".exr") || pfm {
+        let (w, h, texels) = if pfm {
+            read_pfm(path)?
+        } else {
+            let (w, h, texels) = crate::output::read_exr_pixels(path)?;
+            (w as u32, h as u32, texels)
+        };
         if let Some(i) = texels.iter().position(|t| !t.is_finite()) {
-            return Err(format!("texel ({}, {}) is not finite", i % w, i / w));
+            return Err(format!("texel ({}, {}) is not finite", i % w as usize, i / w as usize));
         }
-        return Ok((w as u32, h as u32, texels));
+        return Ok((w, h, texels));
     }
     // Radiance files open with `#?RADIANCE` or, from other writers (Mitsuba's among them), `#?RGBE`,
     // which the decoder does not know: such a file is read into memory (RGBE takes about 4 bytes a
     // texel) and its first line made `#?RADIANCE`. Anything else is read from the file as it decodes.
-    let mut head = [0u8; 6];
-    let rgbe = std::fs::File::open(path)
-        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
-        .is_ok_and(|()| &head == b"#?RGBE");
+    let rgbe = head == b"#?RGBE";
     let img = if rgbe {
         let len = std::fs::metadata(path).map_err(|e| e.to_string())?.len();
         if len > 5 * MAX_TEXELS {
@@ -265,13 +273,75 @@ pub fn load_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<Rgb>), String
     Ok((w, h, texels))
 }
 
+/// Reads a Portable Float Map as Mitsuba (and pbrt) read one: `PF` (RGB) or `Pf` (grey, read into all
+/// three channels), width, height and a scale, separated by white space, one white-space byte, then
+/// 32-bit floats row by row from the bottom row up, little-endian if the scale is negative, big-endian
+/// otherwise, each multiplied by the scale's magnitude. The header is checked against the file's length
+/// before any pixel is read.
+fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<Rgb>), String> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| format!("cannot read image: {e}"))?;
+    let len = file.metadata().map_err(|e| format!("cannot read image: {e}"))?.len();
+    let mut r = std::io::BufReader::new(file);
+    let (mut tokens, mut token, mut header_len) = (Vec::<String>::new(), Vec::new(), 0u64);
+    while tokens.len() < 4 {
+        let mut byte = [0u8];
+        if header_len == 256 || r.read_exact(&mut byte).is_err() {
+            return Err("PFM header (PF or Pf, width, height, scale) is damaged or incomplete".into());
+        }
+        header_len += 1;
+        if !byte[0].is_ascii_whitespace() {
+            token.push(byte[0]);
+        } else if !token.is_empty() {
+            tokens.push(String::from_utf8_lossy(&std::mem::take(&mut token)).into_owned());
+        }
+    }
+    let channels = if tokens[0] == "PF" { 3 } else { 1 };
+    let size = |t: &str, what: &str| match t.parse::<u32>() {
+        Ok(v) if v > 0 => Ok(v),
+        _ => Err(format!("PFM header's {what} `{t}` is not a positive whole number")),
+    };
+    let (w, h) = (size(&tokens[1], "width")?, size(&tokens[2], "height")?);
+    let scale = match tokens[3].parse::<f32>() {
+        Ok(s) if s.is_finite() && s != 0.0 => s,
+        _ => return Err(format!("PFM header's scale `{}` is not a finite number other than 0", tokens[3])),
+    };
+    let texels = w as u64 * h as u64;
+    if texels > MAX_TEXELS {
+        return Err(format!("{w}×{h} image is larger than {MAX_TEXELS} texels"));
+    }
+    let bytes = texels * channels * 4;
+    if len - header_len < bytes {
+        return Err(format!(
+            "PFM of {w}×{h} texels needs {bytes} bytes of pixels after its header, the file has {}: truncated?",
+            len - header_len
+        ));
+    }
+    let mut data = vec![0u8; bytes as usize];
+    r.read_exact(&mut data).map_err(|e| format!("cannot read image: {e}"))?;
+    let value = |c: &[u8]| {
+        let b = [c[0], c[1], c[2], c[3]];
+        scale.abs() * if scale < 0.0 { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) }
+    };
+    let (w_us, h_us, n) = (w as usize, h as usize, channels as usize);
+    let mut out = Vec::with_capacity(texels as usize);
+    for row in data.chunks_exact(w_us * n * 4).rev() {
+        out.extend(row.chunks_exact(n * 4).map(|t| match n {
+            3 => Rgb::new(value(&t[0..4]), value(&t[4..8]), value(&t[8..12])),
+            _ => Rgb::splat(value(t)),
+        }));
+    }
+    debug_assert_eq!(out.len(), w_us * h_us);
+    Ok((w, h, out))
+}
+
 /// Decodes the image `open` reads (by its content, or by `path`'s extension for formats without a
 /// signature, TGA), refusing one of more than `MAX_TEXELS` texels before its pixels are decoded.
 fn decode_image<R: std::io::BufRead + std::io::Seek>(
     path: &Path,
     open: impl Fn() -> Result<R, String>,
 ) -> Result<image::DynamicImage, String> {
-    const ACCEPTED: &str = "EXR, HDR, PNG, JPEG, BMP or TGA accepted";
+    const ACCEPTED: &str = "EXR, HDR, PFM, PNG, JPEG, BMP, TGA or PPM accepted";
     let reader = || {
         let mut r = image::ImageReader::new(open()?);
         if let Ok(f) = image::ImageFormat::from_path(path) {
