@@ -151,11 +151,21 @@ fn each_malformed_scene_gets_its_own_message() {
     let d = dir();
     std::fs::write(d.join("nan.obj"), "v 0 0 0\nv 1 0 nan\nv 0 1 0\nv inf 1 1\nf 1 2 3\nf 1 3 4\n").unwrap();
     std::fs::write(d.join("nomtl.obj"), "mtllib gone.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    // MTL diffuse maps out of [0, 1]: a negative texel, and one of 1e32 (a surface adding light).
+    for (name, map) in [("negmap", "negative.exr"), ("hotmap", "blinding.exr")] {
+        let obj =
+            format!("mtllib {name}.mtl\nusemtl m\nvt 0 0\nvt 1 0\nvt 0 1\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/2 3/3\n");
+        std::fs::write(d.join(format!("{name}.obj")), obj).unwrap();
+        std::fs::write(d.join(format!("{name}.mtl")), format!("newmtl m\nmap_Kd {map}\n")).unwrap();
+    }
     std::fs::write(d.join("text.serialized"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     std::fs::write(d.join("short.ply"), "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n").unwrap();
     let mut negative = caustica::film::Image::new(2, 1);
     negative.pixels[1] = glam::Vec3::new(1.0, -0.5, 1.0);
     caustica::output::write_exr(&d.join("negative.exr"), &negative).unwrap();
+    // Negative in one texel, positive on average (a spot projecting it still has positive power).
+    negative.pixels[0] = glam::Vec3::ONE;
+    caustica::output::write_exr(&d.join("dip.exr"), &negative).unwrap();
     let mut blinding = caustica::film::Image::new(2, 1);
     blinding.pixels[0] = glam::Vec3::splat(1e32);
     caustica::output::write_exr(&d.join("blinding.exr"), &blinding).unwrap();
@@ -163,6 +173,9 @@ fn each_malformed_scene_gets_its_own_message() {
     // Found by fuzz seed 11: a damaged PIZ-compressed sky whose data window claims 10^9 columns. The EXR
     // crate sized one block's buffer by the window (192 GB; the fuzz's, 238 GB) and the allocation aborted the process.
     std::fs::write(d.join("wide.exr"), widened_exr()).unwrap();
+    // A PFM whose header claims more pixels than the file holds, and one claiming 10^10 texels.
+    std::fs::write(d.join("short.pfm"), [&b"PF\n64 32\n-1.0\n"[..], &[0u8; 100]].concat()).unwrap();
+    std::fs::write(d.join("vast.pfm"), [&b"Pf 100000 100000 1 "[..], &[0u8; 100]].concat()).unwrap();
     std::fs::write(d.join("nouv.obj"), "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n").unwrap();
     let ply = |props: &str, rows: &str| {
         format!("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{props}element face 1\nproperty list uchar int vertex_indices\nend_header\n{rows}3 0 2 1\n")
@@ -647,6 +660,56 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["textures.glow.file", "wide.exr", "1000000000×32", "larger than"],
         ),
         (
+            // Found by fuzz seed 16 through a damaged PFM: a reflectance texture's texels were held to at
+            // most 1 but not to at least 0, and a negative one made samples NaN.
+            "reflectance_texture_below_zero",
+            with_textures(
+                with_white("white = { type = \"diffuse\", reflectance = \"neg\" }"),
+                "neg = { type = \"bitmap\", file = \"negative.exr\" }",
+            ),
+            vec![],
+            vec!["materials.white.reflectance", "texture `neg` (negative.exr) reaches -0.5", "[0, 1]"],
+        ),
+        (
+            "spot_texture_below_zero",
+            with_textures(
+                with_spot("texture = \"slide\"\nup = [1.0, 0.0, 0.0]"),
+                "slide = { type = \"bitmap\", file = \"dip.exr\" }",
+            ),
+            vec![],
+            vec!["lights[0].texture", "texture `slide` (dip.exr) reaches -0.5", "≥ 0"],
+        ),
+        (
+            "mtl_map_below_zero",
+            GOOD.replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"white\"",
+                "type = \"mesh\"\nfile = \"negmap.obj\"",
+            ),
+            vec![],
+            vec!["shapes[0].file", "negative.exr", "reaches -0.5", "[0, 1]"],
+        ),
+        (
+            "mtl_map_above_one",
+            GOOD.replace(
+                "type = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"white\"",
+                "type = \"mesh\"\nfile = \"hotmap.obj\"",
+            ),
+            vec![],
+            vec!["shapes[0].file", "blinding.exr reaches 1000000000", "[0, 1]"],
+        ),
+        (
+            "pfm_shorter_than_its_header",
+            glowing("short.pfm"),
+            vec![],
+            vec!["textures.glow.file", "short.pfm", "64×32", "needs 24576 bytes", "has 100", "truncated"],
+        ),
+        (
+            "pfm_beyond_any_image",
+            glowing("vast.pfm"),
+            vec![],
+            vec!["textures.glow.file", "vast.pfm", "100000×100000", "larger than"],
+        ),
+        (
             "blend_weight_range",
             with_white(
                 "white = { type = \"blend\", weight = 1.5, first = \"n\", second = \"n\" }\nn = { type = \"null\" }",
@@ -776,6 +839,17 @@ fn each_malformed_scene_gets_its_own_message() {
             GOOD.replace("type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]", "type = \"spot\"\nposition = [0.0, 1.5, 0.0]\ndirection = [0.0, -1.0, 0.0]\nintensity = [1.0, -1.0, 1.0]"),
             vec![],
             vec!["lights[0].intensity", "negative"],
+        ),
+        (
+            // Found by fuzz seed 16: a damaged Radiance sky whose texels reach 1e33 emitted beyond the
+            // bound, and the error named the light but not its image.
+            "sky_image_too_bright",
+            GOOD.replace(
+                "type = \"point\"\nposition = [0.0, 1.5, 0.0]\npower = [10.0, 10.0, 10.0]",
+                "type = \"envmap\"\nfile = \"blinding.exr\"",
+            ),
+            vec![],
+            vec!["lights[0].file", "emits", "read from blinding.exr", "bounding disc", "texels"],
         ),
         (
             // A sky emits its radiance times the area of the scene's bounding disc: with a shape 1e30 away

@@ -4,7 +4,7 @@ use crate::color::Rgb;
 use crate::scene::camera::{FilterSpec, PixelFilter, LANCZOS_LOBES_RANGE};
 use crate::scene::env::{EnvImage, EnvLight};
 use crate::scene::file::*;
-use crate::scene::light::{Lights, PointLight, Spot};
+use crate::scene::light::{LightKind, Lights, PointLight, Spot};
 use crate::scene::material::{
     conductor_preset, BlendWeight, Fresnel, Mapped, Material, Nested, NormalMap, ParamMaps, Principled, RoughCoat,
     SurfaceMaterial, MIN_ALPHA, PRINCIPLED_WEIGHTS,
@@ -248,7 +248,11 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     scene.see_through = scene.see_through_shapes();
     scene.lights = Lights::build(&scene, &points, &distant, env);
     let keys: Vec<String> = env_key.into_iter().chain(distant_keys).chain(point_keys).collect();
-    check_power(&cx, &scene, &keys, &file.shapes)?;
+    let env_file = file.lights.iter().find_map(|l| match l {
+        LightSpec::Envmap { file, .. } => Some(file.as_str()),
+        _ => None,
+    });
+    check_power(&cx, &scene, &keys, &file.shapes, env_file)?;
     if scene.lights.is_empty() {
         return Err(
             cx.err("lights", "the scene has no light with positive power (add [[lights]] or an emissive shape)")
@@ -967,18 +971,26 @@ fn relative_ior(cx: &Ctx, key: &str, ior: f32, outside_ior: f32) -> Result<f32, 
 }
 
 /// The `[textures]` entry `name` that the material field `key` names (a reflectance, a blend's weight);
-/// refused if unknown or above 1 anywhere, as `what` must stay in [0, 1].
+/// refused if unknown or outside [0, 1] anywhere, as `what` must stay in [0, 1].
 fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures, what: &str) -> Result<u32, SceneError> {
     let t = texture_named(cx, key, name, textures)?;
-    let max = textures.list[t as usize].max_value();
-    if max > 1.0 {
-        let msg = format!(
-            "texture {} reaches {max}; {what} must be in [0, 1]",
-            texture_label(name, &textures.list[t as usize])
-        );
-        return Err(cx.err(key, msg));
-    }
+    let tex = &textures.list[t as usize];
+    unit_range(tex).map_err(|reach| {
+        cx.err(key, format!("texture {} reaches {reach}; {what} must be in [0, 1]", texture_label(name, tex)))
+    })?;
     Ok(t)
+}
+
+/// Ok if every value of the texture lies in [0, 1]; else the value beyond the range it reaches.
+fn unit_range(tex: &Texture) -> Result<(), f32> {
+    let (low, high) = (tex.min_value(), tex.max_value());
+    if low.is_nan() || low < 0.0 {
+        Err(low)
+    } else if high > 1.0 {
+        Err(high)
+    } else {
+        Ok(())
+    }
 }
 
 /// The `[materials]` entry `name` that the field `key` names; refused if there is none.
@@ -1263,6 +1275,10 @@ fn mtl_texture_material(
                 bilinear: true,
                 wrap: Default::default(),
             };
+            unit_range(&bitmap).map_err(|reach| {
+                let msg = format!("MTL map_Kd {} reaches {reach}; a reflectance must be in [0, 1]", path.display());
+                cx.err(&format!("{key}.file"), msg)
+            })?;
             out.textures.list.push(bitmap);
             out.textures.files.insert(path.clone(), t);
             t
@@ -1457,6 +1473,12 @@ fn build_light(
                 Some(name) => {
                     let t = texture_named(cx, &format!("{key}.texture"), name, textures)?;
                     not_mesh_colors(cx, &format!("{key}.texture"), name, textures, t, "a spot's projected texture")?;
+                    let low = textures.list[t as usize].min_value();
+                    if low.is_nan() || low < 0.0 {
+                        let label = texture_label(name, &textures.list[t as usize]);
+                        let msg = format!("texture {label} reaches {low}; a spot's projected texture must be ≥ 0");
+                        return Err(cx.err(&format!("{key}.texture"), msg));
+                    }
                     if *cutoff_angle >= 90.0 {
                         let msg = format!("a projected texture needs cutoff_angle < 90 degrees, got {cutoff_angle}");
                         return Err(cx.err(&format!("{key}.cutoff_angle"), msg));
@@ -1515,8 +1537,15 @@ const MAX_POWER: f64 = 1e30;
 /// two point lights of 3e38 W each, or a sky around a scene stretched over 1e20 units (a light at
 /// infinity emits its radiance times the area of the scene's bounding disc), would turn into NaN.
 /// `keys`: the file's key of each light at infinity and point light, in `Lights` order; `specs` the
-/// file's shapes (to name the mesh file of the shape that stretches the scene).
-fn check_power(cx: &Ctx, scene: &Scene, keys: &[String], specs: &[ShapeSpec]) -> Result<(), SceneError> {
+/// file's shapes (to name the mesh file of the shape that stretches the scene); `env_file`, the
+/// environment's image, if it has one.
+fn check_power(
+    cx: &Ctx,
+    scene: &Scene,
+    keys: &[String],
+    specs: &[ShapeSpec],
+    env_file: Option<&str>,
+) -> Result<(), SceneError> {
     let lights = &scene.lights;
     let total: f64 = lights.power.iter().map(|p| p.max_element() as f64).sum();
     if total <= MAX_POWER {
@@ -1524,7 +1553,13 @@ fn check_power(cx: &Ctx, scene: &Scene, keys: &[String], specs: &[ShapeSpec]) ->
     }
     let (i, p) =
         lights.power.iter().enumerate().max_by(|a, b| a.1.max_element().total_cmp(&b.1.max_element())).unwrap();
-    let key = keys.get(i).cloned().or_else(|| lights.list[i].shape().map(|s| scene.shapes[s as usize].name.clone()));
+    let mut key =
+        keys.get(i).cloned().or_else(|| lights.list[i].shape().map(|s| scene.shapes[s as usize].name.clone()));
+    // An environment's image: its texels are the likelier culprit (a damaged file), so it is named.
+    let env_image = env_file.filter(|_| matches!(lights.list[i], LightKind::Env));
+    if env_image.is_some() {
+        key = key.map(|k| format!("{k}.file"));
+    }
     let texture = lights.list[i].shape().and_then(|s| scene.shapes[s as usize].emission_texture);
     let why = if let Some(crate::scene::texture::Texture::Bitmap { file, .. }) =
         texture.map(|t| &scene.textures[t as usize])
@@ -1539,11 +1574,18 @@ fn check_power(cx: &Ctx, scene: &Scene, keys: &[String], specs: &[ShapeSpec]) ->
                 _ => format!(", reached by {name}"),
             }
         });
-        format!(
-            " (a light at infinity emits its radiance times the area of the scene's bounding disc, here of \
-             radius {:.3e}{reach}: keep the shapes within about 1e12 of one another)",
-            0.5 * (scene.bounds.1.as_dvec3() - scene.bounds.0.as_dvec3()).length()
-        )
+        let radius = 0.5 * (scene.bounds.1.as_dvec3() - scene.bounds.0.as_dvec3()).length();
+        match env_image {
+            Some(file) => format!(
+                " (its radiance is read from {file}, and a light at infinity emits it times the area of the \
+                 scene's bounding disc, here of radius {radius:.3e}{reach}: are the image's texels right, and \
+                 the shapes within about 1e12 of one another?)"
+            ),
+            None => format!(
+                " (a light at infinity emits its radiance times the area of the scene's bounding disc, here of \
+                 radius {radius:.3e}{reach}: keep the shapes within about 1e12 of one another)"
+            ),
+        }
     } else {
         String::new()
     };
