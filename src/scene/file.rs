@@ -763,8 +763,8 @@ pub enum LightSpec {
     Distant { direction: V3, irradiance: V3 },
     /// The same radiance from every direction, infinitely far away (a white sky, a furnace).
     Constant { radiance: V3 },
-    /// A lat-long environment image (EXR linear, PNG/JPEG sRGB) around the scene, Mitsuba's layout
-    /// (+y up, u = atan2(x, −z)/2π); `transform` may only rotate it.
+    /// A lat-long environment image (`texture::load_image`: EXR, HDR, PFM linear; 8/16-bit sRGB) around
+    /// the scene, Mitsuba's layout (+y up, u = atan2(x, −z)/2π); `transform` may only rotate it.
     Envmap {
         file: String,
         #[serde(default = "one")]
