@@ -749,6 +749,31 @@ pub enum LightSpec {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         up: Option<V3>,
     },
+    /// A projector at `position` shining along `direction` (or towards `target`), as Mitsuba 3's
+    /// `projector`: a pinhole lighting a rectangle that spans `fov` degrees along `fov_axis` ("x", the
+    /// default, "y", "diagonal", "smaller" or "larger"; its sides in the texture's proportions, or
+    /// square) with its x across `up` × the axis and its y towards `up` (default [0, 1, 0]). A surface
+    /// facing it at unit distance on the axis receives `irradiance` (W/m², default 1) times the
+    /// `texture` there (a `[textures]` entry, optional), and every point of the plane at that distance
+    /// the same: its intensity grows as 1/cos³ of the angle off the axis. The image's left column
+    /// lights the projector's +x side, as Mitsuba's. Mitsuba's own `irradiance` texture and `scale`
+    /// are this irradiance over π.
+    Projector {
+        position: V3,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        direction: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        target: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        up: Option<V3>,
+        fov: f32,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        fov_axis: Option<String>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        irradiance: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        texture: Option<String>,
+    },
     /// Spherical area light (visible, emits outward); give `power` or `radiance`.
     Sphere {
         center: V3,

@@ -36,6 +36,10 @@ pub enum LightKind {
 
 /// A spot light's cone, as Mitsuba 3's `spot`: full intensity within `beam` (radians) of the axis,
 /// falling linearly in angle to zero at `cutoff`; emission is drawn uniformly over the cutoff cone.
+/// Or, with `frustum`, a projector (Mitsuba 3's `projector`): a pinhole lighting the rectangle of
+/// half-widths `frustum` (tangents of the half-angles along `frame`) of the plane at unit distance
+/// along the axis, its irradiance there the same everywhere (the intensity on the axis times 1/cos³ θ
+/// towards an angle θ off it); emission is drawn uniformly over that rectangle.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Spot {
     /// Unit direction the light shines along.
@@ -49,6 +53,8 @@ pub struct Spot {
     pub texture: Option<u32>,
     /// The spot's own x and y axes (unit, across the axis): where the texture's u and v run.
     pub frame: [Vec3; 2],
+    /// A projector's half-widths at unit distance, along `frame[0]` and `frame[1]`; None for a cone.
+    pub frustum: Option<[f32; 2]>,
 }
 
 impl Spot {
@@ -62,7 +68,34 @@ impl Spot {
             one_minus: 2.0 * half * half,
             texture: None,
             frame: [Vec3::ZERO; 2],
+            frustum: None,
         }
+    }
+
+    /// A projector shining along `axis` (any length but zero) over the rectangle of half-widths `tan`
+    /// (both > 0) at unit distance, its first side across `up` × axis (`up` off the axis), its second
+    /// towards `up`, as Mitsuba's `lookat` places a projector's local x and y. Its `cutoff` is the
+    /// half-angle of the cone around the rectangle's corners (what the planner reads).
+    pub fn projector(axis: Vec3, up: Vec3, tan: [f32; 2]) -> Spot {
+        let cutoff = tan[0].hypot(tan[1]).atan();
+        let cone = Spot::new(axis, cutoff, cutoff);
+        let x = up.cross(cone.axis).normalize();
+        Spot { frame: [x, cone.axis.cross(x)], frustum: Some(tan), ..cone }
+    }
+
+    /// Direction `w` (any length) where it meets the plane at unit distance along the axis, in the
+    /// spot's frame: (x, y), and the cosine of its angle to the axis; None behind the light.
+    fn on_plane(&self, w: Vec3) -> Option<(f32, f32, f32)> {
+        let z = w.dot(self.axis);
+        (z > 0.0).then(|| (w.dot(self.frame[0]) / z, w.dot(self.frame[1]) / z, z / w.length()))
+    }
+
+    /// Whether direction `w` (any length) passes through a projector's rectangle, and its cosine to the
+    /// axis. The edges are widened by a few ulps, so a direction `sample` draws, once rounded, stays in.
+    fn in_frustum(&self, w: Vec3, [tx, ty]: [f32; 2]) -> Option<f32> {
+        let (x, y, cos) = self.on_plane(w)?;
+        let slack = 1.0 + 4.0 * f32::EPSILON;
+        (x.abs() <= tx * slack && y.abs() <= ty * slack).then_some(cos)
     }
 
     /// This spot with texture `t` projected along it, its v running towards `up` (any vector off the
@@ -75,7 +108,12 @@ impl Spot {
     /// The texture coordinates of direction `w` (any length, inside the cone): Mitsuba's, 0.5 + 0.5 ·
     /// (the direction's x and y over its z, in the spot's frame) / tan(cutoff), so that the texture's
     /// square spans the cutoff cone's base.
+    /// A projector's runs the other way, as Mitsuba's: 0.5 − 0.5 · x / (z · its half-width) on each side.
     pub fn uv(&self, w: Vec3) -> glam::Vec2 {
+        if let Some([tx, ty]) = self.frustum {
+            let (x, y, _) = self.on_plane(w).unwrap_or((0.0, 0.0, 1.0));
+            return glam::Vec2::new(0.5 - 0.5 * x / tx, 0.5 - 0.5 * y / ty);
+        }
         let z = w.dot(self.axis) * self.cutoff.tan();
         glam::Vec2::new(0.5 + 0.5 * w.dot(self.frame[0]) / z, 0.5 + 0.5 * w.dot(self.frame[1]) / z)
     }
@@ -86,8 +124,12 @@ impl Spot {
         self.axis.cross(w).length().atan2(self.axis.dot(w))
     }
 
-    /// Intensity towards unit direction `w` over the intensity on the axis.
+    /// Intensity towards unit direction `w` over the intensity on the axis (a projector's 1/cos³ θ
+    /// within its rectangle).
     pub fn falloff(&self, w: Vec3) -> f32 {
+        if let Some(tan) = self.frustum {
+            return self.in_frustum(w, tan).map_or(0.0, |c| 1.0 / (c * c * c));
+        }
         let angle = self.angle(w);
         if angle >= self.cutoff {
             0.0
@@ -101,14 +143,22 @@ impl Spot {
     /// ∫ falloff dω over the sphere: 2π [1 − (sin cutoff − sin beam)/(cutoff − beam)], written as
     /// 2π [1 − cos m · sin h / h] (m, h the mean and half-difference of the angles, in f64 against the
     /// cancellation of narrow cones) so that a hard edge (h → 0) gives the cone's 2π (1 − cos cutoff).
+    /// A projector's: the rectangle's area, 4 tan_x tan_y (each unit of it seen through dω = cos³ θ dA).
     pub fn solid_angle(&self) -> f32 {
+        if let Some([tx, ty]) = self.frustum {
+            return 4.0 * tx * ty;
+        }
         let (m, h) = (0.5 * (self.cutoff as f64 + self.beam as f64), 0.5 * (self.cutoff as f64 - self.beam as f64));
         let sinc = if h > 1e-6 { h.sin() / h } else { 1.0 - h * h / 6.0 };
         (2.0 * std::f64::consts::PI * (1.0 - m.cos() * sinc)) as f32
     }
 
-    /// Solid-angle density of an emitted direction `w` (uniform over the cutoff cone).
+    /// Solid-angle density of an emitted direction `w` (uniform over the cutoff cone; for a projector
+    /// uniform over its rectangle: 1 / (4 tan_x tan_y cos³ θ)).
     pub fn pdf(&self, w: Vec3) -> f32 {
+        if let Some(tan) = self.frustum {
+            return self.in_frustum(w, tan).map_or(0.0, |c| 1.0 / (self.solid_angle() * c * c * c));
+        }
         if self.angle(w) < self.cutoff {
             self.cone_density()
         } else {
@@ -116,14 +166,27 @@ impl Spot {
         }
     }
 
-    /// The density of every direction `sample` draws: one over the cone's solid angle.
+    /// The density of every direction `sample` draws for a cone: one over the cone's solid angle.
     fn cone_density(&self) -> f32 {
         1.0 / (2.0 * PI * self.one_minus)
     }
 
-    /// A direction uniform over the cutoff cone.
+    /// A direction uniform over the cutoff cone, or over a projector's rectangle.
     pub fn sample(&self, u: [f32; 2]) -> Vec3 {
+        if let Some([tx, ty]) = self.frustum {
+            let [x, y] = [tx * (2.0 * u[0] - 1.0), ty * (2.0 * u[1] - 1.0)];
+            return (self.frame[0] * x + self.frame[1] * y + self.axis).normalize();
+        }
         Frame::from_normal(self.axis).to_world(sampling::uniform_cone(u, self.one_minus)).normalize()
+    }
+
+    /// The density of a direction `sample` drew: the cone's (the same everywhere in it, also for a
+    /// direction rounded onto its edge), or a projector's `pdf`.
+    fn sample_density(&self, w: Vec3) -> f32 {
+        match self.frustum {
+            Some(_) => self.pdf(w),
+            None => self.cone_density(),
+        }
     }
 }
 
@@ -632,10 +695,11 @@ impl Lights {
             });
         }
         if let LightKind::Point { position, intensity, spot: Some(s) } = &self.list[i] {
-            // A spot: uniform over its cone, each photon carrying I·falloff / (pdf · p_choice).
-            // Inside the cone by construction (a direction rounded onto its edge has zero falloff).
+            // A spot: uniform over its cone (or a projector's rectangle), each photon carrying
+            // I·falloff / (pdf · p_choice). Inside by construction (a direction rounded onto a cone's edge
+            // has zero falloff; a projector's edges are widened by a few ulps).
             let d = s.sample(u_dir);
-            let pdf = s.cone_density();
+            let pdf = s.sample_density(d);
             let untinted = *intensity * (s.falloff(d) / (pdf * p_sel));
             return Some(EmittedRay {
                 ray: Ray::new(*position, d),
@@ -871,6 +935,75 @@ mod tests {
             let want = ((0.05 - deg) / 0.03).clamp(0.0, 1.0);
             assert!((got - want).abs() < 1e-3, "narrow spot at {deg}°: {got} vs {want}");
         }
+    }
+
+    /// A projector as Mitsuba 3.9.1's `projector` reads it: fov 60° along x of a 2:1 image, its frame
+    /// that of lookat(0 → +z, up +y). The uv of points Mitsuba's `sample_direction` gave (its `ds.uv`),
+    /// and its weight there, π · irradiance / (z² cos θ): the falloff 1/cos³ θ over the squared distance.
+    #[test]
+    fn projector_uv_and_falloff_are_mitsubas() {
+        let t = 30f32.to_radians().tan();
+        let p = Spot::projector(Vec3::Z, Vec3::Y, [t, t / 2.0]);
+        let cases = [
+            ([0.0, 0.0, 1.0], [0.5, 0.5]),
+            ([0.5, 0.0, 1.0], [0.0669873, 0.5]),
+            ([0.0, 0.2, 1.0], [0.5, 0.15359]),
+            ([-0.5, -0.2, 1.0], [0.933013, 0.84641]),
+            ([0.5, 0.0, 2.0], [0.283494, 0.5]),
+        ];
+        for (x, want) in cases {
+            let x = Vec3::from(x);
+            let uv = p.uv(x);
+            assert!((uv - glam::Vec2::from(want)).abs().max_element() < 1e-5, "{x}: uv {uv} against {want:?}");
+            let w = x.normalize();
+            let (z, cos) = (x.z, w.z);
+            let got = p.falloff(w) / x.length_squared();
+            let want = 1.0 / (z * z * cos);
+            assert!((got / want - 1.0).abs() < 1e-5, "{x}: {got} against {want}");
+        }
+        // Outside its rectangle (beyond the image's edge along y, and behind it): nothing.
+        for x in [Vec3::new(0.0, 0.3, 1.0), Vec3::new(0.0, 0.0, -1.0)] {
+            assert_eq!((p.falloff(x.normalize()), p.pdf(x)), (0.0, 0.0), "{x}");
+        }
+    }
+
+    /// A projector's ∫ falloff dω (its `solid_angle`, the rectangle's area) and ∫ pdf dω (1) by a
+    /// midpoint sum over the sphere, and `sample`'s directions against the pdf: the share of draws
+    /// through the middle half of the rectangle's width must be the pdf's integral over those
+    /// directions (½: uniform over the rectangle, not over the solid angle, which would give more).
+    #[test]
+    fn projector_integrals_and_sampling_agree() {
+        let p = Spot::projector(Vec3::new(0.3, -1.0, 0.2), Vec3::new(1.0, 0.2, 0.0), [0.9, 0.35]);
+        let middle = |w: Vec3| (w.dot(p.frame[0]) / w.dot(p.axis)).abs() < 0.45;
+        let (n_t, n_p) = (2000, 4000);
+        let (mut fall, mut dens, mut dens_mid) = (0.0f64, 0.0f64, 0.0f64);
+        for i in 0..n_t {
+            let th = (i as f64 + 0.5) / n_t as f64 * std::f64::consts::PI;
+            for j in 0..n_p {
+                let ph = (j as f64 + 0.5) / n_p as f64 * 2.0 * std::f64::consts::PI;
+                let local = Vec3::new((th.sin() * ph.cos()) as f32, (th.sin() * ph.sin()) as f32, th.cos() as f32);
+                let w = Frame::from_normal(p.axis).to_world(local);
+                let dw = th.sin() * (std::f64::consts::PI / n_t as f64) * (2.0 * std::f64::consts::PI / n_p as f64);
+                fall += p.falloff(w) as f64 * dw;
+                dens += p.pdf(w) as f64 * dw;
+                if middle(w) {
+                    dens_mid += p.pdf(w) as f64 * dw;
+                }
+            }
+        }
+        assert!((fall / p.solid_angle() as f64 - 1.0).abs() < 2e-3, "∫ falloff {fall} against {}", p.solid_angle());
+        assert!((dens - 1.0).abs() < 2e-3, "∫ pdf {dens}");
+        let mut rng = crate::math::rng::Rng::new(7, 0, 0);
+        let (n, mut mid) = (200_000, 0usize);
+        for _ in 0..n {
+            let d = p.sample(rng.next_2d());
+            assert!(p.pdf(d) > 0.0 && p.falloff(d) > 0.0, "{d} drawn outside");
+            mid += middle(d) as usize;
+        }
+        let share = mid as f64 / n as f64;
+        let sigma = (0.25 / n as f64).sqrt();
+        assert!((share - dens_mid).abs() < 5.0 * sigma + 2e-3, "{share} of the draws, ∫ pdf there {dens_mid}");
+        assert!((dens_mid - 0.5).abs() < 2e-3, "∫ pdf over the middle {dens_mid}");
     }
 
     /// The closed form of ∫ falloff dω against a midpoint sum over θ, for soft, hard, wide (beyond a

@@ -224,7 +224,7 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
                 distant.push((d, cx.colour(&format!("{key}.irradiance"), *irradiance, None)?));
                 distant_keys.push(key);
             }
-            LightSpec::Point { .. } | LightSpec::Spot { .. } => {
+            LightSpec::Point { .. } | LightSpec::Spot { .. } | LightSpec::Projector { .. } => {
                 build_light(&cx, &key, spec, black, &textures, &mut shapes, &mut points)?;
                 point_keys.push(key);
             }
@@ -970,6 +970,52 @@ fn relative_ior(cx: &Ctx, key: &str, ior: f32, outside_ior: f32) -> Result<f32, 
     Ok(ior / outside_ior)
 }
 
+/// The axis of a spot or projector at `position`: its `direction`, or towards its `target` (exactly
+/// one of them), refused if it gives no direction.
+fn light_axis(
+    cx: &Ctx,
+    key: &str,
+    position: Vec3,
+    direction: &Option<V3>,
+    target: &Option<V3>,
+) -> Result<Vec3, SceneError> {
+    let axis = match (direction, target) {
+        (Some(d), None) => Vec3::from_array(*d),
+        (None, Some(t)) => Vec3::from_array(*t) - position,
+        _ => return Err(cx.err(key, "give exactly one of `direction` or `target`")),
+    };
+    if !(axis.length() > 0.0 && axis.length().is_finite()) {
+        let what = if direction.is_some() { "direction" } else { "target" };
+        return Err(cx.err(&format!("{key}.{what}"), "gives no direction (zero vector, or the light's own position)"));
+    }
+    Ok(axis)
+}
+
+/// The `up` of a light projecting an image (default +y), refused if zero or along `axis`; `whose`
+/// names the light in the message ("the spot's").
+fn light_up(cx: &Ctx, key: &str, up: &Option<V3>, axis: Vec3, whose: &str) -> Result<Vec3, SceneError> {
+    let up = Vec3::from_array(up.unwrap_or([0.0, 1.0, 0.0]));
+    let off_axis = up.cross(axis.normalize()).length();
+    if !up.is_finite() || off_axis.is_nan() || off_axis <= 1e-6 {
+        return Err(cx.err(&format!("{key}.up"), format!("is zero or along {whose} axis")));
+    }
+    Ok(up)
+}
+
+/// The texture a spot or projector (`whose`: "a spot's") of light `key` projects, refused if it is
+/// mesh colours or below 0 anywhere.
+fn projected_texture(cx: &Ctx, key: &str, name: &str, textures: &Textures, whose: &str) -> Result<u32, SceneError> {
+    let field = format!("{key}.texture");
+    let t = texture_named(cx, &field, name, textures)?;
+    not_mesh_colors(cx, &field, name, textures, t, &format!("{whose} projected texture"))?;
+    let low = textures.list[t as usize].min_value();
+    if low.is_nan() || low < 0.0 {
+        let label = texture_label(name, &textures.list[t as usize]);
+        return Err(cx.err(&field, format!("texture {label} reaches {low}; {whose} projected texture must be ≥ 0")));
+    }
+    Ok(t)
+}
+
 /// The `[textures]` entry `name` that the material field `key` names (a reflectance, a blend's weight);
 /// refused if unknown or outside [0, 1] anywhere, as `what` must stay in [0, 1].
 fn texture_index(cx: &Ctx, key: &str, name: &str, textures: &Textures, what: &str) -> Result<u32, SceneError> {
@@ -1448,17 +1494,7 @@ fn build_light(
         }
         LightSpec::Spot { position, direction, target, intensity, power, cutoff_angle, beam_width, texture, up } => {
             let position = Vec3::from_array(*position);
-            let axis = match (direction, target) {
-                (Some(d), None) => Vec3::from_array(*d),
-                (None, Some(t)) => Vec3::from_array(*t) - position,
-                _ => return Err(cx.err(key, "give exactly one of `direction` or `target`")),
-            };
-            if !(axis.length() > 0.0 && axis.length().is_finite()) {
-                let what = if direction.is_some() { "direction" } else { "target" };
-                return Err(
-                    cx.err(&format!("{key}.{what}"), "gives no direction (zero vector, or the light's own position)")
-                );
-            }
+            let axis = light_axis(cx, key, position, direction, target)?;
             let angle = |name: &str, deg: f32, (min, max): (f32, f32), open: &str| {
                 if deg >= min && deg <= max && (deg > 0.0 || open == "[") {
                     Ok(deg.to_radians())
@@ -1471,24 +1507,12 @@ fn build_light(
             let mut spot = Spot::new(axis, cutoff, beam);
             match texture {
                 Some(name) => {
-                    let t = texture_named(cx, &format!("{key}.texture"), name, textures)?;
-                    not_mesh_colors(cx, &format!("{key}.texture"), name, textures, t, "a spot's projected texture")?;
-                    let low = textures.list[t as usize].min_value();
-                    if low.is_nan() || low < 0.0 {
-                        let label = texture_label(name, &textures.list[t as usize]);
-                        let msg = format!("texture {label} reaches {low}; a spot's projected texture must be ≥ 0");
-                        return Err(cx.err(&format!("{key}.texture"), msg));
-                    }
+                    let t = projected_texture(cx, key, name, textures, "a spot's")?;
                     if *cutoff_angle >= 90.0 {
                         let msg = format!("a projected texture needs cutoff_angle < 90 degrees, got {cutoff_angle}");
                         return Err(cx.err(&format!("{key}.cutoff_angle"), msg));
                     }
-                    let up = Vec3::from_array(up.unwrap_or([0.0, 1.0, 0.0]));
-                    let off_axis = up.cross(axis.normalize()).length();
-                    if !up.is_finite() || off_axis.is_nan() || off_axis <= 1e-6 {
-                        return Err(cx.err(&format!("{key}.up"), "is zero or along the spot's axis"));
-                    }
-                    spot = spot.with_texture(t, up);
+                    spot = spot.with_texture(t, light_up(cx, key, up, axis, "the spot's")?);
                 }
                 None if up.is_some() => {
                     return Err(cx.err(&format!("{key}.up"), "orients a projected texture; this spot has none"));
@@ -1503,6 +1527,42 @@ fn build_light(
             if !intensity.is_finite() {
                 return Err(cx.err(key, "intensity overflows f32 (power too large for this cone)"));
             }
+            points.push(PointLight { position, intensity, spot: Some(spot) });
+        }
+        LightSpec::Projector { position, direction, target, up, fov, fov_axis, irradiance, texture } => {
+            let position = Vec3::from_array(*position);
+            let axis = light_axis(cx, key, position, direction, target)?;
+            let up = light_up(cx, key, up, axis, "the projector's")?;
+            let t =
+                texture.as_ref().map(|name| projected_texture(cx, key, name, textures, "a projector's")).transpose()?;
+            // The rectangle's proportions: the texture's, or square.
+            let aspect = match t.map(|t| &textures.list[t as usize]) {
+                Some(Texture::Bitmap { width, height, .. }) => *width as f32 / *height as f32,
+                _ => 1.0,
+            };
+            if !(*fov > 0.0 && *fov < 180.0) {
+                return Err(cx.err(&format!("{key}.fov"), format!("must be in (0, 180) degrees, got {fov}")));
+            }
+            let half = (0.5 * fov.to_radians()).tan();
+            let tx = match fov_axis.as_deref().unwrap_or("x") {
+                "x" => half,
+                "y" => half * aspect,
+                "smaller" => half * aspect.max(1.0),
+                "larger" => half * aspect.min(1.0),
+                "diagonal" => half * aspect / aspect.hypot(1.0),
+                a => {
+                    let msg = format!("`{a}` is not an axis (read: x, y, diagonal, smaller, larger)");
+                    return Err(cx.err(&format!("{key}.fov_axis"), msg));
+                }
+            };
+            let tan = [tx, tx / aspect];
+            if !tan.iter().all(|t| t.is_finite() && *t > 0.0 && *t < 1e6) {
+                let msg = format!("with this texture's proportions ({aspect}) the rectangle's half-widths are {tan:?}");
+                return Err(cx.err(&format!("{key}.fov"), msg));
+            }
+            let mut spot = Spot::projector(axis, up, tan);
+            spot.texture = t;
+            let intensity = cx.colour(&format!("{key}.irradiance"), irradiance.unwrap_or([1.0; 3]), None)?;
             points.push(PointLight { position, intensity, spot: Some(spot) });
         }
         LightSpec::Sphere { center, radius, power, radiance } => {

@@ -34,7 +34,7 @@ enum Valued<'a> {
 const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
                      roughconductor (ggx, beckmann), principled, twosided, blendbsdf, mask, null, normalmap, bumpmap";
-const EMITTERS: &str = "area (inside a shape), point, spot, directional, constant, envmap";
+const EMITTERS: &str = "area (inside a shape), point, spot, projector, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
 
@@ -192,17 +192,7 @@ impl<'a> Cx<'a> {
         self.sensor_common(s, &p)?;
         p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, film, sampler (for perspective principal_point_offset_x, principal_point_offset_y; for thinlens aperture_radius, focus_distance)")?;
         let [w, h] = self.file.camera.resolution.map(|v| v as f32);
-        let (deg, axis) = match (fov, focal) {
-            (Some(_), Some(_)) => return Err(s.error("give `fov` or `focal_length`, not both")),
-            (Some(f), None) => (f, fov_axis.unwrap_or_else(|| "x".into())),
-            (None, f) => {
-                // 35 mm film equivalent, along the diagonal (Mitsuba's default 50 mm).
-                let f = f.unwrap_or_else(|| "50mm".into());
-                let mm: f32 =
-                    f.trim_end_matches("mm").trim().parse().map_err(|_| s.error(format!("focal_length `{f}`")))?;
-                ((36f32.hypot(24.0) / (2.0 * mm)).atan().to_degrees() * 2.0, "diagonal".into())
-            }
-        };
+        let (deg, axis) = field_of_view(s, fov, fov_axis, focal)?;
         let half = (deg.to_radians() * 0.5).tan();
         let cam = &mut self.file.camera;
         let (fov, axis) = match axis.as_str() {
@@ -1266,6 +1256,36 @@ impl<'a> Cx<'a> {
                     up,
                 });
             }
+            Some("projector") => {
+                // Mitsuba's projector sits at to_world's origin and shines along its +z, its image's x
+                // across its local x; it lights with π × scale × its `irradiance` (a texture or a colour)
+                // where caustica's `irradiance` is what a surface facing it at unit distance receives.
+                let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+                let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+                let unit = [x, y, z].iter().all(|a| (a.length() - 1.0).abs() < 1e-3);
+                if !unit || x.dot(y).abs() > 1e-3 || x.dot(z).abs() > 1e-3 || x.cross(y).dot(z) < 0.0 {
+                    return Err(e.error("a projector needs a to_world that only rotates and translates"));
+                }
+                let scale = p.float("scale")?.unwrap_or(1.0) * std::f32::consts::PI;
+                let name = format!("lights[{}]", self.file.lights.len());
+                let (irradiance, texture) = match self.colour_or_node(&p, "irradiance", &name)? {
+                    None => return Err(e.error("a projector needs an `irradiance` (Mitsuba refuses one without)")),
+                    Some(Valued::Rgb(c)) => (c.map(|v| v * scale), None),
+                    Some(Valued::Texture(t, fallback)) => ([scale; 3], Some(self.texture(t, &fallback)?)),
+                };
+                let (fov, fov_axis) =
+                    field_of_view(e, p.float("fov")?, p.string("fov_axis")?, p.string("focal_length")?)?;
+                self.file.lights.push(LightSpec::Projector {
+                    position: m.transform_point3(Vec3::ZERO).to_array(),
+                    direction: Some(z.to_array()),
+                    target: None,
+                    up: Some(y.to_array()),
+                    fov,
+                    fov_axis: Some(fov_axis),
+                    irradiance: Some(irradiance),
+                    texture,
+                });
+            }
             Some("constant") => {
                 let radiance = p.rgb("radiance")?.unwrap_or([1.0; 3]);
                 self.file.lights.push(LightSpec::Constant { radiance });
@@ -1290,10 +1310,30 @@ impl<'a> Cx<'a> {
             _ => return Err(e.error(format!("emitter type not read (read: {EMITTERS})"))),
         }
         p.finish(
-            "intensity, position, to_world (point); intensity, cutoff_angle, beam_width, texture, to_world (spot); irradiance, direction, to_world (directional); radiance \
+            "intensity, position, to_world (point); intensity, cutoff_angle, beam_width, texture, to_world (spot); irradiance, scale, fov, fov_axis, focal_length, to_world (projector); irradiance, direction, to_world (directional); radiance \
              (constant); filename, scale, to_world (envmap)",
         )
     }
+}
+
+/// Mitsuba's field of view of a camera or projector `n`: its `fov` degrees along `fov_axis` (default x),
+/// or its 35 mm film equivalent `focal_length` (default 50 mm) along the diagonal.
+fn field_of_view(
+    n: &Node,
+    fov: Option<f32>,
+    fov_axis: Option<String>,
+    focal: Option<String>,
+) -> Result<(f32, String), SceneError> {
+    Ok(match (fov, focal) {
+        (Some(_), Some(_)) => return Err(n.error("give `fov` or `focal_length`, not both")),
+        (Some(f), None) => (f, fov_axis.unwrap_or_else(|| "x".into())),
+        (None, f) => {
+            let f = f.unwrap_or_else(|| "50mm".into());
+            let mm: f32 =
+                f.trim_end_matches("mm").trim().parse().map_err(|_| n.error(format!("focal_length `{f}`")))?;
+            ((36f32.hypot(24.0) / (2.0 * mm)).atan().to_degrees() * 2.0, "diagonal".into())
+        }
+    })
 }
 
 /// Rewrites the file names of a converted scene (meshes, bitmaps), given relative to `from`, to be
