@@ -33,7 +33,8 @@ film, and a principal point offset on a pinhole camera; vertex colours on half t
 map (height.png or label.png) over about a quarter of the BSDFs of shapes with texture coordinates;
 wrap_mode clamp or mirror on a third of the bitmap textures; face colours on half the PLY balls left;
 textured principled weights; a textured `anisotropic` for half the anisotropic principled BSDFs;
-clipping planes (a near plane that cuts into the scene, a far plane) for about two in five scenes.
+clipping planes (a near plane that cuts into the scene, a far plane) for about two in five scenes;
+a third of the spots turned into projectors.
 """
 import argparse
 import os
@@ -658,6 +659,30 @@ if args.more:
         clip += f'<float name="far_clip" value="{f(far)}"/>'
     if clip:
         text = re.sub(r'<sensor type="(\w+)">', lambda m: m.group(0) + clip, text, count=1)
+    # Projectors (caustica since session 60), from a twentieth stream, last: a third of the spots become
+    # projectors along the same lookat, 20 to 70 degrees wide along a random fov_axis, throwing their
+    # slide (as `irradiance`, scaled by the spot's mean intensity) or their colour, with scale 1/pi (the
+    # spot's intensity on the axis).
+    J = random.Random(args.seed * 8861 + 37)
+
+    def projector(m):
+        if J.random() >= 1 / 3:
+            return m.group(0)
+        body = m.group(0)
+        rgb = re.search(r'<rgb name="intensity" value="([^"]*)"/>', body)
+        body = re.sub(r'<float name="(cutoff_angle|beam_width)" value="[^"]*"/>', "", body)
+        fov = (f'<float name="fov" value="{f(J.uniform(20, 70))}"/>'
+               f'<string name="fov_axis" value="{J.choice(["x", "y", "diagonal", "smaller", "larger"])}"/>')
+        if 'name="texture"' in body:
+            mean = sum(float(v) for v in rgb.group(1).split(",")) / 3
+            body = body.replace(rgb.group(0), f'<float name="scale" value="{f(mean / 3.141592653589793)}"/>')
+            body = body.replace('name="texture"', 'name="irradiance"')
+        else:
+            body = body.replace(rgb.group(0), f'<float name="scale" value="{f(1 / 3.141592653589793)}"/>'
+                                + rgb.group(0).replace('name="intensity"', 'name="irradiance"'))
+        return body.replace('<emitter type="spot">', '<emitter type="projector">' + fov, 1)
+
+    text = re.sub(r'<emitter type="spot">(?:(?!</emitter>).)*</emitter>', projector, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
