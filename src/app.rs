@@ -299,6 +299,12 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     use crate::scene::light::LightKind;
     let n_points = scene.lights.list.iter().filter(|l| matches!(l, LightKind::Point { .. })).count();
     let n_spots = scene.lights.list.iter().filter(|l| matches!(l, LightKind::Point { spot: Some(_), .. })).count();
+    let n_projectors = scene
+        .lights
+        .list
+        .iter()
+        .filter(|l| matches!(l, LightKind::Point { spot: Some(s), .. } if s.frustum.is_some()))
+        .count();
     let env = match &scene.lights.env {
         Some((e, i)) => {
             let kind = match &e.image {
@@ -312,8 +318,9 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     let n_env = usize::from(scene.lights.env.is_some());
     let n_distant = scene.lights.list.iter().filter(|l| matches!(l, LightKind::Distant { .. })).count();
     println!(
-        "lights      {} point, {n_spots} spot, {n_distant} distant, {} emissive primitives{env}, total power {:?} W",
+        "lights      {} point, {} spot, {n_projectors} projector, {n_distant} distant, {} emissive primitives{env}, total power {:?} W",
         n_points - n_spots,
+        n_spots - n_projectors,
         scene.lights.list.len() - n_points - n_env - n_distant,
         scene.lights.total_power().to_array()
     );
