@@ -1664,6 +1664,18 @@ fn what_is_not_read_is_refused_naming_the_line() {
             r#"<scene version="3.0.0"><emitter type="projector"><transform name="to_world"><scale value="2"/></transform><rgb name="irradiance" value="1"/></emitter></scene>"#,
             "a projector needs a to_world that only rotates and translates",
         ),
+        // Sheared frames (unit axes at an angle): the spot's check missed a z leaning towards x, the
+        // projector's a z leaning towards y; Mitsuba maps points through the sheared inverse.
+        (
+            "spot-texture-sheared",
+            r#"<scene version="3.0.0"><emitter type="spot"><transform name="to_world"><matrix value="1 0 0.6 0 0 1 0 0 0 0 0.8 0 0 0 0 1"/></transform><texture type="checkerboard" name="texture"/></emitter></scene>"#,
+            "a spot with a `texture` needs a to_world that only rotates and translates",
+        ),
+        (
+            "projector-sheared",
+            r#"<scene version="3.0.0"><emitter type="projector"><transform name="to_world"><matrix value="1 0 0 0 0 1 0.6 0 0 0 0.8 0 0 0 0 1"/></transform><rgb name="irradiance" value="1"/></emitter></scene>"#,
+            "a projector needs a to_world that only rotates and translates",
+        ),
         (
             "projector-dark",
             r#"<scene version="3.0.0"><emitter type="projector"><float name="fov" value="30"/></emitter></scene>"#,

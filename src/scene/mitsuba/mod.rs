@@ -1234,14 +1234,12 @@ impl<'a> Cx<'a> {
                             ))
                         }
                         Some(Valued::Texture(t, fallback)) => {
-                            let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
-                            let unit = [x, y, z].iter().all(|a| (a.length() - 1.0).abs() < 1e-3);
-                            if !unit || x.dot(y).abs() > 1e-3 || x.cross(y).dot(z) < 0.0 {
+                            if !rotates_and_translates(&m) {
                                 return Err(e.error(
                                     "a spot with a `texture` needs a to_world that only rotates and translates",
                                 ));
                             }
-                            (Some(self.texture(t, &fallback)?), Some(y.to_array()))
+                            (Some(self.texture(t, &fallback)?), Some(m.y_axis.truncate().to_array()))
                         }
                     };
                 self.file.lights.push(LightSpec::Spot {
@@ -1261,11 +1259,10 @@ impl<'a> Cx<'a> {
                 // across its local x; it lights with π × scale × its `irradiance` (a texture or a colour)
                 // where caustica's `irradiance` is what a surface facing it at unit distance receives.
                 let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
-                let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
-                let unit = [x, y, z].iter().all(|a| (a.length() - 1.0).abs() < 1e-3);
-                if !unit || x.dot(y).abs() > 1e-3 || x.dot(z).abs() > 1e-3 || x.cross(y).dot(z) < 0.0 {
+                if !rotates_and_translates(&m) {
                     return Err(e.error("a projector needs a to_world that only rotates and translates"));
                 }
+                let (y, z) = (m.y_axis.truncate(), m.z_axis.truncate());
                 let scale = p.float("scale")?.unwrap_or(1.0) * std::f32::consts::PI;
                 let name = format!("lights[{}]", self.file.lights.len());
                 let (irradiance, texture) = match self.colour_or_node(&p, "irradiance", &name)? {
@@ -1314,6 +1311,16 @@ impl<'a> Cx<'a> {
              (constant); filename, scale, to_world (envmap)",
         )
     }
+}
+
+/// Whether `m` only rotates and translates (its axes unit, at right angles and right-handed, within
+/// 1e-3): what a light projecting an image through its frame needs, as Mitsuba maps points through the
+/// inverse of that frame and caustica through an orthonormal one.
+fn rotates_and_translates(m: &Mat4) -> bool {
+    let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+    [x, y, z].iter().all(|a| (a.length() - 1.0).abs() < 1e-3)
+        && [x.dot(y), x.dot(z), y.dot(z)].iter().all(|d| d.abs() < 1e-3)
+        && x.cross(y).dot(z) > 0.0
 }
 
 /// Mitsuba's field of view of a camera or projector `n`: its `fov` degrees along `fov_axis` (default x),
