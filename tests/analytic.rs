@@ -340,7 +340,17 @@ fn a_split_first_glass_hit_sees_both_lights_in_their_fresnel_shares_on_every_sam
     // One camera sample's chain through the glass from the same random numbers, split or not.
     let chain = |k: u64, light: ChainLight| {
         let mut rng = Rng::new(3, k, 0);
-        specular_chain(&scene, &accel, Ray::new(o, d), Vec3::ONE, &mut rng, &mut Counters::default(), light, None)
+        specular_chain(
+            &scene,
+            &accel,
+            Ray::new(o, d),
+            Vec3::ZERO,
+            Vec3::ONE,
+            &mut rng,
+            &mut Counters::default(),
+            light,
+            None,
+        )
     };
     for k in 0..n {
         let (e, end) = chain(k, ChainLight::CountSplitFirst);

@@ -479,6 +479,42 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["materials.b", "a blend that contains itself", "b → white → b"],
         ),
         (
+            // Coloured glass (session 61): σ must be a finite number ≥ 0 per channel, an absorbing glass
+            // belongs to a shape alone (a blend has no one inside), and a thin pane has no inside.
+            "absorption_negative",
+            with_white("white = { type = \"dielectric\", ior = 1.5, absorption = [0.5, -1.0, 0.0] }"),
+            vec![],
+            vec!["materials.white.absorption", "negative component"],
+        ),
+        (
+            "absorption_not_finite",
+            with_white("white = { type = \"dielectric\", ior = 1.5, absorption = [0.5, nan, 0.0] }"),
+            vec![],
+            vec!["materials.white.absorption", "not finite"],
+        ),
+        (
+            "absorption_infinite",
+            with_white("white = { type = \"dielectric\", ior = 1.5, absorption = [inf, 1.0, 1.0] }"),
+            vec![],
+            vec!["materials.white.absorption", "not finite"],
+        ),
+        (
+            "absorbing_glass_in_a_blend",
+            with_white(
+                "white = { type = \"blend\", first = \"a\", second = \"amber\" }\n\
+                 a = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
+                 amber = { type = \"dielectric\", ior = 1.5, absorption = [0.2, 1.0, 3.0] }",
+            ),
+            vec![],
+            vec!["materials.white.second", "`amber` absorbs inside"],
+        ),
+        (
+            "absorption_on_thin_glass",
+            with_white("white = { type = \"thin_dielectric\", ior = 1.5, absorption = [0.5, 1.0, 1.0] }"),
+            vec![],
+            vec!["line 9", "unknown field `absorption`"],
+        ),
+        (
             "blend_unknown_material",
             with_white("white = { type = \"blend\", first = \"white\", second = \"chalk\" }"),
             vec![],

@@ -73,6 +73,7 @@ fn clone_scene(s: &Scene) -> Scene {
         bounds: s.bounds,
         load_seconds: 0.0,
         see_through: s.see_through.clone(),
+        absorption: s.absorption.clone(),
     }
 }
 

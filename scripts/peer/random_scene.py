@@ -669,10 +669,13 @@ if args.more:
         if J.random() >= 1 / 3:
             return m.group(0)
         body = m.group(0)
-        rgb = re.search(r'<rgb name="intensity" value="([^"]*)"/>', body)
+        # The intensity: an <rgb>, or (the spectra stream) a <spectrum> of pairs or of a file.
+        rgb = re.search(r'<(?:rgb|spectrum) name="intensity" (?:value|filename)="([^"]*)"/>', body)
         body = re.sub(r'<float name="(cutoff_angle|beam_width)" value="[^"]*"/>', "", body)
         fov = (f'<float name="fov" value="{f(J.uniform(20, 70))}"/>'
                f'<string name="fov_axis" value="{J.choice(["x", "y", "diagonal", "smaller", "larger"])}"/>')
+        if 'name="texture"' in body and not rgb.group(0).startswith("<rgb"):
+            return m.group(0)  # a slide scaled by a spectrum's mean: left a spot
         if 'name="texture"' in body:
             mean = sum(float(v) for v in rgb.group(1).split(",")) / 3
             body = body.replace(rgb.group(0), f'<float name="scale" value="{f(mean / 3.141592653589793)}"/>')

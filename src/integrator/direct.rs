@@ -98,7 +98,9 @@ pub fn estimate_direct_with(
     if le == Rgb::ZERO {
         return light;
     }
-    light + bs.weight * tr * (le * w)
+    let sigma = scene.sigma_leaving(si, ray.d);
+    let absorbed = scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| (&f.0.si, f.0.hit.t)));
+    light + bs.weight * tr * absorbed * (le * w)
 }
 
 /// The light a ray meets, with its MIS weight: the emission of the surface it hits (`found`), or of
@@ -156,8 +158,15 @@ pub fn sample_light(
 
 /// Traces the shadow ray from `si` to the sampled light point (its rays counted in `c`): the light let
 /// through, `Rgb::ONE` when nothing lies between, the see-through surfaces' transmittance where only
-/// they do (`accel::transmittance`), zero when anything else does.
+/// they do (`accel::transmittance`), zero when anything else does; times the absorption along it
+/// where it leaves `si` into coloured glass (a light inside it).
 pub fn shadow(scene: &Scene, tracer: &dyn Tracer, si: &SurfaceHit, ls: &LightSample, c: &mut Counters) -> Rgb {
     c.rays += 1;
-    crate::accel::shadow(scene, tracer, &si.spawn_to(ls.p), ls.p, &mut c.rays)
+    let ray = si.spawn_to(ls.p);
+    let tr = crate::accel::shadow(scene, tracer, &ray, ls.p, &mut c.rays);
+    let sigma = scene.sigma_leaving(si, ray.d);
+    if tr == Rgb::ZERO || sigma == Rgb::ZERO {
+        return tr;
+    }
+    tr * Scene::absorbed(sigma, ray.d.length())
 }

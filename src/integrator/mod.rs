@@ -270,13 +270,15 @@ pub fn camera_sees(
         return crate::color::Rgb::ZERO;
     }
     let ray = from.spawn_to(to);
-    if !scene.render.hide_emitters {
-        return crate::accel::shadow(scene, tracer, &ray, to, &mut c.rays);
-    }
-    if emits(scene, from.shape) {
+    let seen = if !scene.render.hide_emitters {
+        crate::accel::shadow(scene, tracer, &ray, to, &mut c.rays)
+    } else if emits(scene, from.shape) {
         return crate::color::Rgb::ZERO;
-    }
-    crate::accel::transmittance(scene, tracer, &ray, to, |shape| emits(scene, shape), &mut c.rays)
+    } else {
+        crate::accel::transmittance(scene, tracer, &ray, to, |shape| emits(scene, shape), &mut c.rays)
+    };
+    // Leaving into coloured glass (a camera inside it: rare, but the segment's medium is set here).
+    seen * crate::scene::Scene::absorbed(scene.sigma_leaving(from, ray.d), ray.d.length())
 }
 
 /// Whether the camera's first hit on the way from `to` (the lens point, or the near plane's point) to
@@ -384,18 +386,22 @@ pub enum ChainLight {
 /// With `glossy` (a camera chain of the photon mappers), the first glossy hit the chain meets past a
 /// mirror or glass that breaks the camera's line of sight also gathers the photons of delta lights
 /// that reached it past a mirror or glass (`GlossyGather`), counted as light seen on the way.
+///
+/// `sigma`: the absorption of the medium `ray` starts in (`Scene::sigma_leaving`; zero for a camera
+/// ray).
 #[allow(clippy::too_many_arguments)]
 pub fn specular_chain(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
     ray: crate::math::Ray,
+    sigma: crate::color::Rgb,
     beta: crate::color::Rgb,
     rng: &mut crate::math::Rng,
     c: &mut Counters,
     light: ChainLight,
     glossy: Option<&GlossyGather>,
 ) -> (crate::color::Rgb, Option<ChainEnd>) {
-    chain_from(scene, tracer, ray, beta, rng, c, light, 0, glossy)
+    chain_from(scene, tracer, ray, sigma, beta, rng, c, light, 0, glossy)
 }
 
 /// The light of point, spot and distant lights that reaches a glossy surface past a mirror or glass
@@ -455,6 +461,7 @@ fn chain_from(
     scene: &crate::scene::Scene,
     tracer: &dyn crate::accel::Tracer,
     mut ray: crate::math::Ray,
+    mut sigma: crate::color::Rgb,
     mut beta: crate::color::Rgb,
     rng: &mut crate::math::Rng,
     c: &mut Counters,
@@ -481,7 +488,7 @@ fn chain_from(
     for depth in first..=scene.render.max_depth {
         c.rays += 1;
         let (found, tr) = view.trace_through(scene, tracer, &ray, rng, c);
-        beta *= tr;
+        beta *= tr * scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| (&f.0.si, f.0.hit.t)));
         let hidden = view.hides(scene);
         if count && !hidden {
             let sampled = (!specular).then_some((prev_pdf, prev_p));
@@ -541,7 +548,9 @@ fn chain_from(
                 } else {
                     ChainLight::Count
                 };
-                emitted += chain_from(scene, tracer, other_ray, beta * share, rng, c, light, depth + 1, glossy).0;
+                let other_sigma = scene.sigma_leaving(&si, other_ray.d);
+                emitted +=
+                    chain_from(scene, tracer, other_ray, other_sigma, beta * share, rng, c, light, depth + 1, glossy).0;
             }
             emit_scale = bs.pdf;
         }
@@ -550,6 +559,7 @@ fn chain_from(
             break;
         }
         (specular, prev_pdf, prev_p) = (bs.delta, bs.pdf, si.p);
+        sigma = scene.sigma_leaving(&si, next.d);
         ray = next;
     }
     (emitted, None)

@@ -1,7 +1,8 @@
 //! Unidirectional path tracer: next-event estimation with MIS (area and sphere lights), shadow rays for
 //! point lights (through see-through surfaces, by their transmittance), delta BSDFs sampled exactly,
 //! see-through surfaces crossed as no bounce, Russian roulette after `rr_depth` bounces on the
-//! throughput without refraction's 1/η² radiance scale.
+//! throughput without refraction's 1/η² radiance scale. Segments inside coloured glass are dimmed by its
+//! absorption (`Scene::sigma_leaving`).
 use super::direct::{emission_seen, estimate_direct_with, DirectStrategy};
 use super::{Counters, LineOfSight};
 use crate::accel::{Interaction, Tracer};
@@ -29,6 +30,8 @@ impl PathTracer<'_> {
         let mut prev_pdf = 0.0f32;
         let mut prev_p = ray.o;
         let mut view = LineOfSight::CAMERA;
+        // Absorption of the medium the current segment runs through (`Scene::sigma_leaving`).
+        let mut sigma = Rgb::ZERO;
         for depth in 0.. {
             c.rays += 1;
             let mut found = view.trace(scene, self.tracer, &ray, c);
@@ -43,6 +46,7 @@ impl PathTracer<'_> {
                     i
                 });
             }
+            beta *= scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| (&f.si, f.hit.t)));
             let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
             if le != Rgb::ZERO && !view.hides(scene) {
                 l += beta * le * w;
@@ -66,6 +70,7 @@ impl PathTracer<'_> {
             specular = bs.delta;
             prev_pdf = bs.pdf;
             prev_p = si.p;
+            sigma = scene.sigma_leaving(&si, next.d);
             ray = next;
             if depth + 1 >= self.rr_depth {
                 let Some(q) = russian_roulette(max_component(beta) / radiance_scale, rng.next_f32()) else {

@@ -590,7 +590,7 @@ impl<'a> PhotonMapper<'a> {
                 continue;
             }
             // Emission seen by gather rays is direct light or a caustic, already counted: skip it.
-            sum += self.follow(ray, bs.weight, rng, c, false, 0, first);
+            sum += self.follow(ray, self.scene.sigma_leaving(si, ray.d), bs.weight, rng, c, false, 0, first);
         }
         sum / n as f32
     }
@@ -598,7 +598,18 @@ impl<'a> PhotonMapper<'a> {
     /// Follows a ray whose first hit is `first` bounces into its path through specular surfaces to a
     /// diffuse one; `emission` adds lights seen on the way.
     #[allow(clippy::too_many_arguments)]
-    fn follow(&self, ray: Ray, beta: Rgb, rng: &mut Rng, c: &mut Counters, emission: bool, fg: u32, first: u32) -> Rgb {
+    #[allow(clippy::too_many_arguments)]
+    fn follow(
+        &self,
+        ray: Ray,
+        sigma: Rgb,
+        beta: Rgb,
+        rng: &mut Rng,
+        c: &mut Counters,
+        emission: bool,
+        fg: u32,
+        first: u32,
+    ) -> Rgb {
         let count_emission = emission && self.only.is_none();
         let light = if count_emission { ChainLight::CountSplitFirst } else { ChainLight::Skip };
         // Camera chains (the ones that count emission) gather the glossy photons past a mirror or glass.
@@ -609,7 +620,8 @@ impl<'a> PhotonMapper<'a> {
             };
             GlossyGather { map, reach, edges: self.edges }
         });
-        let (mut l, end) = super::specular_chain(self.scene, self.tracer, ray, beta, rng, c, light, glossy.as_ref());
+        let (mut l, end) =
+            super::specular_chain(self.scene, self.tracer, ray, sigma, beta, rng, c, light, glossy.as_ref());
         if let Some(e) = end {
             // Final-gather rays are the ones that do not count emission.
             l += e.beta * self.diffuse_radiance(&e, rng, c, fg, !emission, e.budget(self.scene, first));
@@ -624,7 +636,7 @@ impl<'a> PhotonMapper<'a> {
         let k = y as usize * self.scene.camera.width as usize + x as usize;
         let extra = self.extra.get(k).copied().unwrap_or(0);
         super::eye_sample(self.scene, x, y, s as u64, extra, seed, rng, |ray, rng| {
-            self.follow(ray, Rgb::ONE, rng, c, true, fg, 0)
+            self.follow(ray, Rgb::ZERO, Rgb::ONE, rng, c, true, fg, 0)
         })
     }
 }

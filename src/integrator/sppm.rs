@@ -216,7 +216,8 @@ impl<'a> Sppm<'a> {
         let (fx, fy, weight) = scene.camera.film_position(x, y, rng.next_2d());
         let ray = scene.camera.sample_ray(fx, fy, rng);
         let beta = Rgb::splat(weight);
-        let (mut l, end) = specular_chain(scene, self.tracer, ray, beta, rng, c, ChainLight::CountSplitFirst, glossy);
+        let (mut l, end) =
+            specular_chain(scene, self.tracer, ray, Rgb::ZERO, beta, rng, c, ChainLight::CountSplitFirst, glossy);
         if let (Some(e), DirectLight::ShadowRays) = (&end, scene.render.direct_light) {
             // No light sample where the path tracer's depth leaves none (`ChainEnd::budget`).
             if e.budget(scene, 0) == 0 {

@@ -763,11 +763,14 @@ impl Vcm<'_> {
         // Distance from the subpath's last vertex to `ray`'s origin: see-through surfaces crossed since
         // are no vertices (`Scene::crossing`).
         let (mut travelled, mut crossings) = (0.0f32, 0u32);
+        // Absorption of the medium the subpath's segment runs through (`Scene::sigma_leaving`).
+        let mut sigma = Rgb::ZERO;
         loop {
             c.rays += 1;
             let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
                 break;
             };
+            sp.beta *= scene.absorbed_to(sigma, &ray, Some((&si, hit.t)));
             let picked = scene.bsdf(&si, wo, || rng.next_f32());
             let crossing = scene.crossing(&si, wo, picked, || rng.next_f32());
             let mat = match crossing {
@@ -844,6 +847,7 @@ impl Vcm<'_> {
             else {
                 break;
             };
+            sigma = scene.sigma_leaving(&si, next.d);
             ray = next;
             sp.len += 1;
         }
@@ -962,12 +966,13 @@ impl Vcm<'_> {
         let mut l = Rgb::ZERO;
         let lv_range = light.ends[k] as usize..light.ends[k + 1] as usize;
         let mut view = LineOfSight::CAMERA;
+        let mut sigma = Rgb::ZERO;
         loop {
             c.rays += 1;
             // Only the camera sees light along its line of sight (s = 0): hidden, it is hidden for all.
             let hidden = view.hides(scene);
             let (found, tr) = view.trace_through(scene, self.tracer, &ray, rng, c);
-            sp.beta *= tr;
+            sp.beta *= tr * scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| (&f.0.si, f.0.hit.t)));
             let Some((Interaction { hit, si, wo }, mat)) = found else {
                 if !hidden {
                     l += sp.beta * self.env_hit(&sp, ray.d);
@@ -1045,6 +1050,7 @@ impl Vcm<'_> {
             // `scatter` keeps the sample to itself; a thin pane's transmission is the one lobe that goes on
             // along the incoming direction.
             view = view.after(&mat, next.d.normalize().dot(-wo) > 1.0 - 1e-5);
+            sigma = scene.sigma_leaving(&si, next.d);
             ray = next;
             sp.len += 1;
         }
@@ -1184,7 +1190,12 @@ impl Vcm<'_> {
         if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        f_cam * f_light * tr * (w / dist2)
+        // Inside coloured glass, by either end's side (`Scene::absorbed_to`).
+        let sigma = match self.scene.sigma_leaving(si, dir) {
+            s if s == Rgb::ZERO => self.scene.sigma_leaving(&lv.si, -dir),
+            s => s,
+        };
+        f_cam * f_light * tr * Scene::absorbed(sigma, dist2.sqrt()) * (w / dist2)
     }
 
     /// Vertex merging at a non-delta camera vertex [tech. rep. (37)-(39)]: the light vertices of `tree`

@@ -252,6 +252,13 @@ pub enum MaterialSpec {
         roughness_v: Option<Weight>,
         #[serde(default, skip_serializing_if = "is_ggx")]
         distribution: crate::scene::material::Microfacet,
+        /// Coloured glass: what the inside of a shape made of this material absorbs, as an absorption
+        /// coefficient σ per channel per unit of scene length (≥ 0): light that travels a distance d
+        /// inside keeps e^(−σd) of itself (Beer–Lambert; Mitsuba's `homogeneous` interior medium of
+        /// albedo 0). σ = 1 keeps 37% over one unit, 2.3 keeps 10%. The shape must be closed, its
+        /// normals facing out. Default: none (clear glass).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        absorption: Option<V3>,
     },
     /// Two of the other `[materials]`, by name, mixed (Mitsuba's `blendbsdf`): at each hit the surface is
     /// `second` with probability `weight` (a number in [0, 1], or the name of a `[textures]` entry,

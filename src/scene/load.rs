@@ -171,6 +171,15 @@ impl Ctx<'_> {
     }
 }
 
+/// A dielectric's `absorption` (σ per unit length, per channel): finite and ≥ 0. A σ so large that
+/// e^(−σ·d) is 0 over any distance the scene's floats tell apart is allowed (glass as dark as ink).
+fn absorption_of(cx: &Ctx, key: &str, a: V3) -> Result<Rgb, SceneError> {
+    if a.iter().any(|x| !x.is_finite()) {
+        return Err(cx.err(key, format!("{a:?} is not finite (an absorption coefficient per unit length, ≥ 0)")));
+    }
+    cx.colour(key, a, None)
+}
+
 fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> {
     let cx = Ctx { shown };
     let camera = build_camera(&cx, &file.camera)?;
@@ -244,8 +253,10 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         bounds,
         load_seconds: 0.0,
         see_through: Vec::new(),
+        absorption: Vec::new(),
     };
     scene.see_through = scene.see_through_shapes();
+    scene.absorption = scene.absorbing_shapes();
     scene.lights = Lights::build(&scene, &points, &distant, env);
     let keys: Vec<String> = env_key.into_iter().chain(distant_keys).chain(point_keys).collect();
     let env_file = file.lights.iter().find_map(|l| match l {
@@ -755,16 +766,23 @@ fn build_material(
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
             let ior = relative_ior(cx, key, *ior, *outside_ior)?;
             let (tint, tint_map) = colour("tint", tint)?;
-            if let MaterialSpec::Dielectric { roughness: r, roughness_v, distribution, .. } = spec {
+            if let MaterialSpec::Dielectric { roughness: r, roughness_v, distribution, absorption, .. } = spec {
                 let (alpha, alpha_map) = roughness(r)?;
                 let (alpha_v, alpha_v_map) = across(alpha, alpha_map, roughness_v)?;
                 let distribution = *distribution;
                 let bsdf = Material::Dielectric { ior, tint, alpha, alpha_v, tangent: Vec3::ZERO, distribution };
-                sided(
-                    bsdf,
-                    true,
-                    ParamMaps { tint: tint_map, alpha: alpha_map, alpha_v: alpha_v_map, ..Default::default() },
-                )
+                let absorption = match absorption {
+                    Some(a) => absorption_of(cx, &format!("{key}.absorption"), *a)?,
+                    None => Rgb::ZERO,
+                };
+                SurfaceMaterial {
+                    absorption,
+                    ..sided(
+                        bsdf,
+                        true,
+                        ParamMaps { tint: tint_map, alpha: alpha_map, alpha_v: alpha_v_map, ..Default::default() },
+                    )
+                }
             } else {
                 sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })
             }
@@ -936,6 +954,19 @@ fn check_sides(cx: &Ctx, materials: &[SurfaceMaterial], names: &[String]) -> Res
         }
     }
     for (i, m) in materials.iter().enumerate() {
+        let Some(b) = m.blend else { continue };
+        for (field, part) in [("first", b.first), ("second", b.second)] {
+            if let Some(l) = find(part, materials, &|l: &SurfaceMaterial| l.absorption != Rgb::ZERO) {
+                let field =
+                    if b.weight == BlendWeight::Side { ["front", "back"][(field == "second") as usize] } else { field };
+                let msg = format!(
+                    "`{}` absorbs inside (`absorption`), which only a shape made of it alone can have, not a \
+                     blend or a side of a surface",
+                    names[l as usize]
+                );
+                return Err(cx.err(&format!("materials.{}.{field}", names[i]), msg));
+            }
+        }
         let Some(b) = m.blend.filter(|b| b.weight == BlendWeight::Side) else { continue };
         let key = format!("materials.{}", names[i]);
         let one_sided = |l: &SurfaceMaterial| !l.two_sided || matches!(l.bsdf, Material::Principled(p) if !p.two_sided);

@@ -298,6 +298,10 @@ pub struct SurfaceMaterial {
     /// Where the normal of a `Material::Mapped` `bsdf` comes from at each hit: a normal map or a bump
     /// map.
     pub normal_map: Option<NormalMap>,
+    /// The absorption coefficient σ of the inside of a shape made of this material (a dielectric's
+    /// `absorption`, Mitsuba's `homogeneous` interior medium of albedo 0), per unit of scene length:
+    /// a path's segment of length d inside lets e^(−σd) of each channel through. Zero: none.
+    pub absorption: Rgb,
 }
 
 /// The texture that bends a normal-mapped material's normal at each hit (indices into
@@ -376,6 +380,7 @@ impl SurfaceMaterial {
             maps: ParamMaps::default(),
             blend: None,
             normal_map: None,
+            absorption: Rgb::ZERO,
         }
     }
 

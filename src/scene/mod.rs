@@ -185,6 +185,16 @@ pub struct Scene {
     /// Per shape, whether a hit on it can let light straight by (`Scene::see_through_shapes`); empty
     /// when no shape can, so that shadow rays in such scenes stay Embree's plain occlusion test.
     pub see_through: Vec<bool>,
+    /// Per shape, the absorption coefficient σ of its inside (`SurfaceMaterial::absorption`); empty when
+    /// no shape absorbs, so that scenes without coloured glass pay one test per segment.
+    pub absorption: Vec<Rgb>,
+}
+
+/// e^(−σ·len) per channel, 1 where σ is 0 (also over an infinite length), out of line.
+#[inline(never)]
+fn absorb_slow(sigma: Rgb, len: f32) -> Rgb {
+    let one = |s: f32| if s > 0.0 { (-s * len).exp() } else { 1.0 };
+    Rgb::new(one(sigma.x), one(sigma.y), one(sigma.z))
 }
 
 /// What a path does at a surface it meets (`Scene::crossing`).
@@ -432,6 +442,56 @@ impl Scene {
         } else {
             Vec::new()
         }
+    }
+
+    /// Per shape, the absorption of its inside (`absorption`); empty when no shape absorbs.
+    pub fn absorbing_shapes(&self) -> Vec<Rgb> {
+        let sigma: Vec<Rgb> = self.shapes.iter().map(|s| self.materials[s.material as usize].absorption).collect();
+        if sigma.iter().any(|s| *s != Rgb::ZERO) {
+            sigma
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// The absorption coefficient along a segment that leaves `si` in direction `w`: its shape's
+    /// inside's when `w` points into the back of the geometric normal (a refraction into the shape, a
+    /// reflection inside it), else zero. This is Mitsuba's rule (`SurfaceInteraction::target_medium`,
+    /// with media only inside shapes): the medium a segment runs through is set where it starts.
+    #[inline(always)]
+    pub fn sigma_leaving(&self, si: &SurfaceHit, w: Vec3) -> Rgb {
+        if self.absorption.is_empty() || w.dot(si.ng) >= 0.0 {
+            return Rgb::ZERO;
+        }
+        self.absorption[si.shape as usize]
+    }
+
+    /// The light let through along `ray`'s segment to its hit `found` (`t` along `ray`), or past
+    /// everything (None), the segment having started in a medium of absorption `sigma`
+    /// (`sigma_leaving`; zero from the camera or a light): e^(−σ·length) per channel. Where it started
+    /// in none, a segment that arrives at the back of an absorbing shape ran through its inside (a
+    /// camera or a light inside coloured glass): both ends are asked, so that a segment is dimmed the
+    /// same whichever way a path crosses it (light tracing and camera paths, BDPT's strategies).
+    #[inline(always)]
+    pub fn absorbed_to(&self, sigma: Rgb, ray: &crate::math::Ray, found: Option<(&SurfaceHit, f32)>) -> Rgb {
+        if self.absorption.is_empty() {
+            return Rgb::ONE;
+        }
+        let sigma = match found {
+            Some((si, _)) if sigma == Rgb::ZERO => self.sigma_leaving(si, -ray.d),
+            _ => sigma,
+        };
+        Scene::absorbed(sigma, found.map_or(f32::INFINITY, |(_, t)| t * ray.d.length()))
+    }
+
+    /// The light let through along a segment of length `len` (infinite: it leaves the scene) through
+    /// a medium of absorption `sigma`: e^(−σ·len) per channel, 1 where σ is 0.
+    #[inline(always)]
+    pub fn absorbed(sigma: Rgb, len: f32) -> Rgb {
+        if sigma == Rgb::ZERO {
+            return Rgb::ONE;
+        }
+        absorb_slow(sigma, len)
     }
 
     /// Whether a hit on `shape` can let light straight through (`see_through`).

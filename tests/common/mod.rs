@@ -24,6 +24,7 @@ pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
         bounds: (Vec3::splat(-1.0), Vec3::splat(1.0)),
         load_seconds: 0.0,
         see_through: Vec::new(),
+        absorption: Vec::new(),
     }
 }
 

@@ -52,6 +52,10 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
         done: HashMap::new(),
         blends: Vec::new(),
         in_sides: false,
+        media: root
+            .children
+            .iter()
+            .any(|c| c.tag == "integrator" && matches!(c.attr("type"), Some("volpath" | "volpathmis"))),
     };
     for c in &root.children {
         if let Some(id) = c.attr("id") {
@@ -65,17 +69,17 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
             "sensor" if sensor.is_some() => return Err(c.error("a second sensor (caustica renders one view)")),
             "sensor" => sensor = Some(c),
             "integrator" => cx.integrator(c)?,
-            "bsdf" | "texture" => {
+            "bsdf" | "texture" | "medium" => {
                 if c.attr("id").is_none() {
-                    return Err(c.error("a top-level BSDF or texture needs an `id` to be used"));
+                    return Err(c.error("a top-level BSDF, texture or medium needs an `id` to be used"));
                 }
             }
             "shape" => cx.shape(c)?,
             "emitter" => cx.emitter(c)?,
             _ => {
                 return Err(c.error(format!(
-                    "not supported at scene level (read: sensor, integrator, bsdf, texture, shape ({SHAPES}), \
-                     emitter ({EMITTERS}), default, include)"
+                    "not supported at scene level (read: sensor, integrator, bsdf, texture, medium, shape \
+                     ({SHAPES}), emitter ({EMITTERS}), default, include)"
                 )))
             }
         }
@@ -88,6 +92,33 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
     }
     cx.warnings.extend(props::take_notes());
     Ok(Converted { file: cx.file, warnings: cx.warnings })
+}
+
+/// A `homogeneous` medium that only absorbs (`albedo` 0; Mitsuba's default albedo, 0.75, scatters):
+/// its absorption coefficient, `sigma_t` times `scale`. Its phase function does not matter then.
+fn absorbing_medium(m: &Node) -> Result<[f32; 3], SceneError> {
+    if m.attr("type") != Some("homogeneous") {
+        return Err(m.error("medium type not read (read: homogeneous, of albedo 0: coloured glass)"));
+    }
+    let p = Props::new(m);
+    let sigma_t = p.rgb("sigma_t")?.unwrap_or([1.0; 3]);
+    let albedo = p.rgb("albedo")?.unwrap_or([0.75; 3]);
+    let scale = p.float("scale")?.unwrap_or(1.0);
+    p.boolean("sample_emitters")?;
+    p.boolean("has_spectral_extinction")?;
+    p.children_where(|c| c.tag == "phase");
+    p.finish("sigma_t, albedo (0), scale, sample_emitters, has_spectral_extinction, a phase function")?;
+    if albedo != [0.0; 3] {
+        return Err(m.error(format!(
+            "albedo {albedo:?}: a medium that scatters light is not rendered (caustica reads media of albedo 0, \
+             which only absorb; Mitsuba's default albedo is 0.75)"
+        )));
+    }
+    let sigma = sigma_t.map(|x| x * scale);
+    if sigma.iter().any(|x| !x.is_finite() || *x < 0.0) {
+        return Err(m.error(format!("sigma_t × scale = {sigma:?} must be finite and ≥ 0")));
+    }
+    Ok(sigma)
 }
 
 fn empty_file() -> SceneFile {
@@ -136,6 +167,8 @@ struct Cx<'a> {
     blends: Vec<*const Node>,
     /// Whether a `twosided` of two BSDFs is being converted (no normal map may sit inside it).
     in_sides: bool,
+    /// Whether the integrator renders media (`volpath`, `volpathmis`); Mitsuba's others ignore them.
+    media: bool,
 }
 
 impl<'a> Cx<'a> {
@@ -432,7 +465,7 @@ impl<'a> Cx<'a> {
             }
             _ => {
                 return Err(n.error(
-                    "not read (read: path, volpath without media, direct, ptracer; 0.6's photonmapper, sppm, bdpt)",
+                    "not read (read: path, volpath (media: absorbing glass), direct, ptracer; 0.6's photonmapper, sppm, bdpt)",
                 ))
             }
         }
@@ -512,6 +545,7 @@ impl<'a> Cx<'a> {
             ep.finish("radiance")?;
         }
         let material = self.shape_material(n, &p, index, emission.is_some())?;
+        let material = self.shape_media(n, &p, index, material)?;
         let spec = match n.attr("type").unwrap_or("") {
             kind @ ("obj" | "ply" | "serialized") => {
                 let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
@@ -587,6 +621,82 @@ impl<'a> Cx<'a> {
         )?;
         self.file.shapes.push(spec);
         Ok(())
+    }
+
+    /// A shape's media (`<medium name="interior|exterior">`, nested or a `<ref>`), read into its material
+    /// (named `material`): under `volpath` an interior `homogeneous` medium of albedo 0 inside a
+    /// dielectric is coloured glass, a copy of the material with its `absorption` (σ = `sigma_t` ×
+    /// `scale`); anything else is refused. Mitsuba's other integrators ignore media, and so does the
+    /// import then, with a warning.
+    fn shape_media(
+        &mut self,
+        n: &'a Node,
+        p: &Props<'a>,
+        index: usize,
+        material: String,
+    ) -> Result<String, SceneError> {
+        let media = p.children_where(|c| {
+            matches!(c.tag.as_str(), "medium" | "ref") && matches!(c.attr("name"), Some("interior" | "exterior"))
+        });
+        if media.is_empty() {
+            return Ok(material);
+        }
+        if !self.media {
+            self.warnings.push(format!(
+                "{}: line {}: the shape's media are ignored, as Mitsuba's integrator here ignores them (only \
+                 volpath and volpathmis render media)",
+                n.file.display(),
+                n.line
+            ));
+            return Ok(material);
+        }
+        let mut sigma = None;
+        for m in media {
+            if m.attr("name") == Some("exterior") {
+                return Err(m.error(
+                    "an exterior medium is not read (caustica reads an absorbing interior medium of a \
+                     dielectric: coloured glass)",
+                ));
+            }
+            if sigma.is_some() {
+                return Err(m.error("a second interior medium"));
+            }
+            let (node, label) = match m.tag.as_str() {
+                "ref" => {
+                    let id = m.attr("id").ok_or_else(|| m.error("needs an `id`"))?;
+                    let target = self.lookup(m, id)?;
+                    if target.tag != "medium" {
+                        return Err(m.error(format!("`{id}` is a <{}>, not a <medium>", target.tag)));
+                    }
+                    (target, id.to_string())
+                }
+                _ => (m, format!("shapes[{index}]-interior")),
+            };
+            sigma = Some((absorbing_medium(node)?, label, m));
+        }
+        let Some((sigma, label, m)) = sigma else { return Ok(material) };
+        let name = format!("{material}+{label}");
+        let spec = match self.file.materials.get(&material) {
+            Some(MaterialSpec::Dielectric { ior, outside_ior, tint, roughness, roughness_v, distribution, .. }) => {
+                MaterialSpec::Dielectric {
+                    ior: *ior,
+                    outside_ior: *outside_ior,
+                    tint: tint.clone(),
+                    roughness: roughness.clone(),
+                    roughness_v: roughness_v.clone(),
+                    distribution: *distribution,
+                    absorption: Some(sigma),
+                }
+            }
+            _ => {
+                return Err(m.error(
+                    "a medium inside a shape whose BSDF is not a `dielectric` or `roughdielectric` is not read \
+                     (caustica reads absorbing insides of glass)",
+                ))
+            }
+        };
+        self.file.materials.insert(name.clone(), spec);
+        Ok(name)
     }
 
     /// The material a shape names (nested `<bsdf>` or `<ref>`), or Mitsuba's default: one-sided diffuse
@@ -704,6 +814,7 @@ impl<'a> Cx<'a> {
                         roughness: Weight::Value(0.0),
                         roughness_v: None,
                         distribution: Default::default(),
+                        absorption: None,
                     },
                     _ => {
                         let (roughness, roughness_v, distribution) = self.microfacet(b, &p, name)?;
@@ -714,6 +825,7 @@ impl<'a> Cx<'a> {
                             roughness,
                             roughness_v,
                             distribution,
+                            absorption: None,
                         }
                     }
                 }
