@@ -287,13 +287,19 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             }
             Geometry::Sphere { radius, .. } => format!("sphere r={radius}"),
         };
+        let sigma = scene.materials[s.material as usize].absorption;
         println!(
-            "  {:<12} {:<36} material {:<10} area {:.4}{}",
+            "  {:<12} {:<36} material {:<10} area {:.4}{}{}",
             s.name,
             kind,
             scene.material_names[s.material as usize],
             s.area(),
-            if s.emission != glam::Vec3::ZERO { " (emissive)" } else { "" }
+            if s.emission != glam::Vec3::ZERO { " (emissive)" } else { "" },
+            if sigma != glam::Vec3::ZERO {
+                format!(" (absorbs inside: σ {:?} per unit)", sigma.to_array())
+            } else {
+                String::new()
+            }
         );
     }
     use crate::scene::light::LightKind;

@@ -34,7 +34,8 @@ map (height.png or label.png) over about a quarter of the BSDFs of shapes with t
 wrap_mode clamp or mirror on a third of the bitmap textures; face colours on half the PLY balls left;
 textured principled weights; a textured `anisotropic` for half the anisotropic principled BSDFs;
 clipping planes (a near plane that cuts into the scene, a far plane) for about two in five scenes;
-a third of the spots turned into projectors.
+a third of the spots turned into projectors; an absorbing interior medium (coloured glass, rendered by
+volpath) in four in five closed shapes of smooth or rough glass.
 """
 import argparse
 import os
@@ -686,6 +687,36 @@ if args.more:
         return body.replace('<emitter type="spot">', '<emitter type="projector">' + fov, 1)
 
     text = re.sub(r'<emitter type="spot">(?:(?!</emitter>).)*</emitter>', projector, text)
+    # Coloured glass (caustica since session 61), from a twenty-first stream, last: four in five closed
+    # shapes (sphere, cube, a PLY ball) whose own BSDF is a smooth or rough dielectric get an interior
+    # `homogeneous` medium of albedo 0 (a colour in [0, 1] times a scale of 0.5 to 5 per unit length),
+    # nested or by <ref> to a top-level one; the integrator is then volpath (path ignores media).
+    V = random.Random(args.seed * 9973 + 41)
+    media = []
+
+    def coloured(m):
+        body = m.group(0)
+        first = re.search(r'<bsdf type="(\w+)"', body)
+        closed = m.group(1) in ("sphere", "cube") or re.search(r'value="[\w-]*ball\.ply"', body)
+        if not closed or "<emitter" in body or not first or first.group(1) not in ("dielectric", "roughdielectric"):
+            return body
+        if V.random() >= 0.8:
+            return body
+        sigma = ", ".join(f(V.uniform(0.0, 1.0)) for _ in range(3))
+        albedo = V.choice(['<float name="albedo" value="0"/>', '<rgb name="albedo" value="0, 0, 0"/>'])
+        props = f'<rgb name="sigma_t" value="{sigma}"/>{albedo}<float name="scale" value="{f(V.uniform(0.5, 5.0))}"/>'
+        if V.random() < 0.5:
+            medium = f'<medium type="homogeneous" name="interior">{props}</medium>'
+        else:
+            mid = f"medium{len(media)}"
+            media.append(f'<medium type="homogeneous" id="{mid}">{props}</medium>')
+            medium = f'<ref name="interior" id="{mid}"/>'
+        return body[: -len("</shape>")] + medium + "</shape>"
+
+    text = re.sub(r'<shape type="(\w+)">(?:(?!</shape>).)*</shape>', coloured, text)
+    if media:
+        text = re.sub(r'(<integrator type=")path(")', r"\1volpath\2", text, count=1)
+        text = re.sub(r"(</sensor>\n?)", lambda m: m.group(1) + "".join(media), text, count=1)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

@@ -99,7 +99,7 @@ pub fn estimate_direct_with(
         return light;
     }
     let sigma = scene.sigma_leaving(si, ray.d);
-    let absorbed = scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| (&f.0.si, f.0.hit.t)));
+    let absorbed = scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| f.0.hit.t));
     light + bs.weight * tr * absorbed * (le * w)
 }
 

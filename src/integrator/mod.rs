@@ -269,16 +269,16 @@ pub fn camera_sees(
     if beyond_far && !crossed_within_far(scene, tracer, from.p, to, c) {
         return crate::color::Rgb::ZERO;
     }
+    // No absorption on the way: the camera's segment is in no medium (`Scene::absorbed_to`), also where
+    // it sits inside coloured glass.
     let ray = from.spawn_to(to);
-    let seen = if !scene.render.hide_emitters {
-        crate::accel::shadow(scene, tracer, &ray, to, &mut c.rays)
-    } else if emits(scene, from.shape) {
+    if !scene.render.hide_emitters {
+        return crate::accel::shadow(scene, tracer, &ray, to, &mut c.rays);
+    }
+    if emits(scene, from.shape) {
         return crate::color::Rgb::ZERO;
-    } else {
-        crate::accel::transmittance(scene, tracer, &ray, to, |shape| emits(scene, shape), &mut c.rays)
-    };
-    // Leaving into coloured glass (a camera inside it: rare, but the segment's medium is set here).
-    seen * crate::scene::Scene::absorbed(scene.sigma_leaving(from, ray.d), ray.d.length())
+    }
+    crate::accel::transmittance(scene, tracer, &ray, to, |shape| emits(scene, shape), &mut c.rays)
 }
 
 /// Whether the camera's first hit on the way from `to` (the lens point, or the near plane's point) to
@@ -488,7 +488,7 @@ fn chain_from(
     for depth in first..=scene.render.max_depth {
         c.rays += 1;
         let (found, tr) = view.trace_through(scene, tracer, &ray, rng, c);
-        beta *= tr * scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| (&f.0.si, f.0.hit.t)));
+        beta *= tr * scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| f.0.hit.t));
         let hidden = view.hides(scene);
         if count && !hidden {
             let sampled = (!specular).then_some((prev_pdf, prev_p));

@@ -46,7 +46,7 @@ impl PathTracer<'_> {
                     i
                 });
             }
-            beta *= scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| (&f.si, f.hit.t)));
+            beta *= scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| f.hit.t));
             let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
             if le != Rgb::ZERO && !view.hides(scene) {
                 l += beta * le * w;

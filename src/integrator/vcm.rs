@@ -763,14 +763,18 @@ impl Vcm<'_> {
         // Distance from the subpath's last vertex to `ray`'s origin: see-through surfaces crossed since
         // are no vertices (`Scene::crossing`).
         let (mut travelled, mut crossings) = (0.0f32, 0u32);
-        // Absorption of the medium the subpath's segment runs through (`Scene::sigma_leaving`).
-        let mut sigma = Rgb::ZERO;
+        // Absorption of the medium the subpath's segment runs through (`Scene::sigma_leaving`); None on
+        // the light's first segment (`Scene::absorbed_from_light`).
+        let mut sigma = None;
         loop {
             c.rays += 1;
             let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
                 break;
             };
-            sp.beta *= scene.absorbed_to(sigma, &ray, Some((&si, hit.t)));
+            sp.beta *= match sigma {
+                Some(s) => scene.absorbed_to(s, &ray, Some(hit.t)),
+                None => scene.absorbed_from_light(&ray, &si, hit.t),
+            };
             let picked = scene.bsdf(&si, wo, || rng.next_f32());
             let crossing = scene.crossing(&si, wo, picked, || rng.next_f32());
             let mat = match crossing {
@@ -847,7 +851,7 @@ impl Vcm<'_> {
             else {
                 break;
             };
-            sigma = scene.sigma_leaving(&si, next.d);
+            sigma = Some(scene.sigma_leaving(&si, next.d));
             ray = next;
             sp.len += 1;
         }
@@ -972,7 +976,7 @@ impl Vcm<'_> {
             // Only the camera sees light along its line of sight (s = 0): hidden, it is hidden for all.
             let hidden = view.hides(scene);
             let (found, tr) = view.trace_through(scene, self.tracer, &ray, rng, c);
-            sp.beta *= tr * scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| (&f.0.si, f.0.hit.t)));
+            sp.beta *= tr * scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| f.0.hit.t));
             let Some((Interaction { hit, si, wo }, mat)) = found else {
                 if !hidden {
                     l += sp.beta * self.env_hit(&sp, ray.d);
@@ -1190,7 +1194,7 @@ impl Vcm<'_> {
         if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        // Inside coloured glass, by either end's side (`Scene::absorbed_to`).
+        // Inside coloured glass, by either end's side (both are surfaces).
         let sigma = match self.scene.sigma_leaving(si, dir) {
             s if s == Rgb::ZERO => self.scene.sigma_leaving(&lv.si, -dir),
             s => s,

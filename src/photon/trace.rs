@@ -492,8 +492,9 @@ fn trace_one(
     // whose pick lets it by apart.
     let mut aim = l.aim;
     let mut crossings = 0u32;
-    // Absorption of the medium the photon flies through (`Scene::sigma_leaving`): none from a light.
-    let mut sigma = Rgb::ZERO;
+    // Absorption of the medium the photon flies through (`Scene::sigma_leaving`); None on the light's
+    // first segment (`Scene::absorbed_from_light`).
+    let mut sigma = None;
     // Hit `depth` follows `depth` scattering events; gathering there adds one more.
     for depth in 0..s.max_depth {
         let (si, wo, mat) = loop {
@@ -517,7 +518,10 @@ fn trace_one(
                 return;
             }
             let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-            phi *= scene.absorbed_to(sigma, &ray, Some((&si, hit.t)));
+            phi *= match sigma {
+                Some(s) => scene.absorbed_to(s, &ray, Some(hit.t)),
+                None => scene.absorbed_from_light(&ray, &si, hit.t),
+            };
             let wo = -ray.d.normalize();
             let picked = scene.bsdf(&si, wo, || rng.next_f32());
             // A see-through surface that lets the photon straight through: no scattering event, not a
@@ -597,7 +601,7 @@ fn trace_one(
             phi *= bs.weight / p;
             diffuse_bounces += 1;
             delta_first = false;
-            sigma = scene.sigma_leaving(&si, next.d);
+            sigma = Some(scene.sigma_leaving(&si, next.d));
             ray = next;
             continue;
         }
@@ -630,7 +634,7 @@ fn trace_one(
             phi *= bs.weight / q;
             diffuse_bounces += 1;
             delta_first = false;
-            sigma = scene.sigma_leaving(&si, next.d);
+            sigma = Some(scene.sigma_leaving(&si, next.d));
             ray = next;
             continue;
         }
@@ -645,7 +649,7 @@ fn trace_one(
             };
             phi /= q;
         }
-        sigma = scene.sigma_leaving(&si, next.d);
+        sigma = Some(scene.sigma_leaving(&si, next.d));
         ray = next;
     }
 }

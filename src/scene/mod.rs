@@ -466,22 +466,28 @@ impl Scene {
         self.absorption[si.shape as usize]
     }
 
-    /// The light let through along `ray`'s segment to its hit `found` (`t` along `ray`), or past
-    /// everything (None), the segment having started in a medium of absorption `sigma`
-    /// (`sigma_leaving`; zero from the camera or a light): e^(−σ·length) per channel. Where it started
-    /// in none, a segment that arrives at the back of an absorbing shape ran through its inside (a
-    /// camera or a light inside coloured glass): both ends are asked, so that a segment is dimmed the
-    /// same whichever way a path crosses it (light tracing and camera paths, BDPT's strategies).
+    /// The light let through along `ray`'s segment to its hit at `t` along `ray` (None: it leaves the
+    /// scene), the segment having started in a medium of absorption `sigma` (`sigma_leaving`):
+    /// e^(−σ·length) per channel. A camera ray starts in none (Mitsuba's sensor without a `medium`:
+    /// also where a near clipping plane starts it inside coloured glass).
     #[inline(always)]
-    pub fn absorbed_to(&self, sigma: Rgb, ray: &crate::math::Ray, found: Option<(&SurfaceHit, f32)>) -> Rgb {
+    pub fn absorbed_to(&self, sigma: Rgb, ray: &crate::math::Ray, t: Option<f32>) -> Rgb {
+        if sigma == Rgb::ZERO {
+            return Rgb::ONE;
+        }
+        absorb_slow(sigma, t.map_or(f32::INFINITY, |t| t * ray.d.length()))
+    }
+
+    /// `absorbed_to` for a light's first segment (of a photon, a light subpath), to its hit `si` at `t`
+    /// along `ray`: it runs through the inside of an absorbing shape if it arrives at its back (a light
+    /// inside coloured glass), the medium a camera path from there to the light would start in, so that
+    /// every mode dims it alike.
+    #[inline(always)]
+    pub fn absorbed_from_light(&self, ray: &crate::math::Ray, si: &SurfaceHit, t: f32) -> Rgb {
         if self.absorption.is_empty() {
             return Rgb::ONE;
         }
-        let sigma = match found {
-            Some((si, _)) if sigma == Rgb::ZERO => self.sigma_leaving(si, -ray.d),
-            _ => sigma,
-        };
-        Scene::absorbed(sigma, found.map_or(f32::INFINITY, |(_, t)| t * ray.d.length()))
+        self.absorbed_to(self.sigma_leaving(si, -ray.d), ray, Some(t))
     }
 
     /// The light let through along a segment of length `len` (infinite: it leaves the scene) through
