@@ -287,7 +287,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             }
             Geometry::Sphere { radius, .. } => format!("sphere r={radius}"),
         };
-        let sigma = scene.materials[s.material as usize].absorption;
+        let m = &scene.materials[s.material as usize];
         println!(
             "  {:<12} {:<36} material {:<10} area {:.4}{}{}",
             s.name,
@@ -295,10 +295,15 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             scene.material_names[s.material as usize],
             s.area(),
             if s.emission != glam::Vec3::ZERO { " (emissive)" } else { "" },
-            if sigma != glam::Vec3::ZERO {
-                format!(" (absorbs inside: σ {:?} per unit)", sigma.to_array())
-            } else {
-                String::new()
+            match (m.absorption != glam::Vec3::ZERO, m.absorption_outside != glam::Vec3::ZERO) {
+                (false, false) => String::new(),
+                (true, false) => format!(" (absorbs inside: σ {:?} per unit)", m.absorption.to_array()),
+                (false, true) => format!(" (absorbs outside: σ {:?} per unit)", m.absorption_outside.to_array()),
+                (true, true) => format!(
+                    " (absorbs inside: σ {:?}, outside: σ {:?} per unit)",
+                    m.absorption.to_array(),
+                    m.absorption_outside.to_array()
+                ),
             }
         );
     }

@@ -7,28 +7,38 @@ use caustica::film::Image;
 const SIGMA: [f32; 3] = [0.2, 1.0, 3.0];
 
 /// An orthographic camera looks straight down through a slab of glass of index 1 (no refraction, no
-/// reflection), 0.5 thick, at a panel emitting radiance 1: every ray crosses exactly 0.5 of the glass,
-/// so every pixel reads e^(−0.5σ) in each channel, in every mode (the camera's chains and subpaths
-/// reach the panel through the glass; nothing else lights the film). Without the absorption the pixels
-/// read 1; a segment measured along an unnormalised direction, or counted on the way in and out, reads
-/// something else. With a near clipping plane in the middle of the slab the camera's rays start inside
-/// the glass, in no medium (Mitsuba's sensor without one), and the pixels read 1: Mitsuba renders
-/// random scene 2406 so, whose near plane cuts into an absorbing ball (its camera segment dimmed there,
-/// caustica read 0.72 of Mitsuba's mean).
+/// reflection), 0.5 thick, at a panel emitting radiance 1, 1 below it: every ray crosses exactly 0.5 of
+/// the glass, so every pixel reads e^(−0.5σ) in each channel, in every mode (the camera's chains and
+/// subpaths reach the panel through the glass; nothing else lights the film). Without the absorption
+/// the pixels read 1; a segment measured along an unnormalised direction, or counted on the way in and
+/// out, reads something else. With a near clipping plane in the middle of the slab the camera's rays
+/// start inside the glass, in no medium (Mitsuba's sensor without one), and the pixels read 1: Mitsuba
+/// renders random scene 2406 so, whose near plane cuts into an absorbing ball (its camera segment dimmed
+/// there, caustica read 0.72 of Mitsuba's mean). A clear slab whose `outside_absorption` is σ (Mitsuba's
+/// `exterior` medium): the segment from its underside to the panel, 1 long, starts outside it (and the
+/// panel's light arrives at its outside), e^(−σ); the camera's segment above stays in none.
 #[test]
 fn a_slab_of_coloured_glass_lets_through_e_to_the_minus_sigma_d_in_every_mode() {
     let [r, g, b] = SIGMA;
-    let text = format!(
-        "[camera]\nprojection = \"orthographic\"\nfov = 30\norigin = [0.0, 3.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n\
-         up = [0.0, 0.0, -1.0]\nresolution = [8, 8]\n\
-         [materials]\nslab = {{ type = \"dielectric\", ior = 1.0, absorption = [{r}, {g}, {b}] }}\n\
-         [[shapes]]\ntype = \"box\"\nmin = [-3.0, 1.0, -3.0]\nmax = [3.0, 1.5, 3.0]\nmaterial = \"slab\"\n\
-         [[lights]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, 3.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -6.0]\n\
-         radiance = [1.0, 1.0, 1.0]\n\
-         [render]\nmax_depth = 4\n"
-    );
+    let text = |sides: &str| {
+        format!(
+            "[camera]\nprojection = \"orthographic\"\nfov = 30\norigin = [0.0, 3.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n\
+             up = [0.0, 0.0, -1.0]\nresolution = [8, 8]\n\
+             [materials]\nslab = {{ type = \"dielectric\", ior = 1.0, {sides} = [{r}, {g}, {b}] }}\n\
+             [[shapes]]\ntype = \"box\"\nmin = [-3.0, 1.0, -3.0]\nmax = [3.0, 1.5, 3.0]\nmaterial = \"slab\"\n\
+             [[lights]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, 3.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -6.0]\n\
+             radiance = [1.0, 1.0, 1.0]\n\
+             [render]\nmax_depth = 4\n"
+        )
+    };
     let through = SIGMA.map(|s| (-0.5 * s).exp());
-    for (near, want) in [(None, through), (Some("camera.near_clip=1.75"), [1.0; 3])] {
+    let below = SIGMA.map(|s| (-s).exp());
+    for (sides, near, want) in [
+        ("absorption", None, through),
+        ("absorption", Some("camera.near_clip=1.75"), [1.0; 3]),
+        ("outside_absorption", None, below),
+    ] {
+        let text = text(sides);
         for (mode, sets) in [
             ("path", &["render.spp=4"][..]),
             ("bdpt", &["render.progressive.passes=4"][..]),
@@ -44,7 +54,7 @@ fn a_slab_of_coloured_glass_lets_through_e_to_the_minus_sigma_d_in_every_mode() 
                 for k in 0..3 {
                     assert!(
                         (p[k] / want[k] - 1.0).abs() < 2e-3,
-                        "{mode}, {near:?}: pixel {i} channel {k}: {} where {} is due",
+                        "{mode}, {sides}, {near:?}: pixel {i} channel {k}: {} where {} is due",
                         p[k],
                         want[k]
                     );

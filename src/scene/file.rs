@@ -259,6 +259,11 @@ pub enum MaterialSpec {
         /// normals facing out. Default: none (clear glass).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         absorption: Option<V3>,
+        /// What the medium around the object absorbs, likewise, between its surface and the next one
+        /// (the glass round a liquid whose surface this material is, beside `outside_ior`; Mitsuba's
+        /// `exterior` medium). Default: none.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        outside_absorption: Option<V3>,
     },
     /// Two of the other `[materials]`, by name, mixed (Mitsuba's `blendbsdf`): at each hit the surface is
     /// `second` with probability `weight` (a number in [0, 1], or the name of a `[textures]` entry,

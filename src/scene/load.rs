@@ -766,17 +766,26 @@ fn build_material(
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
             let ior = relative_ior(cx, key, *ior, *outside_ior)?;
             let (tint, tint_map) = colour("tint", tint)?;
-            if let MaterialSpec::Dielectric { roughness: r, roughness_v, distribution, absorption, .. } = spec {
+            if let MaterialSpec::Dielectric {
+                roughness: r,
+                roughness_v,
+                distribution,
+                absorption,
+                outside_absorption,
+                ..
+            } = spec
+            {
                 let (alpha, alpha_map) = roughness(r)?;
                 let (alpha_v, alpha_v_map) = across(alpha, alpha_map, roughness_v)?;
                 let distribution = *distribution;
                 let bsdf = Material::Dielectric { ior, tint, alpha, alpha_v, tangent: Vec3::ZERO, distribution };
-                let absorption = match absorption {
-                    Some(a) => absorption_of(cx, &format!("{key}.absorption"), *a)?,
-                    None => Rgb::ZERO,
+                let sigma = |name: &str, a: &Option<V3>| match a {
+                    Some(a) => absorption_of(cx, &format!("{key}.{name}"), *a),
+                    None => Ok(Rgb::ZERO),
                 };
                 SurfaceMaterial {
-                    absorption,
+                    absorption: sigma("absorption", absorption)?,
+                    absorption_outside: sigma("outside_absorption", outside_absorption)?,
                     ..sided(
                         bsdf,
                         true,
@@ -956,12 +965,13 @@ fn check_sides(cx: &Ctx, materials: &[SurfaceMaterial], names: &[String]) -> Res
     for (i, m) in materials.iter().enumerate() {
         let Some(b) = m.blend else { continue };
         for (field, part) in [("first", b.first), ("second", b.second)] {
-            if let Some(l) = find(part, materials, &|l: &SurfaceMaterial| l.absorption != Rgb::ZERO) {
+            let absorbs = |l: &SurfaceMaterial| l.absorption != Rgb::ZERO || l.absorption_outside != Rgb::ZERO;
+            if let Some(l) = find(part, materials, &absorbs) {
                 let field =
                     if b.weight == BlendWeight::Side { ["front", "back"][(field == "second") as usize] } else { field };
                 let msg = format!(
-                    "`{}` absorbs inside (`absorption`), which only a shape made of it alone can have, not a \
-                     blend or a side of a surface",
+                    "`{}` absorbs inside or around it (`absorption`, `outside_absorption`), which only a shape \
+                     made of it alone can have, not a blend or a side of a surface",
                     names[l as usize]
                 );
                 return Err(cx.err(&format!("materials.{}.{field}", names[i]), msg));

@@ -302,6 +302,9 @@ pub struct SurfaceMaterial {
     /// `absorption`, Mitsuba's `homogeneous` interior medium of albedo 0), per unit of scene length:
     /// a path's segment of length d inside lets e^(−σd) of each channel through. Zero: none.
     pub absorption: Rgb,
+    /// The same for the medium on the outside of its surface (`outside_absorption`, Mitsuba's
+    /// `exterior` medium).
+    pub absorption_outside: Rgb,
 }
 
 /// The texture that bends a normal-mapped material's normal at each hit (indices into
@@ -381,6 +384,7 @@ impl SurfaceMaterial {
             blend: None,
             normal_map: None,
             absorption: Rgb::ZERO,
+            absorption_outside: Rgb::ZERO,
         }
     }
 

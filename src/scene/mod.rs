@@ -185,9 +185,10 @@ pub struct Scene {
     /// Per shape, whether a hit on it can let light straight by (`Scene::see_through_shapes`); empty
     /// when no shape can, so that shadow rays in such scenes stay Embree's plain occlusion test.
     pub see_through: Vec<bool>,
-    /// Per shape, the absorption coefficient σ of its inside (`SurfaceMaterial::absorption`); empty when
-    /// no shape absorbs, so that scenes without coloured glass pay one test per segment.
-    pub absorption: Vec<Rgb>,
+    /// Per shape, the absorption coefficient σ of its inside and of its outside
+    /// (`SurfaceMaterial::absorption`, `absorption_outside`); empty when no shape's sides absorb, so
+    /// that scenes without coloured glass pay one test per segment.
+    pub absorption: Vec<[Rgb; 2]>,
 }
 
 /// e^(−σ·len) per channel, 1 where σ is 0 (also over an infinite length), out of line.
@@ -444,10 +445,13 @@ impl Scene {
         }
     }
 
-    /// Per shape, the absorption of its inside (`absorption`); empty when no shape absorbs.
-    pub fn absorbing_shapes(&self) -> Vec<Rgb> {
-        let sigma: Vec<Rgb> = self.shapes.iter().map(|s| self.materials[s.material as usize].absorption).collect();
-        if sigma.iter().any(|s| *s != Rgb::ZERO) {
+    /// Per shape, the absorption of its inside and outside (`absorption`); empty when none absorbs.
+    pub fn absorbing_shapes(&self) -> Vec<[Rgb; 2]> {
+        let sigma: Vec<[Rgb; 2]> = (self.shapes.iter())
+            .map(|s| &self.materials[s.material as usize])
+            .map(|m| [m.absorption, m.absorption_outside])
+            .collect();
+        if sigma.iter().any(|s| *s != [Rgb::ZERO; 2]) {
             sigma
         } else {
             Vec::new()
@@ -456,14 +460,19 @@ impl Scene {
 
     /// The absorption coefficient along a segment that leaves `si` in direction `w`: its shape's
     /// inside's when `w` points into the back of the geometric normal (a refraction into the shape, a
-    /// reflection inside it), else zero. This is Mitsuba's rule (`SurfaceInteraction::target_medium`,
-    /// with media only inside shapes): the medium a segment runs through is set where it starts.
+    /// reflection inside it), else its outside's (zero for most shapes). This is Mitsuba's rule
+    /// (`SurfaceInteraction::target_medium`): the medium a segment runs through is set where it starts.
     #[inline(always)]
     pub fn sigma_leaving(&self, si: &SurfaceHit, w: Vec3) -> Rgb {
-        if self.absorption.is_empty() || w.dot(si.ng) >= 0.0 {
+        if self.absorption.is_empty() {
             return Rgb::ZERO;
         }
-        self.absorption[si.shape as usize]
+        let [inside, outside] = self.absorption[si.shape as usize];
+        if w.dot(si.ng) < 0.0 {
+            inside
+        } else {
+            outside
+        }
     }
 
     /// The light let through along `ray`'s segment to its hit at `t` along `ray` (None: it leaves the
@@ -480,8 +489,8 @@ impl Scene {
 
     /// `absorbed_to` for a light's first segment (of a photon, a light subpath), to its hit `si` at `t`
     /// along `ray`: it runs through the inside of an absorbing shape if it arrives at its back (a light
-    /// inside coloured glass), the medium a camera path from there to the light would start in, so that
-    /// every mode dims it alike.
+    /// inside coloured glass), through its outside's medium if it arrives at its front: the medium a
+    /// camera path from there to the light would start in, so that every mode dims it alike.
     #[inline(always)]
     pub fn absorbed_from_light(&self, ray: &crate::math::Ray, si: &SurfaceHit, t: f32) -> Rgb {
         if self.absorption.is_empty() {

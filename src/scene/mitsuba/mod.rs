@@ -624,10 +624,10 @@ impl<'a> Cx<'a> {
     }
 
     /// A shape's media (`<medium name="interior|exterior">`, nested or a `<ref>`), read into its material
-    /// (named `material`): under `volpath` an interior `homogeneous` medium of albedo 0 inside a
-    /// dielectric is coloured glass, a copy of the material with its `absorption` (σ = `sigma_t` ×
-    /// `scale`); anything else is refused. Mitsuba's other integrators ignore media, and so does the
-    /// import then, with a warning.
+    /// (named `material`): under `volpath` `homogeneous` media of albedo 0 inside and outside a
+    /// dielectric are coloured glass (or the coloured liquid or glass round it), a copy of the material
+    /// with its `absorption` and `outside_absorption` (σ = `sigma_t` × `scale`); anything else is
+    /// refused. Mitsuba's other integrators ignore media, and so does the import then, with a warning.
     fn shape_media(
         &mut self,
         n: &'a Node,
@@ -650,16 +650,13 @@ impl<'a> Cx<'a> {
             ));
             return Ok(material);
         }
-        let mut sigma = None;
-        for m in media {
-            if m.attr("name") == Some("exterior") {
-                return Err(m.error(
-                    "an exterior medium is not read (caustica reads an absorbing interior medium of a \
-                     dielectric: coloured glass)",
-                ));
-            }
-            if sigma.is_some() {
-                return Err(m.error("a second interior medium"));
+        // Interior, exterior: σ and the name each gives the material's copy.
+        let mut sides: [Option<([f32; 3], String)>; 2] = [None, None];
+        for m in &media {
+            let side = m.attr("name") == Some("exterior");
+            let which = ["interior", "exterior"][side as usize];
+            if sides[side as usize].is_some() {
+                return Err(m.error(format!("a second {which} medium")));
             }
             let (node, label) = match m.tag.as_str() {
                 "ref" => {
@@ -670,12 +667,13 @@ impl<'a> Cx<'a> {
                     }
                     (target, id.to_string())
                 }
-                _ => (m, format!("shapes[{index}]-interior")),
+                _ => (*m, format!("shapes[{index}]-{which}")),
             };
-            sigma = Some((absorbing_medium(node)?, label, m));
+            sides[side as usize] = Some((absorbing_medium(node)?, label));
         }
-        let Some((sigma, label, m)) = sigma else { return Ok(material) };
-        let name = format!("{material}+{label}");
+        let [inside, outside] = sides;
+        let label = [&inside, &outside].iter().filter_map(|s| s.as_ref().map(|(_, l)| l.as_str())).collect::<Vec<_>>();
+        let name = format!("{material}+{}", label.join("+"));
         let spec = match self.file.materials.get(&material) {
             Some(MaterialSpec::Dielectric { ior, outside_ior, tint, roughness, roughness_v, distribution, .. }) => {
                 MaterialSpec::Dielectric {
@@ -685,13 +683,14 @@ impl<'a> Cx<'a> {
                     roughness: roughness.clone(),
                     roughness_v: roughness_v.clone(),
                     distribution: *distribution,
-                    absorption: Some(sigma),
+                    absorption: inside.map(|(s, _)| s),
+                    outside_absorption: outside.map(|(s, _)| s),
                 }
             }
             _ => {
-                return Err(m.error(
-                    "a medium inside a shape whose BSDF is not a `dielectric` or `roughdielectric` is not read \
-                     (caustica reads absorbing insides of glass)",
+                return Err(media[0].error(
+                    "a medium on a shape whose BSDF is not a `dielectric` or `roughdielectric` is not read \
+                     (caustica reads absorbing media in and around glass)",
                 ))
             }
         };
@@ -815,6 +814,7 @@ impl<'a> Cx<'a> {
                         roughness_v: None,
                         distribution: Default::default(),
                         absorption: None,
+                        outside_absorption: None,
                     },
                     _ => {
                         let (roughness, roughness_v, distribution) = self.microfacet(b, &p, name)?;
@@ -826,6 +826,7 @@ impl<'a> Cx<'a> {
                             roughness_v,
                             distribution,
                             absorption: None,
+                            outside_absorption: None,
                         }
                     }
                 }
