@@ -598,7 +598,6 @@ impl<'a> PhotonMapper<'a> {
     /// Follows a ray whose first hit is `first` bounces into its path through specular surfaces to a
     /// diffuse one; `emission` adds lights seen on the way.
     #[allow(clippy::too_many_arguments)]
-    #[allow(clippy::too_many_arguments)]
     fn follow(
         &self,
         ray: Ray,
