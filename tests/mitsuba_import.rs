@@ -568,10 +568,11 @@ fn absorbing_glass_xml_matches_mitsuba() {
     every_mode_means_match_mitsuba("absorb");
     let d = tmp("absorb-path");
     let text = std::fs::read_to_string(dir().join("absorb.xml")).unwrap().replace("\"volpath\"", "\"path\"");
-    let path = write(&d, "absorb-path.xml", &text.replace("ball.ply", &dir().join("ball.ply").display().to_string()));
+    let text = ["ball.ply", "bumps.exr"].iter().fold(text, |t, f| t.replace(f, &dir().join(f).display().to_string()));
+    let path = write(&d, "absorb-path.xml", &text);
     let converted = caustica::scene::mitsuba::convert(&path).unwrap();
     let ignored: Vec<&String> = converted.warnings.iter().filter(|w| w.contains("media are ignored")).collect();
-    assert_eq!(ignored.len(), 5, "{:?}", converted.warnings);
+    assert_eq!(ignored.len(), 6, "{:?}", converted.warnings);
     assert!(ignored[0].contains("absorb-path.xml: line 41"), "{}", ignored[0]);
     let scene = load_scene_with(&path, &[]).unwrap();
     assert!(scene.absorption.is_empty(), "media read under `path`");

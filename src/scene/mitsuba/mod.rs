@@ -625,9 +625,9 @@ impl<'a> Cx<'a> {
 
     /// A shape's media (`<medium name="interior|exterior">`, nested or a `<ref>`), read into its material
     /// (named `material`): under `volpath` `homogeneous` media of albedo 0 inside and outside a
-    /// dielectric are coloured glass (or the coloured liquid or glass round it), a copy of the material
-    /// with its `absorption` and `outside_absorption` (σ = `sigma_t` × `scale`); anything else is
-    /// refused. Mitsuba's other integrators ignore media, and so does the import then, with a warning.
+    /// dielectric (bare or under a normal or bump map) are coloured glass (or the coloured liquid or glass
+    /// round it), a copy of the material with its `absorption` and `outside_absorption` (σ = `sigma_t` ×
+    /// `scale`); anything else is refused. Mitsuba's other integrators ignore media, and so does the import then, with a warning.
     fn shape_media(
         &mut self,
         n: &'a Node,
@@ -673,26 +673,46 @@ impl<'a> Cx<'a> {
         }
         let [inside, outside] = sides;
         let label = [&inside, &outside].iter().filter_map(|s| s.as_ref().map(|(_, l)| l.as_str())).collect::<Vec<_>>();
-        let name = format!("{material}+{}", label.join("+"));
-        let spec = match self.file.materials.get(&material) {
+        let suffix = label.join("+");
+        let refuse = || {
+            media[0].error(
+                "a medium on a shape whose BSDF is not a `dielectric` or `roughdielectric` (or a `normalmap` or \
+                 `bumpmap` over one) is not read (caustica reads absorbing media in and around glass)",
+            )
+        };
+        let dielectric = |spec: Option<&MaterialSpec>| match spec {
             Some(MaterialSpec::Dielectric { ior, outside_ior, tint, roughness, roughness_v, distribution, .. }) => {
-                MaterialSpec::Dielectric {
+                Some(MaterialSpec::Dielectric {
                     ior: *ior,
                     outside_ior: *outside_ior,
                     tint: tint.clone(),
                     roughness: roughness.clone(),
                     roughness_v: roughness_v.clone(),
                     distribution: *distribution,
-                    absorption: inside.map(|(s, _)| s),
-                    outside_absorption: outside.map(|(s, _)| s),
+                    absorption: inside.as_ref().map(|(s, _)| *s),
+                    outside_absorption: outside.as_ref().map(|(s, _)| *s),
+                })
+            }
+            _ => None,
+        };
+        let name = format!("{material}+{suffix}");
+        let spec = match self.file.materials.get(&material) {
+            // Glass under a normal or bump map: the map over a copy of the glass with the media.
+            Some(MaterialSpec::Normalmap { material: glass, .. } | MaterialSpec::Bumpmap { material: glass, .. }) => {
+                let copy = dielectric(self.file.materials.get(glass)).ok_or_else(refuse)?;
+                let glass_name = format!("{glass}+{suffix}");
+                self.file.materials.insert(glass_name.clone(), copy);
+                match self.file.materials[&material].clone() {
+                    MaterialSpec::Normalmap { normal_map, two_sided, .. } => {
+                        MaterialSpec::Normalmap { normal_map, material: glass_name, two_sided }
+                    }
+                    MaterialSpec::Bumpmap { height, scale, two_sided, .. } => {
+                        MaterialSpec::Bumpmap { height, scale, material: glass_name, two_sided }
+                    }
+                    _ => unreachable!("matched above"),
                 }
             }
-            _ => {
-                return Err(media[0].error(
-                    "a medium on a shape whose BSDF is not a `dielectric` or `roughdielectric` is not read \
-                     (caustica reads absorbing media in and around glass)",
-                ))
-            }
+            other => dielectric(other).ok_or_else(refuse)?,
         };
         self.file.materials.insert(name.clone(), spec);
         Ok(name)
