@@ -288,6 +288,13 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             Geometry::Sphere { radius, .. } => format!("sphere r={radius}"),
         };
         let m = &scene.materials[s.material as usize];
+        let sides: Vec<String> = [("inside", m.absorption), ("outside", m.absorption_outside)]
+            .iter()
+            .filter(|(_, sigma)| *sigma != glam::Vec3::ZERO)
+            .map(|(side, sigma)| format!("{side}: σ {:?}", sigma.to_array()))
+            .collect();
+        let absorbs =
+            if sides.is_empty() { String::new() } else { format!(" (absorbs {} per unit)", sides.join(", ")) };
         println!(
             "  {:<12} {:<36} material {:<10} area {:.4}{}{}",
             s.name,
@@ -295,16 +302,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             scene.material_names[s.material as usize],
             s.area(),
             if s.emission != glam::Vec3::ZERO { " (emissive)" } else { "" },
-            match (m.absorption != glam::Vec3::ZERO, m.absorption_outside != glam::Vec3::ZERO) {
-                (false, false) => String::new(),
-                (true, false) => format!(" (absorbs inside: σ {:?} per unit)", m.absorption.to_array()),
-                (false, true) => format!(" (absorbs outside: σ {:?} per unit)", m.absorption_outside.to_array()),
-                (true, true) => format!(
-                    " (absorbs inside: σ {:?}, outside: σ {:?} per unit)",
-                    m.absorption.to_array(),
-                    m.absorption_outside.to_array()
-                ),
-            }
+            absorbs
         );
     }
     use crate::scene::light::LightKind;

@@ -67,7 +67,7 @@ fn a_slab_of_coloured_glass_lets_through_e_to_the_minus_sigma_d_in_every_mode() 
 /// A light inside coloured glass: a sphere light at the centre of an absorbing glass ball (index 1.5)
 /// over a floor before a wall. Camera paths reach the light through the glass from outside, light
 /// subpaths and photons start inside it; a light's first segment takes its medium from where it ends
-/// (`Scene::absorbed_from_light`), the medium a camera path from there would start in, so every mode
+/// (`Scene::absorbed_on_light_path`), the medium a camera path from there would start in, so every mode
 /// must agree with the path tracer in every channel. With every segment's medium set at its start
 /// alone, the light's first segment went undimmed for light tracing and photons: BDPT then read +6%,
 /// +30%, +90% over PT (seen).

@@ -164,9 +164,5 @@ pub fn shadow(scene: &Scene, tracer: &dyn Tracer, si: &SurfaceHit, ls: &LightSam
     c.rays += 1;
     let ray = si.spawn_to(ls.p);
     let tr = crate::accel::shadow(scene, tracer, &ray, ls.p, &mut c.rays);
-    let sigma = scene.sigma_leaving(si, ray.d);
-    if tr == Rgb::ZERO || sigma == Rgb::ZERO {
-        return tr;
-    }
-    tr * Scene::absorbed(sigma, ray.d.length())
+    tr * Scene::absorbed(scene.sigma_leaving(si, ray.d), ray.d.length())
 }

@@ -764,17 +764,14 @@ impl Vcm<'_> {
         // are no vertices (`Scene::crossing`).
         let (mut travelled, mut crossings) = (0.0f32, 0u32);
         // Absorption of the medium the subpath's segment runs through (`Scene::sigma_leaving`); None on
-        // the light's first segment (`Scene::absorbed_from_light`).
+        // the light's first segment (`Scene::absorbed_on_light_path`).
         let mut sigma = None;
         loop {
             c.rays += 1;
             let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
                 break;
             };
-            sp.beta *= match sigma {
-                Some(s) => scene.absorbed_to(s, &ray, Some(hit.t)),
-                None => scene.absorbed_from_light(&ray, &si, hit.t),
-            };
+            sp.beta *= scene.absorbed_on_light_path(sigma, &ray, &si, hit.t);
             let picked = scene.bsdf(&si, wo, || rng.next_f32());
             let crossing = scene.crossing(&si, wo, picked, || rng.next_f32());
             let mat = match crossing {

@@ -493,7 +493,7 @@ fn trace_one(
     let mut aim = l.aim;
     let mut crossings = 0u32;
     // Absorption of the medium the photon flies through (`Scene::sigma_leaving`); None on the light's
-    // first segment (`Scene::absorbed_from_light`).
+    // first segment (`Scene::absorbed_on_light_path`).
     let mut sigma = None;
     // Hit `depth` follows `depth` scattering events; gathering there adds one more.
     for depth in 0..s.max_depth {
@@ -518,10 +518,7 @@ fn trace_one(
                 return;
             }
             let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
-            phi *= match sigma {
-                Some(s) => scene.absorbed_to(s, &ray, Some(hit.t)),
-                None => scene.absorbed_from_light(&ray, &si, hit.t),
-            };
+            phi *= scene.absorbed_on_light_path(sigma, &ray, &si, hit.t);
             let wo = -ray.d.normalize();
             let picked = scene.bsdf(&si, wo, || rng.next_f32());
             // A see-through surface that lets the photon straight through: no scattering event, not a

@@ -487,16 +487,15 @@ impl Scene {
         absorb_slow(sigma, t.map_or(f32::INFINITY, |t| t * ray.d.length()))
     }
 
-    /// `absorbed_to` for a light's first segment (of a photon, a light subpath), to its hit `si` at `t`
-    /// along `ray`: it runs through the inside of an absorbing shape if it arrives at its back (a light
-    /// inside coloured glass), through its outside's medium if it arrives at its front: the medium a
-    /// camera path from there to the light would start in, so that every mode dims it alike.
+    /// `absorbed_to` for a segment of a light's path (a photon's, a light subpath's) to its hit `si` at
+    /// `t` along `ray`, `sigma` being the medium it started in, None on the light's first segment. That
+    /// one runs through the inside of an absorbing shape if it arrives at its back (a light inside
+    /// coloured glass), through its outside's medium if it arrives at its front: the medium a camera
+    /// path from there to the light would start in, so that every mode dims it alike.
     #[inline(always)]
-    pub fn absorbed_from_light(&self, ray: &crate::math::Ray, si: &SurfaceHit, t: f32) -> Rgb {
-        if self.absorption.is_empty() {
-            return Rgb::ONE;
-        }
-        self.absorbed_to(self.sigma_leaving(si, -ray.d), ray, Some(t))
+    pub fn absorbed_on_light_path(&self, sigma: Option<Rgb>, ray: &crate::math::Ray, si: &SurfaceHit, t: f32) -> Rgb {
+        let sigma = sigma.unwrap_or_else(|| self.sigma_leaving(si, -ray.d));
+        self.absorbed_to(sigma, ray, Some(t))
     }
 
     /// The light let through along a segment of length `len` (infinite: it leaves the scene) through

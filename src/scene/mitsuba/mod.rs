@@ -680,41 +680,26 @@ impl<'a> Cx<'a> {
                  `bumpmap` over one) is not read (caustica reads absorbing media in and around glass)",
             )
         };
-        let dielectric = |spec: Option<&MaterialSpec>| match spec {
-            Some(MaterialSpec::Dielectric { ior, outside_ior, tint, roughness, roughness_v, distribution, .. }) => {
-                Some(MaterialSpec::Dielectric {
-                    ior: *ior,
-                    outside_ior: *outside_ior,
-                    tint: tint.clone(),
-                    roughness: roughness.clone(),
-                    roughness_v: roughness_v.clone(),
-                    distribution: *distribution,
-                    absorption: inside.as_ref().map(|(s, _)| *s),
-                    outside_absorption: outside.as_ref().map(|(s, _)| *s),
-                })
-            }
-            _ => None,
+        // A copy of a dielectric's spec with the media (None for any other material).
+        let with_media = |spec: Option<&MaterialSpec>| {
+            let mut copy = spec?.clone();
+            let MaterialSpec::Dielectric { absorption, outside_absorption, .. } = &mut copy else { return None };
+            *absorption = inside.as_ref().map(|(s, _)| *s);
+            *outside_absorption = outside.as_ref().map(|(s, _)| *s);
+            Some(copy)
         };
-        let name = format!("{material}+{suffix}");
-        let spec = match self.file.materials.get(&material) {
+        let mut spec = self.file.materials.get(&material).cloned();
+        match &mut spec {
             // Glass under a normal or bump map: the map over a copy of the glass with the media.
             Some(MaterialSpec::Normalmap { material: glass, .. } | MaterialSpec::Bumpmap { material: glass, .. }) => {
-                let copy = dielectric(self.file.materials.get(glass)).ok_or_else(refuse)?;
-                let glass_name = format!("{glass}+{suffix}");
-                self.file.materials.insert(glass_name.clone(), copy);
-                match self.file.materials[&material].clone() {
-                    MaterialSpec::Normalmap { normal_map, two_sided, .. } => {
-                        MaterialSpec::Normalmap { normal_map, material: glass_name, two_sided }
-                    }
-                    MaterialSpec::Bumpmap { height, scale, two_sided, .. } => {
-                        MaterialSpec::Bumpmap { height, scale, material: glass_name, two_sided }
-                    }
-                    _ => unreachable!("matched above"),
-                }
+                let copy = with_media(self.file.materials.get(glass.as_str())).ok_or_else(refuse)?;
+                *glass = format!("{glass}+{suffix}");
+                self.file.materials.insert(glass.clone(), copy);
             }
-            other => dielectric(other).ok_or_else(refuse)?,
-        };
-        self.file.materials.insert(name.clone(), spec);
+            _ => spec = Some(with_media(spec.as_ref()).ok_or_else(refuse)?),
+        }
+        let name = format!("{material}+{suffix}");
+        self.file.materials.insert(name.clone(), spec.expect("a material, or refused above"));
         Ok(name)
     }
 
