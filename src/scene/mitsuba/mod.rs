@@ -545,11 +545,19 @@ impl<'a> Cx<'a> {
             ep.finish("radiance")?;
         }
         let material = self.shape_material(n, &p, index, emission.is_some())?;
+        let unmediated = material.clone();
         let material = self.shape_media(n, &p, index, material)?;
+        // The shape's own to_world mirrors (an instance's does not turn its shapes in Mitsuba either).
+        if own.is_some_and(|m| glam::Mat3::from_mat4(m).determinant() < 0.0) {
+            let mesh = matches!(n.attr("type"), Some("obj" | "ply" | "serialized"));
+            let face_normals = mesh && p.boolean("face_normals")?.unwrap_or(false);
+            self.mirror_warning(n, face_normals, material != unmediated);
+        }
         let spec = match n.attr("type").unwrap_or("") {
             kind @ ("obj" | "ply" | "serialized") => {
                 let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
-                let face_normals = p.boolean("face_normals")?.unwrap_or(false);
+                let mesh = matches!(n.attr("type"), Some("obj" | "ply" | "serialized"));
+                let face_normals = mesh && p.boolean("face_normals")?.unwrap_or(false);
                 if kind == "obj" && p.boolean("flip_tex_coords")? == Some(false) {
                     return Err(n.error("flip_tex_coords = false is not supported (OBJ texture rows are flipped)"));
                 }
@@ -621,6 +629,34 @@ impl<'a> Cx<'a> {
         )?;
         self.file.shapes.push(spec);
         Ok(())
+    }
+
+    /// Warns of a shape whose own `to_world` mirrors where Mitsuba 3.9.1 turns the surface and caustica
+    /// does not (caustica keeps every mirrored surface facing out, as its normals transformed as normals
+    /// do; measured in README "Not done"). Mitsuba keeps a mesh's winding, so its geometric normals turn
+    /// inward while the vertex normals it has (or makes, unless `face_normals`) do not: a `face_normals`
+    /// mesh is rendered inside out, and a mesh's media swap. A sphere's normals turn inward; a cylinder
+    /// rebuilds its frame without the mirror. Rectangles and disks turn their normals as caustica does.
+    fn mirror_warning(&mut self, n: &Node, face_normals: bool, has_media: bool) {
+        let what = match n.attr("type").unwrap_or("") {
+            "obj" | "ply" | "serialized" if face_normals => {
+                "Mitsuba keeps the triangles' winding, so their normals turn inward and it renders the mesh \
+                 inside out (a one-sided BSDF black from outside, glass as a hollow in glass, an emitter dark)"
+            }
+            "obj" | "ply" | "serialized" | "cube" if has_media => {
+                "Mitsuba keeps the triangles' winding, so its geometric normals turn inward (its shading normals \
+                 do not) and it swaps the interior and exterior media"
+            }
+            "sphere" => "Mitsuba turns the sphere's normals inward (as flip_normals would)",
+            "cylinder" => "Mitsuba's cylinder rebuilds its frame without the mirror and shades differently",
+            _ => return,
+        };
+        self.warnings.push(format!(
+            "{}: line {}: a mirroring to_world (negative determinant): {what}; caustica mirrors the surface \
+             and keeps its outside facing out, so the two images differ",
+            n.file.display(),
+            n.line
+        ));
     }
 
     /// A shape's media (`<medium name="interior|exterior">`, nested or a `<ref>`), read into its material
