@@ -1899,6 +1899,16 @@ fn what_is_not_read_is_refused_naming_the_line() {
             ),
             "contains itself",
         ),
+        // An integrator's refused property names what that integrator reads (the `direct` integrator's
+        // list said max_depth and rr_depth, which it refuses).
+        (
+            "direct-depth",
+            &panel_with(
+                "<scene version=\"3.0.0\">",
+                "<scene version=\"3.0.0\"><integrator type=\"direct\"><integer name=\"max_depth\" value=\"3\"/></integrator>",
+            ),
+            "supported here: hide_emitters, emitter_samples",
+        ),
         // A width beyond u32 was reported as "must be ≥ 1".
         (
             "huge-width",

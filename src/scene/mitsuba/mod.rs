@@ -469,7 +469,16 @@ impl<'a> Cx<'a> {
                 ))
             }
         }
-        p.finish("max_depth, rr_depth, hide_emitters (photonmapper/sppm: photon counts, max_passes, alpha; ptracer: samples_per_pass; bdpt: lightImage, sampleDirect)")
+        p.finish(match n.attr("type") {
+            Some("direct") => "hide_emitters, emitter_samples, bsdf_samples, shading_samples",
+            Some("photonmapper" | "sppm") => {
+                "max_depth, photon_count, max_passes, alpha, global_photons, caustic_photons"
+            }
+            Some("ptracer" | "bdpt") => {
+                "max_depth, rr_depth, hide_emitters, samples_per_pass, light_image, sample_direct"
+            }
+            _ => "max_depth, rr_depth, hide_emitters",
+        })
     }
 
     fn shape(&mut self, n: &'a Node) -> Result<(), SceneError> {
