@@ -35,7 +35,8 @@ wrap_mode clamp or mirror on a third of the bitmap textures; face colours on hal
 textured principled weights; a textured `anisotropic` for half the anisotropic principled BSDFs;
 clipping planes (a near plane that cuts into the scene, a far plane) for about two in five scenes;
 a third of the spots turned into projectors; an absorbing interior medium (coloured glass, rendered by
-volpath) in four in five closed shapes of smooth or rough glass.
+volpath) in four in five closed shapes of smooth or rough glass; a mirroring scale (-1 along one axis)
+on a fourth of the rectangles, disks, cubes and meshes without media.
 """
 import argparse
 import os
@@ -717,6 +718,25 @@ if args.more:
     if media:
         text = re.sub(r'(<integrator type=")path(")', r"\1volpath\2", text, count=1)
         text = re.sub(r"(</sensor>\n?)", lambda m: m.group(1) + "".join(media), text, count=1)
+    # Mirroring transforms (session 62), from a twenty-second stream, last: a fourth of the rectangles,
+    # disks, cubes and PLY and OBJ meshes get a scale of -1 along x, y or z before their own to_world
+    # (Mitsuba renders a mesh without vertex normals, or with face_normals, inside out then, as the
+    # import does), but not a shape with a medium, whose media Mitsuba swaps, nor a sphere or cylinder,
+    # which it does not mirror as a surface (README "Not done": the import warns of those).
+    Y = random.Random(args.seed * 5281 + 43)
+
+    def mirrored(m):
+        body = m.group(0)
+        if m.group(1) not in ("rectangle", "disk", "cube", "ply", "obj") or Y.random() >= 0.25:
+            return body
+        axis = Y.choice("xyz")
+        if "<medium" in body or 'name="interior"' in body:
+            return body
+        if '<transform name="to_world">' not in body:
+            return body.replace(">", f'><transform name="to_world"><scale {axis}="-1"/></transform>', 1)
+        return body.replace('<transform name="to_world">', f'<transform name="to_world"><scale {axis}="-1"/>', 1)
+
+    text = re.sub(r'<shape type="(\w+)">(?:(?!</shape>).)*</shape>', mirrored, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

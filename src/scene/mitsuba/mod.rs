@@ -557,11 +557,8 @@ impl<'a> Cx<'a> {
         let unmediated = material.clone();
         let material = self.shape_media(n, &p, index, material)?;
         // The shape's own to_world mirrors (an instance's does not turn its shapes in Mitsuba either).
-        if own.is_some_and(|m| glam::Mat3::from_mat4(m).determinant() < 0.0) {
-            let mesh = matches!(n.attr("type"), Some("obj" | "ply" | "serialized"));
-            let face_normals = mesh && p.boolean("face_normals")?.unwrap_or(false);
-            self.mirror_warning(n, face_normals, material != unmediated);
-        }
+        let mirrors = own.is_some_and(|m| glam::Mat3::from_mat4(m).determinant() < 0.0);
+        let has_media = material != unmediated;
         let spec = match n.attr("type").unwrap_or("") {
             kind @ ("obj" | "ply" | "serialized") => {
                 let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
@@ -592,13 +589,23 @@ impl<'a> Cx<'a> {
                         n.line
                     ));
                 }
+                let file = self.resolve(n, &file);
+                // Mitsuba keeps a mirrored mesh's winding, so its faces' normals turn inward, and so
+                // do the vertex normals it computes for a mesh without any: it renders that mesh
+                // inside out, as the mesh turned inside out before its transform (caustica's
+                // `flip_normals`) renders here. Vertex normals from the file stay outward (transformed
+                // as normals), the shading Mitsuba gives them too, only its media swapping sides.
+                let inside_out = mirrors && (face_normals || !self.file_has_normals(&file, shape_index));
+                if mirrors && !inside_out {
+                    self.mirror_warning(n, has_media);
+                }
                 ShapeSpec::Mesh {
-                    file: self.resolve(n, &file),
+                    file,
                     material: Some(material),
                     transform,
                     emission,
                     smooth: !face_normals,
-                    flip_normals,
+                    flip_normals: flip_normals ^ inside_out,
                     shape_index,
                 }
             }
@@ -633,6 +640,9 @@ impl<'a> Cx<'a> {
             "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals)?,
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
         };
+        if mirrors && !matches!(spec, ShapeSpec::Mesh { .. }) {
+            self.mirror_warning(n, has_media);
+        }
         p.finish(
             "to_world, filename, face_normals, flip_normals, shape_index, center, radius, p0, p1, a bsdf or <ref>, an area emitter",
         )?;
@@ -640,18 +650,24 @@ impl<'a> Cx<'a> {
         Ok(())
     }
 
+    /// Whether a mesh file carries vertex normals (each mesh in it): Mitsuba renders a mirrored mesh
+    /// inside out unless it does and `face_normals` is off (`placed_shape`).
+    fn file_has_normals(&self, file: &str, shape_index: Option<u32>) -> bool {
+        let path = self.base.join(file);
+        // A file that does not load is reported when the scene loads; no turn is decided from it.
+        crate::scene::mesh::load_mesh_file(&path, file, true, shape_index)
+            .map_or(true, |meshes| meshes.iter().all(|m| m.mesh.normals.is_some()))
+    }
+
     /// Warns of a shape whose own `to_world` mirrors where Mitsuba 3.9.1 turns the surface and caustica
-    /// does not (caustica keeps every mirrored surface facing out, as its normals transformed as normals
-    /// do; measured in README "Not done"). Mitsuba keeps a mesh's winding, so its geometric normals turn
-    /// inward while the vertex normals it has (or makes, unless `face_normals`) do not: a `face_normals`
-    /// mesh is rendered inside out, and a mesh's media swap. A sphere's normals turn inward; a cylinder
-    /// rebuilds its frame without the mirror. Rectangles and disks turn their normals as caustica does.
-    fn mirror_warning(&mut self, n: &Node, face_normals: bool, has_media: bool) {
+    /// does not (caustica keeps a mirrored surface's normals transformed as normals; measured in README
+    /// "Not done"). A mesh whose file carries vertex normals keeps them outward in Mitsuba while its
+    /// faces' normals turn inward (the winding kept), which swaps its media (a `cube` is such a mesh);
+    /// a sphere's normals turn inward; a cylinder rebuilds its frame without the mirror. Rectangles and
+    /// disks turn their normals as caustica does; meshes Mitsuba renders inside out are turned inside
+    /// out here too (`placed_shape`).
+    fn mirror_warning(&mut self, n: &Node, has_media: bool) {
         let what = match n.attr("type").unwrap_or("") {
-            "obj" | "ply" | "serialized" if face_normals => {
-                "Mitsuba keeps the triangles' winding, so their normals turn inward and it renders the mesh \
-                 inside out (a one-sided BSDF black from outside, glass as a hollow in glass, an emitter dark)"
-            }
             "obj" | "ply" | "serialized" | "cube" if has_media => {
                 "Mitsuba keeps the triangles' winding, so its geometric normals turn inward (its shading normals \
                  do not) and it swaps the interior and exterior media"
