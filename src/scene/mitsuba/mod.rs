@@ -562,8 +562,7 @@ impl<'a> Cx<'a> {
         let spec = match n.attr("type").unwrap_or("") {
             kind @ ("obj" | "ply" | "serialized") => {
                 let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
-                let mesh = matches!(n.attr("type"), Some("obj" | "ply" | "serialized"));
-                let face_normals = mesh && p.boolean("face_normals")?.unwrap_or(false);
+                let face_normals = p.boolean("face_normals")?.unwrap_or(false);
                 if kind == "obj" && p.boolean("flip_tex_coords")? == Some(false) {
                     return Err(n.error("flip_tex_coords = false is not supported (OBJ texture rows are flipped)"));
                 }
