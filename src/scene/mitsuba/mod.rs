@@ -559,6 +559,8 @@ impl<'a> Cx<'a> {
         // The shape's own to_world mirrors (an instance's does not turn its shapes in Mitsuba either).
         let mirrors = own.is_some_and(|m| glam::Mat3::from_mat4(m).determinant() < 0.0);
         let has_media = material != unmediated;
+        // Set where the import turns a mirrored mesh inside out as Mitsuba renders it (no warning then).
+        let mut inside_out = false;
         let spec = match n.attr("type").unwrap_or("") {
             kind @ ("obj" | "ply" | "serialized") => {
                 let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
@@ -594,10 +596,7 @@ impl<'a> Cx<'a> {
                 // inside out, as the mesh turned inside out before its transform (caustica's
                 // `flip_normals`) renders here. Vertex normals from the file stay outward (transformed
                 // as normals), the shading Mitsuba gives them too, only its media swapping sides.
-                let inside_out = mirrors && (face_normals || !self.file_has_normals(&file, shape_index));
-                if mirrors && !inside_out {
-                    self.mirror_warning(n, has_media);
-                }
+                inside_out = mirrors && (face_normals || !self.file_has_normals(&file, shape_index));
                 ShapeSpec::Mesh {
                     file,
                     material: Some(material),
@@ -639,7 +638,7 @@ impl<'a> Cx<'a> {
             "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals)?,
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
         };
-        if mirrors && !matches!(spec, ShapeSpec::Mesh { .. }) {
+        if mirrors && !inside_out {
             self.mirror_warning(n, has_media);
         }
         p.finish(
