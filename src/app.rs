@@ -285,7 +285,8 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
                 };
                 format!("mesh, {} triangles{colours}", m.indices.len())
             }
-            Geometry::Sphere { radius, .. } => format!("sphere r={radius}"),
+            Geometry::Sphere { radius, inward: false, .. } => format!("sphere r={radius}"),
+            Geometry::Sphere { radius, inward: true, .. } => format!("sphere r={radius}, normals inward"),
         };
         let m = &scene.materials[s.material as usize];
         let sides: Vec<String> = [("inside", m.absorption), ("outside", m.absorption_outside)]

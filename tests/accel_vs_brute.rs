@@ -32,7 +32,7 @@ fn random_scene(seed: u64, tris: usize, spheres: usize) -> caustica::scene::Scen
         let rad = 0.02 + 0.2 * (i as f32 / spheres as f32);
         shapes.push(Shape {
             name: format!("sphere{i}"),
-            geometry: Geometry::Sphere { center: c, radius: rad, frame: None },
+            geometry: Geometry::Sphere { center: c, radius: rad, frame: None, inward: false },
             material: 0,
             emission: Vec3::ZERO,
             emission_texture: None,
@@ -101,7 +101,7 @@ fn embree_matches_brute_force_on_random_soups_and_spheres() {
 fn rays_from_inside_a_sphere_hit_its_far_side_exactly() {
     let scene = common::shapes_scene(vec![Shape {
         name: "s".into(),
-        geometry: Geometry::Sphere { center: Vec3::new(0.3, -0.2, 0.1), radius: 0.7, frame: None },
+        geometry: Geometry::Sphere { center: Vec3::new(0.3, -0.2, 0.1), radius: 0.7, frame: None, inward: false },
         material: 0,
         emission: Vec3::ZERO,
         emission_texture: None,
@@ -140,7 +140,7 @@ fn rays_with_subnormal_or_huge_components_get_answers_not_an_abort() {
     };
     let scene = common::shapes_scene(vec![
         shape("floor", Geometry::Mesh(floor)),
-        shape("ball", Geometry::Sphere { center: Vec3::new(0.0, 0.7, 0.0), radius: 0.3, frame: None }),
+        shape("ball", Geometry::Sphere { center: Vec3::new(0.0, 0.7, 0.0), radius: 0.3, frame: None, inward: false }),
     ]);
     let (fast, slow) = (Accel::new(&scene).unwrap(), Brute::new(&scene));
     let tiny = [1e-40f32, -2.8e-41, f32::MIN_POSITIVE / 2.0, -1e-45];

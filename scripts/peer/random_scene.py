@@ -36,7 +36,8 @@ textured principled weights; a textured `anisotropic` for half the anisotropic p
 clipping planes (a near plane that cuts into the scene, a far plane) for about two in five scenes;
 a third of the spots turned into projectors; an absorbing interior medium (coloured glass, rendered by
 volpath) in four in five closed shapes of smooth or rough glass; a mirroring scale (-1 along one axis)
-on a fourth of the rectangles, disks, cubes and meshes without media.
+on a fourth of the rectangles, disks, cubes and meshes without media; flip_normals, a mirroring
+scale or both on half the spheres that neither emit nor hold a medium.
 """
 import argparse
 import os
@@ -737,6 +738,31 @@ if args.more:
         return body.replace('<transform name="to_world">', f'<transform name="to_world"><scale {axis}="-1"/>', 1)
 
     text = re.sub(r'<shape type="(\w+)">(?:(?!</shape>).)*</shape>', mirrored, text)
+    # Spheres turned inside out (session 63), from a twenty-third stream, last: a fifth of the spheres
+    # that neither emit nor hold a medium get flip_normals, another fifth a mirroring scale (Mitsuba's
+    # normals then turn inward, as the import's do), and one in ten both (facing out again). Not one
+    # with a medium: its inside would be the whole scene outside it, which Mitsuba follows past every
+    # other surface.
+    F = random.Random(args.seed * 7919 + 61)
+
+    def inside_out(m):
+        body = m.group(0)
+        if m.group(1) != "sphere" or "<emitter" in body or "<medium" in body or 'name="interior"' in body:
+            return body
+        u = F.random()
+        flip = u < 0.2 or 0.4 <= u < 0.5
+        mirror = 0.2 <= u < 0.5
+        axis = F.choice("xyz")
+        if mirror:
+            if '<transform name="to_world">' not in body:
+                body = body.replace(">", f'><transform name="to_world"><scale {axis}="-1"/></transform>', 1)
+            else:
+                body = body.replace('<transform name="to_world">', f'<transform name="to_world"><scale {axis}="-1"/>', 1)
+        if flip:
+            body = body.replace(">", '><boolean name="flip_normals" value="true"/>', 1)
+        return body
+
+    text = re.sub(r'<shape type="(\w+)">(?:(?!</shape>).)*</shape>', inside_out, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

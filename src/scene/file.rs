@@ -560,7 +560,8 @@ pub enum Scale {
 
 /// A shape. Every kind but the height field may emit: `emission` is its radiance, an `[r, g, b]`
 /// colour or the name of a `[textures]` entry read at each point's texture coordinates (values ≥ 0,
-/// any size: an EXR's), from the front of triangles and the outside of spheres.
+/// any size: an EXR's), from the front of triangles and the outside of spheres (the inside with
+/// `flip_normals`).
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum ShapeSpec {
@@ -593,6 +594,10 @@ pub enum ShapeSpec {
         transform: TransformSpec,
         #[serde(default)]
         emission: Option<Reflectance>,
+        /// Normals towards the centre: the inside is the front (it emits inwards; glass reads as a
+        /// bubble, its inside the outer medium).
+        #[serde(default, skip_serializing_if = "is_false")]
+        flip_normals: bool,
     },
     /// Parallelogram `corner + s·edge_u + t·edge_v`, s,t ∈ [0,1]; the front side is edge_u × edge_v.
     Quad {

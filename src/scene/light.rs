@@ -501,24 +501,9 @@ impl Lights {
                     normal: Vec3::ZERO,
                 })
             }
-            LightKind::Triangle { .. } => {
-                let lp = self.sample_point(scene, i, u)?;
-                let d = lp.p - x;
-                let dist2 = d.length_squared();
-                let dist = dist2.sqrt();
-                let wi = d / dist;
-                let cos_l = -wi.dot(lp.n);
-                if cos_l <= 0.0 || !lp.pdf_area.is_finite() {
-                    return None;
-                }
-                let pdf = p_sel * lp.pdf_area * dist2 / cos_l;
-                let p = offset_ray_origin(lp.p, lp.n, -wi, lp.size);
-                let emit_ratio = cos_l / (PI * dist2);
-                Some(LightSample { wi, dist, p, li: lp.le, pdf, delta: false, emit_ratio, light: i, normal: lp.n })
-            }
-            LightKind::Sphere { shape } => {
+            LightKind::Sphere { shape } if !self.by_area(scene, i) => {
                 let s = &scene.shapes[*shape as usize];
-                let Geometry::Sphere { center, radius, frame } = s.geometry else {
+                let Geometry::Sphere { center, radius, frame, .. } = s.geometry else {
                     return None;
                 };
                 let (wi, one_minus) = towards_sphere(x, center, radius, u)?;
@@ -534,6 +519,23 @@ impl Lights {
                 let normal = (y - center) / radius;
                 let li = scene.radiance_at(*shape, || crate::scene::sphere_uv_at(frame, normal));
                 Some(LightSample { wi, dist, p, li, pdf, delta: false, emit_ratio, light: i, normal })
+            }
+            // A triangle, or a sphere that emits inward (seen from inside, where no cone is visible):
+            // a point drawn by area.
+            LightKind::Triangle { .. } | LightKind::Sphere { .. } => {
+                let lp = self.sample_point(scene, i, u)?;
+                let d = lp.p - x;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                let wi = d / dist;
+                let cos_l = -wi.dot(lp.n);
+                if cos_l <= 0.0 || !lp.pdf_area.is_finite() {
+                    return None;
+                }
+                let pdf = p_sel * lp.pdf_area * dist2 / cos_l;
+                let p = offset_ray_origin(lp.p, lp.n, -wi, lp.size);
+                let emit_ratio = cos_l / (PI * dist2);
+                Some(LightSample { wi, dist, p, li: lp.le, pdf, delta: false, emit_ratio, light: i, normal: lp.n })
             }
             LightKind::Env | LightKind::Distant { .. } => {
                 let s = self.sample_infinite(i, u)?;
@@ -624,10 +626,13 @@ impl Lights {
         let Some(off) = self.shape_offset[shape as usize] else {
             return 0.0;
         };
-        match &scene.shapes[shape as usize].geometry {
-            Geometry::Mesh(m) => {
-                let i = (off + prim) as usize;
-                let area = m.area(prim as usize);
+        let geometry = &scene.shapes[shape as usize].geometry;
+        match geometry {
+            Geometry::Mesh(_) | Geometry::Sphere { inward: true, .. } => {
+                let (i, area) = match geometry {
+                    Geometry::Mesh(m) => ((off + prim) as usize, m.area(prim as usize)),
+                    _ => (off as usize, scene.shapes[shape as usize].area()),
+                };
                 let d = y - x;
                 let dist2 = d.length_squared();
                 let cos_l = (-d.normalize().dot(n)).max(0.0);
@@ -759,9 +764,13 @@ impl Lights {
                 }
             }
             LightKind::Sphere { shape } => {
-                let Geometry::Sphere { center, radius, .. } = scene.shapes[*shape as usize].geometry else {
+                let Geometry::Sphere { center, radius, inward, .. } = scene.shapes[*shape as usize].geometry else {
                     return 0.0;
                 };
+                if inward {
+                    // Drawn by area (`by_area`).
+                    return p_sel / scene.shapes[*shape as usize].area();
+                }
                 let Some(one_minus) = visible_cone(radius, (center - x).length_squared()) else {
                     return 0.0;
                 };
@@ -830,6 +839,19 @@ impl Lights {
             },
             LightKind::Sphere { shape } => scene.shapes[*shape as usize].area(),
             _ => 0.0,
+        }
+    }
+
+    /// Whether `sample` draws light `i`'s points by area: a triangle, or a sphere whose normals face
+    /// inward (its light reaches only points inside it, from which no cone of it is visible); the
+    /// other spheres are sampled over the cone they fill.
+    fn by_area(&self, scene: &Scene, i: usize) -> bool {
+        match &self.list[i] {
+            LightKind::Triangle { .. } => true,
+            LightKind::Sphere { shape } => {
+                matches!(scene.shapes[*shape as usize].geometry, Geometry::Sphere { inward: true, .. })
+            }
+            _ => false,
         }
     }
 

@@ -1253,8 +1253,8 @@ fn build_shape(
                 push(out.shapes, lm.mesh, *flip_normals, transform, mat, emission(e, out.textures)?, *smooth)?;
             }
         }
-        ShapeSpec::Sphere { center, radius, material, transform, emission: e } => {
-            let geometry = sphere_geometry(cx, key, *center, *radius, transform)?;
+        ShapeSpec::Sphere { center, radius, material, transform, emission: e, flip_normals } => {
+            let geometry = sphere_geometry(cx, key, *center, *radius, transform, *flip_normals)?;
             let (emission, emission_texture) = emission(e, out.textures)?;
             let material = lookup(material)?;
             out.shapes.push(Shape { name: key.into(), geometry, material, emission, emission_texture });
@@ -1379,8 +1379,16 @@ fn mtl_texture_material(
     Ok(out.materials.len() as u32 - 1)
 }
 
-/// An analytic sphere after its transform, which may only rotate, translate and scale uniformly.
-fn sphere_geometry(cx: &Ctx, key: &str, center: V3, radius: f32, t: &TransformSpec) -> Result<Geometry, SceneError> {
+/// An analytic sphere after its transform, which may only rotate, translate and scale uniformly (a
+/// reflection too: the sphere stays a sphere, its normals facing as `inward` says).
+fn sphere_geometry(
+    cx: &Ctx,
+    key: &str,
+    center: V3,
+    radius: f32,
+    t: &TransformSpec,
+    inward: bool,
+) -> Result<Geometry, SceneError> {
     cx.positive(&format!("{key}.radius"), radius)?;
     let m = transform_matrix(key, t, cx.shown)?;
     let (sx, sy, sz) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
@@ -1398,7 +1406,7 @@ fn sphere_geometry(cx: &Ctx, key: &str, center: V3, radius: f32, t: &TransformSp
     // The sphere's own axes, for its texture coordinates: to_world's rotation (or reflection) undone.
     let turn = glam::Mat3::from_cols(sx / s, sy / s, sz / s);
     let frame = (!turn.abs_diff_eq(glam::Mat3::IDENTITY, 1e-6)).then(|| turn.transpose());
-    Ok(Geometry::Sphere { center: m.transform_point3(Vec3::from_array(center)), radius: radius * s, frame })
+    Ok(Geometry::Sphere { center: m.transform_point3(Vec3::from_array(center)), radius: radius * s, frame, inward })
 }
 
 /// The triangle mesh of a generated shape (quad, disk, lathe, cylinder, height field, box), its parameters
@@ -1610,7 +1618,8 @@ fn build_light(
             let r = cx.positive(&format!("{key}.radius"), *radius)?;
             let area = 4.0 * std::f32::consts::PI * r * r;
             let emission = radiance_of(cx, key, power, radiance, area)?;
-            let geometry = Geometry::Sphere { center: Vec3::from_array(*center), radius: r, frame: None };
+            let geometry =
+                Geometry::Sphere { center: Vec3::from_array(*center), radius: r, frame: None, inward: false };
             shapes.push(Shape { name: key.into(), geometry, material: black, emission, emission_texture: None });
         }
         LightSpec::Quad { corner, edge_u, edge_v, power, radiance } => {

@@ -59,11 +59,13 @@ pub enum Geometry {
     Mesh(TriMesh),
     /// A sphere; `frame` (None: the world's axes) turns a world direction into the sphere's own, where
     /// its texture coordinates are Mitsuba's (`sphere_uv`): the rotation (or reflection) a Mitsuba
-    /// `to_world` gave it.
+    /// `to_world` gave it. `inward`: its normals face the centre (Mitsuba's `flip_normals`), so that
+    /// its inside is its front: it emits inwards, and a one-sided BSDF scatters only there.
     Sphere {
         center: Vec3,
         radius: f32,
         frame: Option<glam::Mat3>,
+        inward: bool,
     },
 }
 
@@ -71,7 +73,8 @@ pub enum Geometry {
 #[derive(Clone, Copy, Debug)]
 pub struct SurfacePoint {
     pub p: Vec3,
-    /// Unit geometric normal (triangle winding, sphere outward); zero for a degenerate triangle.
+    /// Unit geometric normal (triangle winding, sphere outward unless `inward`); zero for a degenerate
+    /// triangle.
     pub n: Vec3,
     /// Area of the primitive the point was drawn on (its area pdf is 1 / area).
     pub area: f32,
@@ -117,11 +120,11 @@ impl Geometry {
                     bary: bc,
                 }
             }
-            Geometry::Sphere { center, radius, .. } => {
+            Geometry::Sphere { center, radius, inward, .. } => {
                 let n = crate::math::sampling::uniform_sphere(u);
                 SurfacePoint {
                     p: *center + n * *radius,
-                    n,
+                    n: if *inward { -n } else { n },
                     area: 4.0 * std::f32::consts::PI * radius * radius,
                     size: *radius,
                     bary: [0.0; 2],
@@ -137,7 +140,7 @@ pub struct Shape {
     pub name: String,
     pub geometry: Geometry,
     pub material: u32,
-    /// Emitted radiance (front side of triangles, outside of spheres); with `emission_texture`, the
+    /// Emitted radiance (front side of triangles, outside of spheres, inside of inward ones); with `emission_texture`, the
     /// factor the texture is multiplied by (1: any non-zero value marks the shape as an emitter).
     pub emission: Rgb,
     /// Index into `Scene::textures`: the radiance at each point, read at its texture coordinates
@@ -156,7 +159,7 @@ impl Shape {
     pub fn uv_of(&self, prim: usize, sp: &SurfacePoint) -> glam::Vec2 {
         match &self.geometry {
             Geometry::Mesh(m) => m.uv_at(prim, sp.bary),
-            Geometry::Sphere { frame, .. } => sphere_uv_at(*frame, sp.n),
+            Geometry::Sphere { frame, inward, .. } => sphere_uv_at(*frame, if *inward { -sp.n } else { sp.n }),
         }
     }
 
@@ -273,7 +276,7 @@ pub fn bump_frame(ng: Vec3, ns: Vec3, s: Vec3, dp_du: Vec3, dp_dv: Vec3, g: glam
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceHit {
     pub p: Vec3,
-    /// Unit geometric normal as stored (triangle winding, sphere outward).
+    /// Unit geometric normal as stored (triangle winding, sphere outward unless inward).
     pub ng: Vec3,
     /// Unit shading normal, on the same side as `ng`.
     pub ns: Vec3,
@@ -405,8 +408,11 @@ impl Scene {
                         t.iter().for_each(|c| h.update(c.to_bits().to_le_bytes()));
                     }
                 }
-                Geometry::Sphere { center, radius, frame } => {
+                Geometry::Sphere { center, radius, frame, inward } => {
                     h.update(format!("sphere {center:?} {radius:?}"));
+                    if *inward {
+                        h.update(" inward");
+                    }
                     if let Some(f) = frame {
                         h.update(format!(" frame {f:?}"));
                     }
@@ -815,7 +821,7 @@ impl Scene {
     fn dp_duv(&self, si: &SurfaceHit) -> (Vec3, Vec3) {
         match &self.shapes[si.shape as usize].geometry {
             Geometry::Mesh(m) => m.dp_duv(si.prim as usize),
-            Geometry::Sphere { center, radius, frame } => sphere_dp_duv(*center, *radius, *frame, si.p),
+            Geometry::Sphere { center, radius, frame, .. } => sphere_dp_duv(*center, *radius, *frame, si.p),
         }
     }
 
@@ -862,7 +868,7 @@ impl Scene {
         }
     }
 
-    /// Radiance the surface at `si` emits towards `wo` (front side of triangles, outside of spheres).
+    /// Radiance the surface at `si` emits towards `wo` (the front of its geometric normal).
     pub fn emitted(&self, si: &SurfaceHit, wo: Vec3) -> crate::color::Rgb {
         let e = self.shapes[si.shape as usize].emission;
         if e != crate::color::Rgb::ZERO && wo.dot(si.ng) > 0.0 {
@@ -930,11 +936,12 @@ impl Scene {
                 let uv = if textured { m.uv_at(prim as usize, [u, v]) } else { glam::Vec2::ZERO };
                 SurfaceHit { p, ng, ns, shape, prim, scale, uv }
             }
-            Geometry::Sphere { center, radius, frame } => {
+            Geometry::Sphere { center, radius, frame, inward } => {
                 let p = ray.at(t);
                 let n = (p - *center).normalize();
                 let p = *center + n * *radius;
                 let uv = if textured { sphere_uv_at(*frame, n) } else { glam::Vec2::ZERO };
+                let n = if *inward { -n } else { n };
                 SurfaceHit { p, ng: n, ns: n, shape, prim, scale: *radius, uv }
             }
         }

@@ -628,12 +628,19 @@ impl<'a> Cx<'a> {
                 flip_normals,
             },
             "sphere" => {
-                if flip_normals {
-                    return Err(n.error("flip_normals on a sphere is not supported"));
-                }
                 let center = p.point("center")?.unwrap_or([0.0; 3]);
                 let radius = p.float("radius")?.unwrap_or(1.0);
-                ShapeSpec::Sphere { center, radius, material, transform, emission }
+                // Mitsuba turns a sphere's normals inward under its own mirroring to_world, as
+                // `flip_normals` does (and a mirror undoes a `flip_normals`).
+                inside_out = mirrors;
+                ShapeSpec::Sphere {
+                    center,
+                    radius,
+                    material,
+                    transform,
+                    emission,
+                    flip_normals: flip_normals ^ mirrors,
+                }
             }
             "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals)?,
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
@@ -661,16 +668,15 @@ impl<'a> Cx<'a> {
     /// does not (caustica keeps a mirrored surface's normals transformed as normals; measured in README
     /// "Not done"). A mesh whose file carries vertex normals keeps them outward in Mitsuba while its
     /// faces' normals turn inward (the winding kept), which swaps its media (a `cube` is such a mesh);
-    /// a sphere's normals turn inward; a cylinder rebuilds its frame without the mirror. Rectangles and
-    /// disks turn their normals as caustica does; meshes Mitsuba renders inside out are turned inside
-    /// out here too (`placed_shape`).
+    /// a cylinder rebuilds its frame without the mirror. Rectangles and disks turn their normals as
+    /// caustica does; meshes Mitsuba renders inside out, and spheres, whose normals Mitsuba turns
+    /// inward, are turned here too (`placed_shape`).
     fn mirror_warning(&mut self, n: &Node, has_media: bool) {
         let what = match n.attr("type").unwrap_or("") {
             "obj" | "ply" | "serialized" | "cube" if has_media => {
                 "Mitsuba keeps the triangles' winding, so its geometric normals turn inward (its shading normals \
                  do not) and it swaps the interior and exterior media"
             }
-            "sphere" => "Mitsuba turns the sphere's normals inward (as flip_normals would)",
             "cylinder" => "Mitsuba's cylinder rebuilds its frame without the mirror and shades differently",
             _ => return,
         };
