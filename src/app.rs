@@ -274,7 +274,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
     };
     println!("camera      {}×{}{window}", scene.camera.width, scene.camera.height);
     println!("shapes      {} ({} triangles, {} analytic spheres)", scene.shapes.len(), tris, spheres);
-    for s in &scene.shapes {
+    for (i, s) in scene.shapes.iter().enumerate() {
         let kind = match &s.geometry {
             Geometry::Mesh(m) => {
                 let colours = match (m.colors.is_some(), m.face_colors.is_some()) {
@@ -294,8 +294,15 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             .filter(|(_, sigma)| *sigma != glam::Vec3::ZERO)
             .map(|(side, sigma)| format!("{side}: σ {:?}", sigma.to_array()))
             .collect();
-        let absorbs =
-            if sides.is_empty() { String::new() } else { format!(" (absorbs {} per unit)", sides.join(", ")) };
+        // A shape that bounds no medium but lies in one (`scene::immersed`).
+        let round = scene.absorption.get(i).map_or(glam::Vec3::ZERO, |s| s[0]);
+        let absorbs = if !sides.is_empty() {
+            format!(" (absorbs {} per unit)", sides.join(", "))
+        } else if round != glam::Vec3::ZERO {
+            format!(" (lies in a medium: σ {:?} per unit round it)", round.to_array())
+        } else {
+            String::new()
+        };
         println!(
             "  {:<12} {:<36} material {:<10} area {:.4}{}{}",
             s.name,

@@ -74,6 +74,7 @@ fn clone_scene(s: &Scene) -> Scene {
         load_seconds: 0.0,
         see_through: s.see_through.clone(),
         absorption: s.absorption.clone(),
+        warnings: s.warnings.clone(),
     }
 }
 

@@ -1,5 +1,6 @@
 //! O(n) reference tracer: every triangle and sphere tested for every ray. Slow and obviously right.
 use super::{sphere_root, Hit, Tracer};
+use crate::math::triangle_hit as tri_hit;
 use crate::math::Ray;
 use crate::scene::{Geometry, Scene};
 use glam::Vec3;
@@ -25,32 +26,6 @@ impl Brute {
         }
         Brute { tris, spheres }
     }
-}
-
-/// Möller–Trumbore in f64: (t, u, v).
-fn tri_hit(r: &Ray, [a, b, c]: [Vec3; 3]) -> Option<(f32, f32, f32)> {
-    let (o, d) = (r.o.as_dvec3(), r.d.as_dvec3());
-    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
-    let e1 = b - a;
-    let e2 = c - a;
-    let p = d.cross(e2);
-    let det = e1.dot(p);
-    if det == 0.0 {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = o - a;
-    let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = d.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
-    }
-    let t = e2.dot(q) * inv;
-    Some((t as f32, u as f32, v as f32))
 }
 
 impl Tracer for Brute {

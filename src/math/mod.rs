@@ -139,6 +139,44 @@ pub fn sphere_root(o: [f32; 3], d: [f32; 3], c: [f32; 3], r: f32, tmin: f32, tma
     [t0, t1].into_iter().map(|t| t as f32).find(|&t| t > tmin && t < tmax)
 }
 
+/// Möller–Trumbore in f64 (the brute-force tracer and the loader's look for the media round a shape
+/// share it): the hit of `r`'s line with triangle abc as (t, u, v), p = (1−u−v)·a + u·b + v·c, t
+/// unchecked against the ray's range.
+pub fn triangle_hit(r: &Ray, [a, b, c]: [Vec3; 3]) -> Option<(f32, f32, f32)> {
+    let (o, d) = (r.o.as_dvec3(), r.d.as_dvec3());
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - a;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    Some((t as f32, u as f32, v as f32))
+}
+
+/// Whether `r` meets the box [lo, hi] within its range (the slab test).
+pub fn ray_meets_box(r: &Ray, (lo, hi): (Vec3, Vec3)) -> bool {
+    let inv = r.d.recip();
+    let (t0, t1) = ((lo - r.o) * inv, (hi - r.o) * inv);
+    // NaN (a zero direction component on a slab's plane) counts as meeting it.
+    let near = t0.min(t1).max_element().max(r.tmin);
+    let far = t0.max(t1).min_element().min(r.tmax);
+    near.is_nan() || far.is_nan() || near <= far
+}
+
 /// |v|: f32's own `length` wherever its square fits in f32, else worked out in f64 (components beyond
 /// about 1e19 square past f32::MAX, and a triangle's area, say, would read infinite).
 #[inline]

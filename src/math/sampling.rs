@@ -47,6 +47,11 @@ pub fn uniform_cone(u: [f32; 2], one_minus_cos_max: f32) -> Vec3 {
 }
 
 /// Uniform barycentrics on a triangle: returns (b1, b2) for p = (1 − b1 − b2) v0 + b1 v1 + b2 v2.
+/// Point `k` of an `n`-point Hammersley set in the unit square (stratified in the first coordinate).
+pub fn hammersley(k: usize, n: usize) -> [f32; 2] {
+    [(k as f32 + 0.5) / n as f32, (k as u32).reverse_bits() as f32 / 4_294_967_296.0]
+}
+
 pub fn uniform_triangle(u: [f32; 2]) -> [f32; 2] {
     let su = u[0].sqrt();
     [1.0 - su, u[1] * su]

@@ -10,6 +10,7 @@
 //! number of photons shot up to the batch in which it reached its requested size.
 use crate::accel::Tracer;
 use crate::color::Rgb;
+use crate::math::sampling::hammersley;
 use crate::math::{face_forward, max_component, offset_ray_origin, sampling, Ray, Rng};
 use crate::photon::photon::{with_events, Photon};
 use crate::scene::{Geometry, Scene, TransportMode};
@@ -95,11 +96,6 @@ const AIM_PILOT: u64 = 1 << 14;
 const AIM_PILOT_PRIOR: f64 = 16.0;
 /// Fewest stored pilot photons that say anything about the targets' yields.
 const AIM_PILOT_MIN_STORED: f64 = 64.0;
-
-/// Point `k` of an `n`-point Hammersley set in the unit square (stratified in the first coordinate).
-fn hammersley(k: usize, n: usize) -> [f32; 2] {
-    [(k as f32 + 0.5) / n as f32, (k as u32).reverse_bits() as f32 / 4_294_967_296.0]
-}
 
 /// Specular surfaces that caustic photons are aimed at. A point is drawn in two steps (a target shape,
 /// then one of its triangles, each by precomputed shares), with density over the targets' area

@@ -41,7 +41,7 @@ pub fn load_scene_with(path: &Path, overrides: &[String]) -> Result<Scene, Scene
     let file = parse_scene_text(&text, &shown, overrides)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut scene = build(file, &shown, &dir)?;
-    for w in crate::scene::contact::coplanar_contacts(&scene) {
+    for w in scene.warnings.iter().cloned().chain(crate::scene::contact::coplanar_contacts(&scene)) {
         eprintln!("warning: {shown}: {w}");
     }
     scene.path = path.to_path_buf();
@@ -254,9 +254,18 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         load_seconds: 0.0,
         see_through: Vec::new(),
         absorption: Vec::new(),
+        warnings: Vec::new(),
     };
     scene.see_through = scene.see_through_shapes();
     scene.absorption = scene.absorbing_shapes();
+    // A shape that bounds no medium lies in the one round it, on both of its sides (`immersed`).
+    let (round, warnings) = crate::scene::immersed::surrounding_media(&scene);
+    for (sides, sigma) in scene.absorption.iter_mut().zip(round) {
+        if sigma != Rgb::ZERO {
+            *sides = [sigma; 2];
+        }
+    }
+    scene.warnings = warnings;
     scene.lights = Lights::build(&scene, &points, &distant, env);
     let keys: Vec<String> = env_key.into_iter().chain(distant_keys).chain(point_keys).collect();
     let env_file = file.lights.iter().find_map(|l| match l {

@@ -3,6 +3,7 @@ pub mod camera;
 pub mod contact;
 pub mod env;
 pub mod file;
+pub mod immersed;
 pub mod light;
 pub mod load;
 pub mod material;
@@ -192,6 +193,9 @@ pub struct Scene {
     /// (`SurfaceMaterial::absorption`, `absorption_outside`); empty when no shape's sides absorb, so
     /// that scenes without coloured glass pay one test per segment.
     pub absorption: Vec<[Rgb; 2]>,
+    /// What the loader found worth saying about the scene (a shape partly in a medium), each naming
+    /// the shape; printed once at load.
+    pub warnings: Vec<String>,
 }
 
 /// e^(−σ·len) per channel, 1 where σ is 0 (also over an infinite length), out of line.

@@ -25,6 +25,7 @@ pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
         load_seconds: 0.0,
         see_through: Vec::new(),
         absorption: Vec::new(),
+        warnings: Vec::new(),
     }
 }
 
