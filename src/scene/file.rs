@@ -310,6 +310,12 @@ pub enum MaterialSpec {
         material: String,
         #[serde(default)]
         two_sided: bool,
+        /// Turn the bent normal to the back of the surface's geometric normal rather than its front, as
+        /// Mitsuba's `bumpmap` does on a shape whose `to_world` mirrors (its geometric normal turned
+        /// inward there, its shading normal not): the material then lets light only where the bumps
+        /// are steep, at grazing angles, and is black elsewhere. The Mitsuba import sets it.
+        #[serde(default, skip_serializing_if = "is_false")]
+        to_back: bool,
     },
     /// Mitsuba's `principled` BSDF (Burley's "Disney" model as Mitsuba 3 writes it): `base_color` (a
     /// colour or a texture, default ½) and `roughness` (a number or a texture read by luminance,

@@ -911,14 +911,14 @@ fn apply_normal_maps(
                 material,
                 two_sided,
             ),
-            MaterialSpec::Bumpmap { height, scale, material, two_sided } => {
+            MaterialSpec::Bumpmap { height, scale, material, two_sided, to_back } => {
                 let t = texture_named(cx, &format!("{key}.height"), height, textures)?;
                 if textures.list[t as usize].gradient(glam::Vec2::ZERO).is_none() {
                     let msg =
                         format!("`{height}` has no gradient to bend the normal by (a bump map's height is a bitmap)");
                     return Err(cx.err(&format!("{key}.height"), msg));
                 }
-                (NormalMap::Bump { height: t, scale: *scale }, material, two_sided)
+                (NormalMap::Bump { height: t, scale: *scale, to_back: *to_back }, material, two_sided)
             }
             _ => continue,
         };

@@ -317,8 +317,9 @@ pub enum NormalMap {
     Image(u32),
     /// A bump map (Mitsuba's `bumpmap`): the surface displaced along the shading normal by `scale`
     /// times the height texture's value (read by luminance), of which only the gradient counts
-    /// (`bump_frame`).
-    Bump { height: u32, scale: f32 },
+    /// (`bump_frame`). `to_back`: the bent normal is turned to the back of the geometric normal (as
+    /// Mitsuba's `bumpmap` turns it on a shape whose `to_world` mirrors), not its front.
+    Bump { height: u32, scale: f32, to_back: bool },
 }
 
 impl NormalMap {

@@ -778,9 +778,9 @@ impl Scene {
             let tangent;
             (mapped.normal, tangent) = match map {
                 material::NormalMap::Image(t) => (self.mapped_normal(t, si, s), s),
-                material::NormalMap::Bump { height, scale } => {
+                material::NormalMap::Bump { height, scale, to_back } => {
                     let g = self.textures[height as usize].gradient(si.uv).unwrap_or(glam::Vec2::ZERO) * scale;
-                    bump_frame(si.ng, si.ns, s, dp_du, dp_dv, g)
+                    bump_frame(if to_back { -si.ng } else { si.ng }, si.ns, s, dp_du, dp_dv, g)
                 }
             };
             let bsdf = Material::Mapped(mapped);

@@ -645,8 +645,12 @@ impl<'a> Cx<'a> {
             "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals)?,
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
         };
+        let mut spec = spec;
         if mirrors && !inside_out {
-            self.mirror_warning(n, has_media);
+            let bumped = self.mirrored_bump(n, &mut spec);
+            if !bumped {
+                self.mirror_warning(n, has_media);
+            }
         }
         p.finish(
             "to_world, filename, face_normals, flip_normals, shape_index, center, radius, p0, p1, a bsdf or <ref>, an area emitter",
@@ -662,6 +666,38 @@ impl<'a> Cx<'a> {
         // A file that does not load is reported when the scene loads; no turn is decided from it.
         crate::scene::mesh::load_mesh_file(&path, file, true, shape_index)
             .map_or(true, |meshes| meshes.iter().all(|m| m.mesh.normals.is_some()))
+    }
+
+    /// A bump map on a shape whose own `to_world` mirrors and whose geometric normal Mitsuba 3.9.1 turns
+    /// inward while its shading normal stays out (a rectangle, a cube, a mesh with vertex normals: the
+    /// mirrored frame's or the kept winding's cross product). Its `bumpmap` turns the bumped normal to
+    /// that geometric normal, against the shading normal, and lets light only in directions on the same
+    /// side of both: the surface is black from both sides but where its bumps are steep, at grazing
+    /// angles. The import gives the shape a copy of the material with the bent normal turned to the back
+    /// (`to_back`), which renders it so, and says so, naming the line. True when it did.
+    fn mirrored_bump(&mut self, n: &Node, spec: &mut ShapeSpec) -> bool {
+        let material = match spec {
+            ShapeSpec::Mesh { material: Some(m), .. }
+            | ShapeSpec::Quad { material: m, .. }
+            | ShapeSpec::Box { material: m, .. } => m,
+            _ => return false,
+        };
+        let Some(mut copy @ MaterialSpec::Bumpmap { .. }) = self.file.materials.get(material.as_str()).cloned() else {
+            return false;
+        };
+        self.warnings.push(format!(
+            "{}: line {}: a bump map on a shape whose to_world mirrors: Mitsuba turns the bumped normal to the \
+             geometric normal, which its mirror turns inward while the shading normal stays out, so the surface \
+             is black from both sides but where its bumps are steep; caustica renders it so too",
+            n.file.display(),
+            n.line
+        ));
+        if let MaterialSpec::Bumpmap { to_back, .. } = &mut copy {
+            *to_back = true;
+        }
+        *material = format!("{material}+mirrored");
+        self.file.materials.insert(material.clone(), copy);
+        true
     }
 
     /// Warns of a shape whose own `to_world` mirrors where Mitsuba 3.9.1 turns the surface and caustica
@@ -998,7 +1034,7 @@ impl<'a> Cx<'a> {
         }
         // Inside `twosided`, the back is the front's mirror image, normal map and all.
         Ok(if bump {
-            MaterialSpec::Bumpmap { height: texture, scale, material, two_sided }
+            MaterialSpec::Bumpmap { height: texture, scale, material, two_sided, to_back: false }
         } else {
             MaterialSpec::Normalmap { normal_map: texture, material, two_sided }
         })
