@@ -119,15 +119,12 @@ fn an_emitting_smooth_mesh_is_warned_of() {
         (format!(r#"<shape type="sphere">{emitter}</shape>"#), 0),
     ];
     for (k, (shape, want)) in cases.iter().enumerate() {
-        let sensor = sensor_at_z2(8);
-        let text = format!("<scene version=\"3.0.0\">\n{sensor}\n{shape}\n</scene>");
-        let line = 2 + sensor.lines().count();
-        let xml = write(&d, &format!("case{k}.xml"), &text);
+        let (xml, at) = case_scene(&d, k, None, shape);
         let converted = caustica::scene::mitsuba::convert(&xml).unwrap();
         let said: Vec<&String> = converted.warnings.iter().filter(|w| w.contains("smooth-shaded mesh")).collect();
         assert_eq!(said.len(), *want, "case {k}: {:?}", converted.warnings);
         if let Some(w) = said.first() {
-            assert!(w.contains(&format!("case{k}.xml: line {line}")) && w.contains("face_normals"), "{w}");
+            assert!(w.contains(&at) && w.contains("face_normals"), "{w}");
         }
     }
     let _ = std::fs::remove_dir_all(d);
@@ -171,10 +168,7 @@ fn a_bump_map_on_a_mirrored_shape_is_turned_to_its_back() {
         (format!(r#"<shape type="ply">{ply}{mirror}{bump}</shape>"#), true),
     ];
     for (k, (shape, back)) in cases.iter().enumerate() {
-        let sensor = sensor_at_z2(8);
-        let text = format!("<scene version=\"3.0.0\">\n<integrator type=\"path\"/>\n{sensor}\n{shape}\n</scene>");
-        let line = 3 + sensor.lines().count();
-        let xml = write(&d, &format!("case{k}.xml"), &text);
+        let (xml, at) = case_scene(&d, k, Some("path"), shape);
         let converted = caustica::scene::mitsuba::convert(&xml).unwrap();
         let said: Vec<&String> = converted.warnings.iter().filter(|w| w.contains("a bump map")).collect();
         let material = match converted.file.shapes.last() {
@@ -190,7 +184,7 @@ fn a_bump_map_on_a_mirrored_shape_is_turned_to_its_back() {
         assert_eq!(to_back, back, "case {k}");
         if *back {
             assert_eq!(said.len(), 1, "case {k}: {:?}", converted.warnings);
-            assert!(said[0].contains(&format!("case{k}.xml: line {line}")), "case {k}: {}", said[0]);
+            assert!(said[0].contains(&at), "case {k}: {}", said[0]);
         } else {
             assert!(said.is_empty(), "case {k}: {said:?}");
         }
@@ -248,11 +242,7 @@ fn a_shape_partly_in_a_medium_or_an_open_medium_is_warned_of() {
         ),
     ];
     for (k, (shapes, want)) in cases.iter().enumerate() {
-        let sensor = sensor_at_z2(8);
-        let text = format!(
-            "<scene version=\"3.0.0\">\n<integrator type=\"volpath\"/>\n{sensor}\n{light}\n{water}\n{shapes}\n</scene>"
-        );
-        let xml = write(&d, &format!("case{k}.xml"), &text);
+        let (xml, _) = case_scene(&d, k, Some("volpath"), &format!("{light}\n{water}\n{shapes}"));
         let scene = load_scene_with(&xml, &[]).unwrap_or_else(|e| panic!("case {k}: {e}"));
         if want.is_empty() {
             assert!(scene.warnings.is_empty(), "case {k}: {:?}", scene.warnings);
@@ -359,22 +349,14 @@ fn a_mirroring_transform_turns_a_mesh_as_mitsuba_does_or_is_warned_of() {
         ("path", group(mesh("ball.ply", &format!("{flat}{mirror}")), ""), "", Some(true)),
     ];
     for (k, (integrator, shape, want, flipped)) in cases.iter().enumerate() {
-        let sensor = sensor_at_z2(8);
-        let text =
-            format!("<scene version=\"3.0.0\">\n<integrator type=\"{integrator}\"/>\n{sensor}\n{shape}\n</scene>");
-        let line = 3 + sensor.lines().count();
-        let xml = write(&d, &format!("case{k}.xml"), &text);
+        let (xml, at) = case_scene(&d, k, Some(integrator), shape);
         let converted = caustica::scene::mitsuba::convert(&xml).unwrap();
         let said: Vec<&String> = converted.warnings.iter().filter(|w| w.contains("mirroring to_world")).collect();
         if want.is_empty() {
             assert!(said.is_empty(), "case {k}: {said:?}");
         } else {
             assert_eq!(said.len(), 1, "case {k}: {:?}", converted.warnings);
-            assert!(
-                said[0].contains(&format!("case{k}.xml: line {line}")) && said[0].contains(want),
-                "case {k}: {}",
-                said[0]
-            );
+            assert!(said[0].contains(&at) && said[0].contains(want), "case {k}: {}", said[0]);
         }
         if let Some(f) = flipped {
             match converted.file.shapes.last() {
@@ -1269,6 +1251,17 @@ fn panel_with(from: &str, to: &str) -> String {
 }
 
 /// A camera at z = 2 looking at the origin (fov 30°), `res`² pixels, box filter.
+/// Case `k` of a test: a scene of `integrator` (none: Mitsuba's default) holding `sensor_at_z2(8)` and
+/// then `body`, written in `d` as `caseK.xml`. Returns its path and where `body` starts, as a warning
+/// names it ("caseK.xml: line L").
+fn case_scene(d: &Path, k: usize, integrator: Option<&str>, body: &str) -> (PathBuf, String) {
+    let sensor = sensor_at_z2(8);
+    let head = integrator.map_or(String::new(), |i| format!("<integrator type=\"{i}\"/>\n"));
+    let text = format!("<scene version=\"3.0.0\">\n{head}{sensor}\n{body}\n</scene>");
+    let line = 2 + head.lines().count() + sensor.lines().count();
+    (write(d, &format!("case{k}.xml"), &text), format!("case{k}.xml: line {line}"))
+}
+
 fn sensor_at_z2(res: u32) -> String {
     format!(
         r#"<sensor type="perspective"><float name="fov" value="30"/>
