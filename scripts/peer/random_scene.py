@@ -37,7 +37,8 @@ clipping planes (a near plane that cuts into the scene, a far plane) for about t
 a third of the spots turned into projectors; an absorbing interior medium (coloured glass, rendered by
 volpath) in four in five closed shapes of smooth or rough glass; a mirroring scale (-1 along one axis)
 on a fourth of the rectangles, disks, cubes and meshes without media; flip_normals, a mirroring
-scale or both on half the spheres that neither emit nor hold a medium.
+scale or both on half the spheres that neither emit nor hold a medium; a ball in diffuse colour, rough
+gold or clear glass at the centre of half the spheres, cubes and PLY balls with a medium.
 """
 import argparse
 import os
@@ -763,6 +764,39 @@ if args.more:
         return body
 
     text = re.sub(r'<shape type="(\w+)">(?:(?!</shape>).)*</shape>', inside_out, text)
+    # Shapes inside a medium (session 63), from a twenty-fourth stream, last: in half the spheres, cubes
+    # and PLY balls with an interior medium, a ball at their centre of 0.35 their smallest half-size, in
+    # diffuse colour, rough gold or clear glass (no medium of its own: it lies in the shape's, as a
+    # diffuse one does, on both of its sides).
+    G = random.Random(args.seed * 6007 + 67)
+
+    def immersed(m):
+        body = m.group(0)
+        if m.group(1) not in ("sphere", "cube", "ply") or 'name="interior"' not in body or G.random() >= 0.5:
+            return body
+        num = r"(-?[\d.e+-]+)"
+        if m.group(1) == "sphere":
+            c = re.search(rf'<point name="center" x="{num}" y="{num}" z="{num}"/>', body)
+            r = re.search(rf'<float name="radius" value="{num}"/>', body)
+            if not c or not r:
+                return body
+            centre, size = [float(v) for v in c.groups()], float(r.group(1))
+        else:
+            sc = re.search(rf'<scale x="{num}" y="{num}" z="{num}"/>', body)
+            t = re.search(rf'<translate x="{num}" y="{num}" z="{num}"/>', body)
+            if not sc or not t:
+                return body
+            centre, size = [float(v) for v in t.groups()], min(abs(float(v)) for v in sc.groups())
+        inner = G.choice([
+            f'<bsdf type="diffuse"><rgb name="reflectance" value="{", ".join(f(G.uniform(0.2, 0.9)) for _ in range(3))}"/></bsdf>',
+            f'<bsdf type="roughconductor"><string name="material" value="Au"/><float name="alpha" value="{f(G.uniform(0.05, 0.4))}"/></bsdf>',
+            '<bsdf type="dielectric"><float name="int_ior" value="1.5"/></bsdf>',
+        ])
+        ball = (f'<shape type="sphere"><point name="center" x="{f(centre[0])}" y="{f(centre[1])}" z="{f(centre[2])}"/>'
+                f'<float name="radius" value="{f(0.35 * size)}"/>{inner}</shape>')
+        return body + "\n" + ball
+
+    text = re.sub(r'<shape type="(\w+)">(?:(?!</shape>).)*</shape>', immersed, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
