@@ -561,7 +561,7 @@ impl<'a> Cx<'a> {
         let has_media = material != unmediated;
         // Set where the import turns a mirrored mesh inside out as Mitsuba renders it (no warning then).
         let mut inside_out = false;
-        let spec = match n.attr("type").unwrap_or("") {
+        let mut spec = match n.attr("type").unwrap_or("") {
             kind @ ("obj" | "ply" | "serialized") => {
                 let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
                 let face_normals = p.boolean("face_normals")?.unwrap_or(false);
@@ -645,12 +645,9 @@ impl<'a> Cx<'a> {
             "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals)?,
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
         };
-        let mut spec = spec;
         if mirrors && !inside_out {
-            let bumped = self.mirrored_bump(n, &mut spec);
-            if !bumped {
-                self.mirror_warning(n, has_media);
-            }
+            self.mirrored_bump(n, &mut spec);
+            self.mirror_warning(n, has_media);
         }
         p.finish(
             "to_world, filename, face_normals, flip_normals, shape_index, center, radius, p0, p1, a bsdf or <ref>, an area emitter",
@@ -674,16 +671,16 @@ impl<'a> Cx<'a> {
     /// that geometric normal, against the shading normal, and lets light only in directions on the same
     /// side of both: the surface is black from both sides but where its bumps are steep, at grazing
     /// angles. The import gives the shape a copy of the material with the bent normal turned to the back
-    /// (`to_back`), which renders it so, and says so, naming the line. True when it did.
-    fn mirrored_bump(&mut self, n: &Node, spec: &mut ShapeSpec) -> bool {
+    /// (`to_back`), which renders it so, and says so, naming the line.
+    fn mirrored_bump(&mut self, n: &Node, spec: &mut ShapeSpec) {
         let material = match spec {
             ShapeSpec::Mesh { material: Some(m), .. }
             | ShapeSpec::Quad { material: m, .. }
             | ShapeSpec::Box { material: m, .. } => m,
-            _ => return false,
+            _ => return,
         };
         let Some(mut copy @ MaterialSpec::Bumpmap { .. }) = self.file.materials.get(material.as_str()).cloned() else {
-            return false;
+            return;
         };
         self.warnings.push(format!(
             "{}: line {}: a bump map on a shape whose to_world mirrors: Mitsuba turns the bumped normal to the \
@@ -697,7 +694,6 @@ impl<'a> Cx<'a> {
         }
         *material = format!("{material}+mirrored");
         self.file.materials.insert(material.clone(), copy);
-        true
     }
 
     /// Warns of a shape whose own `to_world` mirrors where Mitsuba 3.9.1 turns the surface and caustica
