@@ -46,8 +46,9 @@ struct Node {
 /// The boundaries' surfaces, for the first one a ray meets: their triangles (corners and shape) under a
 /// bounding-volume hierarchy split at the median of the longest axis (a glass dragon's 871k triangles
 /// take some 20 box tests a ray, where a scan of them all took seconds for a few hundred shapes), and
-/// their spheres (centre, radius, normals inward, shape), scanned.
+/// their spheres (centre, radius, normals inward, shape), scanned; and each boundary's bounds.
 struct Boundaries {
+    boxes: Vec<(usize, (Vec3, Vec3))>,
     tris: Vec<([Vec3; 3], u32)>,
     nodes: Vec<Node>,
     spheres: Vec<(Vec3, f32, bool, u32)>,
@@ -58,12 +59,12 @@ const LEAF: usize = 4;
 
 impl Boundaries {
     fn new(scene: &Scene) -> Boundaries {
-        let mut tris = Vec::new();
-        let mut spheres = Vec::new();
+        let (mut boxes, mut tris, mut spheres) = (Vec::new(), Vec::new(), Vec::new());
         for (i, sides) in scene.absorption.iter().enumerate() {
             if *sides == [Rgb::ZERO; 2] {
                 continue;
             }
+            boxes.push((i, scene.shapes[i].geometry.bounds()));
             match &scene.shapes[i].geometry {
                 Geometry::Mesh(m) => tris.extend((0..m.indices.len()).map(|k| (m.triangle(k), i as u32))),
                 Geometry::Sphere { center, radius, inward, .. } => spheres.push((*center, *radius, *inward, i as u32)),
@@ -73,7 +74,7 @@ impl Boundaries {
         if !tris.is_empty() {
             Self::build(&mut nodes, &mut tris, 0);
         }
-        Boundaries { tris, nodes, spheres }
+        Boundaries { boxes, tris, nodes, spheres }
     }
 
     /// Builds the node over `tris` (which start at `first` in the whole list) and its subtree; returns
@@ -178,10 +179,6 @@ pub fn surrounding_media(scene: &Scene) -> (Vec<Rgb>, Vec<String>) {
         return (Vec::new(), Vec::new());
     }
     let boundaries = Boundaries::new(scene);
-    let boxes: Vec<(usize, (Vec3, Vec3))> = (scene.absorption.iter().enumerate())
-        .filter(|(_, s)| **s != [Rgb::ZERO; 2])
-        .map(|(i, _)| (i, scene.shapes[i].geometry.bounds()))
-        .collect();
     let dirs = directions();
     let slack = Vec3::splat(scene.diagonal() * 1e-6);
     // (σ round the shape, points that disagree, points looked from), past the shape itself.
@@ -192,7 +189,7 @@ pub fn surrounding_media(scene: &Scene) -> (Vec<Rgb>, Vec<String>) {
             let near = |&(j, (blo, bhi)): &(usize, (Vec3, Vec3))| {
                 j != i && (lo - slack).cmple(bhi).all() && (hi + slack).cmpge(blo).all()
             };
-            if !boxes.iter().any(near) {
+            if !boundaries.boxes.iter().any(near) {
                 return (Rgb::ZERO, 0, 0);
             }
             let votes: Vec<Rgb> = spread_points(&scene.shapes[i].geometry, POINTS)
@@ -275,28 +272,26 @@ fn outer_side(g: &Geometry) -> Option<usize> {
 /// position, geometric normal and the primitive's size (for the ray offset); none on a mesh without
 /// triangles.
 fn spread_points(g: &Geometry, n: usize) -> Vec<(Vec3, Vec3, f32)> {
-    let areas: Vec<f32> = match g {
-        Geometry::Mesh(m) => (0..m.indices.len()).map(|k| m.area(k)).collect(),
+    let cdf: Vec<f32> = match g {
+        Geometry::Mesh(m) => (0..m.indices.len())
+            .scan(0.0f32, |acc, k| {
+                *acc += m.area(k);
+                Some(*acc)
+            })
+            .collect(),
         Geometry::Sphere { .. } => vec![1.0],
     };
-    if areas.is_empty() {
+    if cdf.is_empty() {
         return Vec::new();
     }
-    let total: f64 = areas.iter().map(|&a| a as f64).sum();
-    let mut out = Vec::with_capacity(n);
-    let (mut k, mut acc) = (0usize, 0.0f64);
-    for j in 0..n {
-        // The (j + ½)/n-th quantile of the area, and a stratified point within its primitive.
-        let target = (j as f64 + 0.5) / n as f64 * total;
-        while k + 1 < areas.len() && acc + areas[k] as f64 <= target {
-            acc += areas[k] as f64;
-            k += 1;
-        }
-        let u = crate::math::sampling::hammersley(j, n);
-        let sp = g.point(k, u);
-        out.push((sp.p, sp.n, sp.size));
-    }
-    out
+    (0..n)
+        .map(|j| {
+            // The primitive at the (j + ½)/n-th quantile of the area, and a stratified point within it.
+            let (k, _) = crate::math::sampling::sample_cdf(&cdf, (j as f32 + 0.5) / n as f32);
+            let sp = g.point(k, crate::math::sampling::hammersley(j, n));
+            (sp.p, sp.n, sp.size)
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -320,7 +315,7 @@ mod tests {
         let mut nodes = Vec::new();
         let mut built = tris.clone();
         Boundaries::build(&mut nodes, &mut built, 0);
-        let b = Boundaries { tris: built, nodes, spheres: Vec::new() };
+        let b = Boundaries { boxes: Vec::new(), tris: built, nodes, spheres: Vec::new() };
         let mut hits = 0;
         for k in 0..2000u32 {
             let o = point() * 1.5;

@@ -626,24 +626,22 @@ impl Lights {
         let Some(off) = self.shape_offset[shape as usize] else {
             return 0.0;
         };
-        let geometry = &scene.shapes[shape as usize].geometry;
-        match geometry {
-            Geometry::Mesh(_) | Geometry::Sphere { inward: true, .. } => {
-                let (i, area) = match geometry {
-                    Geometry::Mesh(m) => ((off + prim) as usize, m.area(prim as usize)),
-                    _ => (off as usize, scene.shapes[shape as usize].area()),
-                };
-                let d = y - x;
-                let dist2 = d.length_squared();
-                let cos_l = (-d.normalize().dot(n)).max(0.0);
-                if cos_l == 0.0 || area == 0.0 {
-                    return 0.0;
-                }
-                self.choice_pdf(i) * dist2 / (cos_l * area)
+        // The light drawn by area (a triangle, a sphere whose normals face inward: `by_area`), and its area.
+        let (i, area) = match &scene.shapes[shape as usize].geometry {
+            Geometry::Mesh(m) => ((off + prim) as usize, m.area(prim as usize)),
+            Geometry::Sphere { inward: true, .. } => (off as usize, scene.shapes[shape as usize].area()),
+            Geometry::Sphere { center, radius, .. } => {
+                return visible_cone(*radius, (*center - x).length_squared())
+                    .map_or(0.0, |one_minus| self.choice_pdf(off as usize) / (2.0 * PI * one_minus))
             }
-            Geometry::Sphere { center, radius, .. } => visible_cone(*radius, (*center - x).length_squared())
-                .map_or(0.0, |one_minus| self.choice_pdf(off as usize) / (2.0 * PI * one_minus)),
+        };
+        let d = y - x;
+        let dist2 = d.length_squared();
+        let cos_l = (-d.normalize().dot(n)).max(0.0);
+        if cos_l == 0.0 || area == 0.0 {
+            return 0.0;
         }
+        self.choice_pdf(i) * dist2 / (cos_l * area)
     }
 
     /// A point on light `i`: position, normal (zero for point lights), area pdf (1 for point lights),
