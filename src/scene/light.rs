@@ -808,6 +808,25 @@ impl Lights {
         }
     }
 
+    /// Light `i`'s emission towards unit direction `w` over its own density of drawing `w`
+    /// (`direction_density`), up to a factor that is the same for every direction: 1 for a surface
+    /// (cosine over the cosine lobe) and a point light (uniform over uniform), a spot's falloff over its
+    /// cone's uniform density, a projector's 1/cos³ over its density, also as 1/cos³ (1 within its
+    /// rectangle); 0 where the light does not emit.
+    pub fn emission_over_density(&self, i: usize, w: Vec3) -> f32 {
+        match &self.list[i] {
+            LightKind::Point { spot: Some(s), .. } => {
+                let pdf = s.pdf(w);
+                if pdf > 0.0 {
+                    s.falloff(w) / (pdf * s.solid_angle())
+                } else {
+                    0.0
+                }
+            }
+            _ => 1.0,
+        }
+    }
+
     /// The colour a spot's projected texture gives its light towards direction `w` (inside its cone):
     /// the texture at `Spot::uv`; white for every other light.
     pub fn tint(&self, i: usize, w: Vec3) -> Rgb {
