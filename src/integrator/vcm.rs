@@ -1286,8 +1286,8 @@ mod tests {
     /// the ball equal those of the light's own emission, for a point light, a spot with a soft edge, a
     /// projector and a quad light. A projector's intensity and its density of directions both grow as
     /// 1/cos³ off its axis; aimed rays took the intensity's change alone, so those heading into the ball
-    /// (near the frustum's corner) carried 2.4 times their power, and every mode that aims light
-    /// subpaths (BDPT, VCM) read a glossy surface lit by a projector 5% dark (random scene 2075).
+    /// (off its axis) carried 1.95 times their power in all, and the modes that aim light subpaths
+    /// (BDPT, VCM) read a glossy disk's reflection of a projector 3–5% dark (random scene 2075).
     #[test]
     fn aiming_keeps_the_power_each_light_emits() {
         let lights = [
