@@ -699,11 +699,12 @@ impl Lights {
         }
         if let LightKind::Point { position, intensity, spot: Some(s) } = &self.list[i] {
             // A spot: uniform over its cone (or a projector's rectangle), each photon carrying
-            // I·falloff / (pdf · p_choice). Inside by construction (a direction rounded onto a cone's edge
-            // has zero falloff; a projector's edges are widened by a few ulps).
+            // I·falloff / (pdf · p_choice) (`emission_over_density`, which VCM's aim rescales by). Inside
+            // by construction (a direction rounded onto a cone's edge has zero falloff; a projector's
+            // edges are widened by a few ulps).
             let d = s.sample(u_dir);
             let pdf = s.sample_density(d);
-            let untinted = *intensity * (s.falloff(d) / (pdf * p_sel));
+            let untinted = *intensity * (self.emission_over_density(i, d) / p_sel);
             return Some(EmittedRay {
                 ray: Ray::new(*position, d),
                 phi: untinted * self.tint(i, d),
@@ -809,16 +810,16 @@ impl Lights {
     }
 
     /// Light `i`'s emission towards unit direction `w` over its own density of drawing `w`
-    /// (`direction_density`), up to a factor that is the same for every direction: 1 for a surface
-    /// (cosine over the cosine lobe) and a point light (uniform over uniform), a spot's falloff over its
-    /// cone's uniform density, a projector's 1/cos³ over its density, also as 1/cos³ (1 within its
-    /// rectangle); 0 where the light does not emit.
+    /// (`direction_density`): for a spot its falloff over its cone's uniform density, for a projector
+    /// its 1/cos³ over its density, also as 1/cos³ (its rectangle's area within it); for every other
+    /// light a constant, 1 (a surface's cosine over the cosine lobe, a point light's uniform over
+    /// uniform), as only its ratios between directions matter there; 0 where the light does not emit.
     pub fn emission_over_density(&self, i: usize, w: Vec3) -> f32 {
         match &self.list[i] {
             LightKind::Point { spot: Some(s), .. } => {
                 let pdf = s.pdf(w);
                 if pdf > 0.0 {
-                    s.falloff(w) / (pdf * s.solid_angle())
+                    s.falloff(w) / pdf
                 } else {
                     0.0
                 }
