@@ -3,7 +3,9 @@
 //! of a diffuse surface with a black mirror reflects exactly what a darker diffuse surface does, in
 //! every mode (the pick, the photons stored whatever a photon's own pick, the merges of VCM).
 mod common;
+
 use caustica::scene::{load_scene_str, SurfaceHit};
+use common::{MAP_CAUSTIC, MAP_INDIRECT, PASS_PHOTONS};
 use glam::{Vec2, Vec3};
 
 const BOX: &str = include_str!("../scenes/cornell-box.toml");
@@ -89,12 +91,6 @@ power = [10.0, 10.0, 10.0]
     let (si, wo) = hit(0, Vec2::ZERO);
     plain.pick_material(&si, wo, || panic!("a number drawn for a plain material"));
 }
-
-// The photon mappers' photons in the every-mode cases below: 40,000 a pass and 200,000 a map, not the
-// defaults' 100,000 and 500,000, for half the time (the bounds are unchanged).
-const PASS_PHOTONS: &str = "render.progressive.photons_per_pass=40000";
-const MAP_INDIRECT: &str = "render.photons.indirect=200000";
-const MAP_CAUSTIC: &str = "render.photons.caustic=200000";
 
 /// Mean of the image `mode` renders of `toml` (48 × 48 pixels, with `sets`): r + g + b.
 fn mean_in_mode(toml: &str, mode: &str, sets: &[&str]) -> f64 {

@@ -11,6 +11,8 @@
 //! Then: `convert` round trip, `<include>` and `$name`, 0.6 names, and refusals that name the line.
 mod common;
 
+use common::{MAP_CAUSTIC, MAP_INDIRECT, PASS_PHOTONS};
+
 use caustica::accel::Accel;
 use caustica::film::Image;
 use caustica::output::read_exr;
@@ -780,14 +782,6 @@ const EVERY_MODE: [(&str, &[&str], f64); 5] = [
     ("ppm", &["--passes", "64", "--set", PASS_PHOTONS], 0.015),
     ("photon_map", &["--set", "render.pm_spp=16", "--set", MAP_INDIRECT, "--set", MAP_CAUSTIC], 0.01),
 ];
-
-// The photon mappers' photons in these tests: 40,000 a pass and 200,000 a map, not the defaults'
-// 100,000 and 500,000, for half the time. Over the seventeen scenes of `EVERY_MODE` the largest
-// departure from Mitsuba's mean moved from 0.53% to 0.52% (SPPM), 0.46% to 0.47% (PPM) and 0.52% to
-// 0.65% (fixed PM); the bounds and the errors they catch (2% and more) are unchanged.
-const PASS_PHOTONS: &str = "render.progressive.photons_per_pass=40000";
-const MAP_INDIRECT: &str = "render.photons.indirect=200000";
-const MAP_CAUSTIC: &str = "render.photons.caustic=200000";
 
 /// `every_mode_means_match_mitsuba` with its own cases (mode, arguments, bound).
 fn every_mode_means_within(name: &str, cases: &[(&str, &[&str], f64)]) {

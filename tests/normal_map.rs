@@ -94,14 +94,9 @@ fn a_normal_mapped_scene_renders_alike_in_every_mode() {
         // The photon mappers at 128 passes of 40,000 photons, fixed PM's maps at 200,000 photons and 64
         // eye samples: a quarter of the time of 256 passes and the default photons, where blocks brighter
         // than 0.05 read within 2.6% of PT's (within 1.8% here).
-        ("sppm", &["render.progressive.passes=128", "render.progressive.photons_per_pass=40000"], 0.015, 0.08),
-        ("ppm", &["render.progressive.passes=128", "render.progressive.photons_per_pass=40000"], 0.02, 0.10),
-        (
-            "photon_map",
-            &["render.pm_spp=64", "render.photons.indirect=200000", "render.photons.caustic=200000"],
-            0.015,
-            0.08,
-        ),
+        ("sppm", &["render.progressive.passes=128", common::PASS_PHOTONS], 0.015, 0.08),
+        ("ppm", &["render.progressive.passes=128", common::PASS_PHOTONS], 0.02, 0.10),
+        ("photon_map", &["render.pm_spp=64", common::MAP_INDIRECT, common::MAP_CAUSTIC], 0.015, 0.08),
     ];
     let mut failed = Vec::new();
     for (mode, sets, mean_tol, block_tol) in cases {
