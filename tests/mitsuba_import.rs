@@ -221,7 +221,8 @@ fn shapes_inside_a_medium_xml_match_mitsuba() {
 /// floor that runs through a tank of coloured water (part of it in the water, part not), a sphere with
 /// `flip_normals` whose interior medium is then all the space outside it, and a ball whose exterior
 /// medium nothing encloses. A ball wholly in the water, liquid in a glass (`absorb.xml`) and
-/// `immersed.xml` load without a word.
+/// `immersed.xml` load without a word. A near clipping plane inside the water is warned of, one in
+/// front of it not.
 #[test]
 fn a_shape_partly_in_a_medium_or_an_open_medium_is_warned_of() {
     let d = tmp("immersed-warn");
@@ -256,6 +257,26 @@ fn a_shape_partly_in_a_medium_or_an_open_medium_is_warned_of() {
     for name in ["absorb", "immersed"] {
         let scene = load_scene_with(&dir().join(format!("{name}.xml")), &[]).unwrap();
         assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
+    }
+    // The camera at z = 2 with a near clipping plane at depth 1.7 (z = 0.3, inside the tank) or 1.0
+    // (z = 1, in front of it): only the first starts camera rays inside the ink (random scene 2406 of
+    // `--more --area-lights`:
+    // Mitsuba carries the sensor's medium along the path, caustica the ink's from the first scatter).
+    for (k, near, warned) in [(10, "1.7", true), (11, "1.0", false)] {
+        let (xml, _) = case_scene(&d, k, Some("volpath"), &format!("{light}\n{water}\n{tank}"));
+        let text = std::fs::read_to_string(&xml).unwrap();
+        let clip = format!(r#"<float name="fov" value="30"/><float name="near_clip" value="{near}"/>"#);
+        std::fs::write(&xml, text.replacen(r#"<float name="fov" value="30"/>"#, &clip, 1)).unwrap();
+        let scene = load_scene_with(&xml, &[]).unwrap_or_else(|e| panic!("near clip {near}: {e}"));
+        assert_eq!(scene.camera.clip[0], near.parse::<f32>().unwrap());
+        if warned {
+            assert_eq!(scene.warnings.len(), 1, "near clip {near}: {:?}", scene.warnings);
+            let w = &scene.warnings[0];
+            assert!(w.starts_with("the camera's near clipping plane lies inside a medium"), "{w}");
+            assert!(w.contains("at 64 of 64 points"), "{w}");
+        } else {
+            assert!(scene.warnings.is_empty(), "near clip {near}: {:?}", scene.warnings);
+        }
     }
     let _ = std::fs::remove_dir_all(d);
 }
