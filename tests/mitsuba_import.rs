@@ -260,8 +260,8 @@ fn a_shape_partly_in_a_medium_or_an_open_medium_is_warned_of() {
     }
     // The camera at z = 2 with a near clipping plane at depth 1.7 (z = 0.3, inside the tank) or 1.0
     // (z = 1, in front of it): only the first starts camera rays inside the ink (random scene 2406 of
-    // `--more --area-lights`:
-    // Mitsuba carries the sensor's medium along the path, caustica the ink's from the first scatter).
+    // `--more --area-lights`: Mitsuba carries the sensor's medium along the path, caustica the ink's
+    // from the first scatter).
     for (k, near, warned) in [(10, "1.7", true), (11, "1.0", false)] {
         let (xml, _) = case_scene(&d, k, Some("volpath"), &format!("{light}\n{water}\n{tank}"));
         let text = std::fs::read_to_string(&xml).unwrap();

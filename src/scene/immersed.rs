@@ -256,8 +256,8 @@ const NEAR_GRID: u32 = 8;
 /// points are). The camera's segment crosses it unabsorbed in both renderers (`Scene::absorbed_to`),
 /// but Mitsuba then carries the sensor's medium (none) along the path until it crosses a boundary,
 /// where caustica gives whatever scatters inside the medium (a shape in it, the boundary's inside)
-/// that medium: random scene 2406 of `--more --area-lights`, a diffuse ball in absorbing rough glass cut by the plane, read
-/// 0.917 / 0.862 / 1.019 of Mitsuba's means.
+/// that medium: random scene 2406 of `--more --area-lights`, a diffuse ball in absorbing rough glass
+/// cut by the plane, read 0.917 / 0.862 / 1.019 of Mitsuba's means.
 fn near_plane_in_medium(scene: &Scene, boundaries: &Boundaries, dirs: &[Vec3; 6]) -> Option<String> {
     let cam = &scene.camera;
     if cam.clip[0] <= 0.0 {
