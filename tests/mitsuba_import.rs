@@ -100,12 +100,14 @@ fn a_spectrum_clipped_into_gamut_is_warned_of() {
 
 /// An area emitter on a smooth-shaded mesh is where caustica knowingly differs from Mitsuba (emission
 /// on the front of the face's normal, Mitsuba's of the shading normal; `docs/mitsuba-differences/`),
-/// and the import says so once, naming the line; with `face_normals`, or on a rectangle or a sphere
-/// (whose shading normal is the geometric one), it says nothing.
+/// and the import says so once, naming the line; with `face_normals`, on a rectangle or a sphere
+/// (whose shading normal is the geometric one) or on a flat mesh (the OBJ tile, whose smooth normals are
+/// its faces'), it says nothing.
 #[test]
 fn an_emitting_smooth_mesh_is_warned_of() {
     let d = tmp("smooth-emitter");
     let ply = dir().join("facets.ply");
+    let (tile, ball) = (dir().join("tile.obj"), dir().join("ball.ply"));
     let emitter = r#"<emitter type="area"><rgb name="radiance" value="1"/></emitter>"#;
     let cases = [
         (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ply.display()), 1),
@@ -119,6 +121,9 @@ fn an_emitting_smooth_mesh_is_warned_of() {
         (format!(r#"<shape type="ply"><string name="filename" value="{}"/></shape>"#, ply.display()), 0),
         (format!(r#"<shape type="rectangle">{emitter}</shape>"#), 0),
         (format!(r#"<shape type="sphere">{emitter}</shape>"#), 0),
+        // A flat mesh's smooth normals are its faces' (random scene 2532 was warned of its tile).
+        (format!(r#"<shape type="obj"><string name="filename" value="{}"/>{emitter}</shape>"#, tile.display()), 0),
+        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ball.display()), 1),
     ];
     for (k, (shape, want)) in cases.iter().enumerate() {
         let (xml, at) = case_scene(&d, k, None, shape);

@@ -578,7 +578,8 @@ impl<'a> Cx<'a> {
                 if kind == "serialized" && !file.to_lowercase().ends_with(".serialized") {
                     return Err(n.error(format!("a `serialized` shape's file must end in .serialized, got `{file}`")));
                 }
-                if emission.is_some() && !face_normals {
+                let file = self.resolve(n, &file);
+                if emission.is_some() && !face_normals && self.file_is_smooth_shaded(&file, shape_index) {
                     // README "Not done": Mitsuba's area emitter tests the shading frame, caustica's the
                     // geometric normal (as pbrt-v4's); measured in docs/mitsuba-differences/.
                     self.warnings.push(format!(
@@ -590,7 +591,6 @@ impl<'a> Cx<'a> {
                         n.line
                     ));
                 }
-                let file = self.resolve(n, &file);
                 // Mitsuba keeps a mirrored mesh's winding, so its faces' normals turn inward, and so
                 // do the vertex normals it computes for a mesh without any: it renders that mesh
                 // inside out, as the mesh turned inside out before its transform (caustica's
@@ -663,6 +663,22 @@ impl<'a> Cx<'a> {
         // A file that does not load is reported when the scene loads; no turn is decided from it.
         crate::scene::mesh::load_mesh_file(&path, file, true, shape_index)
             .map_or(true, |meshes| meshes.iter().all(|m| m.mesh.normals.is_some()))
+    }
+
+    /// Whether a mesh file's shading differs from its faces' somewhere (`TriMesh::shaded_as_faces`): by
+    /// its own vertex normals, else by the smooth ones Mitsuba computes for it. An emitter on it is where
+    /// the two renderers' emitting sides differ (`placed_shape`); on a flat mesh they do not. A file that
+    /// does not load counts as smooth (it is reported when the scene loads).
+    fn file_is_smooth_shaded(&self, file: &str, shape_index: Option<u32>) -> bool {
+        let path = self.base.join(file);
+        crate::scene::mesh::load_mesh_file(&path, file, true, shape_index).map_or(true, |meshes| {
+            meshes.into_iter().any(|mut m| {
+                if m.mesh.normals.is_none() {
+                    m.mesh.compute_smooth_normals();
+                }
+                !m.mesh.shaded_as_faces()
+            })
+        })
     }
 
     /// A bump map on a shape whose own `to_world` mirrors and whose geometric normal Mitsuba 3.9.1 turns
