@@ -25,6 +25,11 @@ pub struct TriMesh {
     /// Per-triangle colours, when the file has them (a PLY face element's colours, read as vertex
     /// colours are; a polygon's colour goes to each triangle of its fan), read by a `face_color` texture.
     pub face_colors: Option<Vec<Vec3>>,
+    /// The triangles' second and third corners swapped from the file's (an odd number of winding
+    /// turns: a mirroring `transform`, `flip`). Without texture coordinates the uv and tangents are
+    /// still the file's corners' barycentrics, as Mitsuba's (which keeps the winding): `uv_at` and
+    /// `dp_duv` read them back.
+    pub turned: bool,
 }
 
 impl TriMesh {
@@ -34,7 +39,7 @@ impl TriMesh {
     }
 
     /// Texture coordinates at barycentrics `[u, v]` of triangle `i` (the point a·(1 − u − v) + b·u + c·v):
-    /// the mesh's, interpolated, else the barycentrics themselves.
+    /// the mesh's, interpolated, else the barycentrics themselves, of the file's corners (`turned`).
     pub fn uv_at(&self, i: usize, [u, v]: [f32; 2]) -> glam::Vec2 {
         match &self.uvs {
             Some(t) => {
@@ -42,6 +47,7 @@ impl TriMesh {
                 let [ta, tb, tc] = [t[i0 as usize], t[i1 as usize], t[i2 as usize]];
                 glam::Vec2::from(ta) * (1.0 - u - v) + glam::Vec2::from(tb) * u + glam::Vec2::from(tc) * v
             }
+            None if self.turned => glam::Vec2::new(v, u),
             None => glam::Vec2::new(u, v),
         }
     }
@@ -64,7 +70,7 @@ impl TriMesh {
 
     /// Triangle `i`'s ∂p/∂u and ∂p/∂v from its texture coordinates where it has them and they span an
     /// area (Mitsuba's), else its two edges from the first vertex (b − a, c − a), along its barycentric
-    /// u and v, as its uv are then its barycentrics.
+    /// u and v, as its uv are then its barycentrics (the file's corners' when `turned`: c − a, b − a).
     pub fn dp_duv(&self, i: usize) -> (Vec3, Vec3) {
         let [a, b, c] = self.triangle(i);
         if let Some(t) = &self.uvs {
@@ -76,7 +82,11 @@ impl TriMesh {
                 return (((b - a) * dv2 - (c - a) * dv1) / det, ((c - a) * du1 - (b - a) * du2) / det);
             }
         }
-        (b - a, c - a)
+        if self.turned {
+            (c - a, b - a)
+        } else {
+            (b - a, c - a)
+        }
     }
 
     /// Triangle `i`'s area, as `Geometry::point` reports it (`length_wide`: an area of 1e30, whose cross
@@ -105,6 +115,7 @@ impl TriMesh {
             for t in &mut self.indices {
                 t.swap(1, 2);
             }
+            self.turned = !self.turned;
         }
     }
 
@@ -113,6 +124,7 @@ impl TriMesh {
         for t in &mut self.indices {
             t.swap(1, 2);
         }
+        self.turned = !self.turned;
         if let Some(ns) = &mut self.normals {
             ns.iter_mut().for_each(|n| *n = -*n);
         }
@@ -286,7 +298,7 @@ fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> 
         // An object with no faces (points, lines, an empty group) has nothing to render.
         if !indices.is_empty() {
             out.push(LoadedMesh {
-                mesh: TriMesh { positions, indices, normals, uvs, colors: None, face_colors: None },
+                mesh: TriMesh { positions, indices, normals, uvs, colors: None, face_colors: None, turned: false },
                 mtl_diffuse,
                 mtl_texture,
                 mtl_error: mtl_error.clone(),
@@ -479,7 +491,7 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
             out.extend(std::iter::repeat_n(k.decode(f.c), f.idx.len() - 2));
         }
     }
-    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors })
+    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors, turned: false })
 }
 
 /// How a PLY's colour properties encode a colour: floats as they are (linear), or integers up to
@@ -627,7 +639,7 @@ pub fn parse_serialized(bytes: &[u8], index: u32, want_normals: bool) -> Result<
         .map(|c| std::array::from_fn(|k| u32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
         .collect();
     let normals = normals.filter(|_| want_normals).map(|ns| ns.into_iter().map(|n| n.normalize_or_zero()).collect());
-    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors: None })
+    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors: None, turned: false })
 }
 
 /// The fewest bytes one binary record of `def` can take: its scalars, and the count of each list.
@@ -758,6 +770,7 @@ pub fn quad(corner: Vec3, eu: Vec3, ev: Vec3) -> TriMesh {
         colors: None,
         face_colors: None,
         uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
+        turned: false,
     }
 }
 
@@ -887,6 +900,38 @@ pub fn cuboid(min: Vec3, max: Vec3) -> TriMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A mesh without texture coordinates keeps Mitsuba's barycentric uv and tangents (u along the
+    /// file's second corner, v along its third) when a mirroring transform or `flip` turns its winding:
+    /// at the same point, uv and ∂p/∂u, ∂p/∂v are the unturned triangle's (random scene 2555: an
+    /// anisotropic rough glass on a mirrored ball differed from Mitsuba by 3.6% in a block, its
+    /// roughness's axes swapped on every triangle).
+    #[test]
+    fn turned_winding_keeps_the_files_barycentric_uv_and_tangents() {
+        let (a, b, c) = (Vec3::new(0.1, 0.2, 0.0), Vec3::new(1.3, 0.1, 0.2), Vec3::new(0.4, 0.9, -0.1));
+        let mesh = TriMesh { positions: vec![a, b, c], indices: vec![[0, 1, 2]], ..TriMesh::default() };
+        let mirror = Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0));
+        let (mut mirrored, mut flipped, mut both) = (mesh.clone(), mesh.clone(), mesh.clone());
+        mirrored.transform(&mirror);
+        flipped.flip();
+        both.transform(&mirror);
+        both.flip();
+        for (name, m, map) in
+            [("mirrored", &mirrored, mirror), ("flipped", &flipped, Mat4::IDENTITY), ("both", &both, mirror)]
+        {
+            let [p0, p1, p2] = m.triangle(0);
+            let [q0, q1, q2] = [a, b, c].map(|p| map.transform_point3(p));
+            let (du, dv) = m.dp_duv(0);
+            assert!((du - (q1 - q0)).length() < 1e-6 && (dv - (q2 - q0)).length() < 1e-6, "{name}: {du} {dv}");
+            for bary in [[0.2f32, 0.3], [0.6, 0.1], [0.0, 1.0]] {
+                // The point at the stored corners' barycentrics, and its uv: the file's corners' weights.
+                let p = p0 * (1.0 - bary[0] - bary[1]) + p1 * bary[0] + p2 * bary[1];
+                let uv = m.uv_at(0, bary);
+                let back = q0 * (1.0 - uv.x - uv.y) + q1 * uv.x + q2 * uv.y;
+                assert!((p - back).length() < 1e-6, "{name}: {bary:?} read as {uv}");
+            }
+        }
+    }
 
     /// One mesh of a `.serialized` file: header, then the zlib stream (version 3 has no name).
     fn serialized_mesh(version: u16, flags: u32, positions: &[f64], extra: &[f64], tris: &[u32]) -> Vec<u8> {
