@@ -157,6 +157,12 @@ fn medium_along(scene: &Scene, boundaries: &Boundaries, ray: &Ray, skip: u32) ->
         .map_or(Rgb::ZERO, |(_, i, behind)| scene.absorption[i as usize][if behind { 0 } else { 1 }])
 }
 
+/// The medium a point lies in: the majority of what `rays` from it (one per direction of
+/// `directions`) say by `medium_along`, `skip` being the shape the point lies on.
+fn medium_of_rays(scene: &Scene, boundaries: &Boundaries, rays: &[Ray; 6], skip: u32) -> Rgb {
+    majority(&rays.map(|ray| medium_along(scene, boundaries, &ray, skip))).0
+}
+
 /// The most common of `votes` (the first among equals) and how many cast it.
 fn majority(votes: &[Rgb]) -> (Rgb, usize) {
     let mut best = (Rgb::ZERO, 0);
@@ -196,14 +202,8 @@ pub fn surrounding_media(scene: &Scene) -> (Vec<Rgb>, Vec<String>) {
             let votes: Vec<Rgb> = spread_points(&scene.shapes[i].geometry, POINTS)
                 .iter()
                 .map(|&(p, n, size)| {
-                    let rays: Vec<Rgb> = dirs
-                        .iter()
-                        .map(|&d| {
-                            let ray = Ray::new(offset_ray_origin(p, n, d, size), d);
-                            medium_along(scene, &boundaries, &ray, i as u32)
-                        })
-                        .collect();
-                    majority(&rays).0
+                    let rays = dirs.map(|d| Ray::new(offset_ray_origin(p, n, d, size), d));
+                    medium_of_rays(scene, &boundaries, &rays, i as u32)
                 })
                 .collect();
             let (sigma, agree) = majority(&votes);
@@ -268,9 +268,8 @@ fn near_plane_in_medium(scene: &Scene, boundaries: &Boundaries, dirs: &[Vec3; 6]
             let at = |i: u32, size: u32| (i as f32 + 0.5) / NEAR_GRID as f32 * size as f32;
             let ray = cam.ray(at(k % NEAR_GRID, cam.width), at(k / NEAR_GRID, cam.height));
             let p = ray.at(ray.tmin);
-            let rays: Vec<Rgb> =
-                dirs.iter().map(|&d| medium_along(scene, boundaries, &Ray::new(p, d), u32::MAX)).collect();
-            Some(majority(&rays).0).filter(|sigma| *sigma != Rgb::ZERO)
+            let sigma = medium_of_rays(scene, boundaries, &dirs.map(|d| Ray::new(p, d)), u32::MAX);
+            Some(sigma).filter(|sigma| *sigma != Rgb::ZERO)
         })
         .collect();
     let (sigma, _) = majority(&inside);
