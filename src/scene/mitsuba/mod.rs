@@ -579,7 +579,11 @@ impl<'a> Cx<'a> {
                     return Err(n.error(format!("a `serialized` shape's file must end in .serialized, got `{file}`")));
                 }
                 let file = self.resolve(n, &file);
-                if emission.is_some() && !face_normals && self.file_is_smooth_shaded(&file, shape_index) {
+                // The two checks below read the mesh file; it is loaded once, and only if one needs it.
+                let smooth_emitter_check = emission.is_some() && !face_normals;
+                let mirror_check = mirrors && !face_normals;
+                let meshes = (smooth_emitter_check || mirror_check).then(|| self.load_file_meshes(&file, shape_index));
+                if smooth_emitter_check && file_is_smooth_shaded(meshes.as_ref().and_then(|m| m.as_deref())) {
                     // README "Not done": Mitsuba's area emitter tests the shading frame, caustica's the
                     // geometric normal (as pbrt-v4's); measured in docs/mitsuba-differences/.
                     self.warnings.push(format!(
@@ -596,7 +600,7 @@ impl<'a> Cx<'a> {
                 // inside out, as the mesh turned inside out before its transform (caustica's
                 // `flip_normals`) renders here. Vertex normals from the file stay outward (transformed
                 // as normals), the shading Mitsuba gives them too, only its media swapping sides.
-                inside_out = mirrors && (face_normals || !self.file_has_normals(&file, shape_index));
+                inside_out = mirrors && (face_normals || !file_has_normals(meshes.as_ref().and_then(|m| m.as_deref())));
                 ShapeSpec::Mesh {
                     file,
                     material: Some(material),
@@ -656,29 +660,10 @@ impl<'a> Cx<'a> {
         Ok(())
     }
 
-    /// Whether a mesh file carries vertex normals (each mesh in it): Mitsuba renders a mirrored mesh
-    /// inside out unless it does and `face_normals` is off (`placed_shape`).
-    fn file_has_normals(&self, file: &str, shape_index: Option<u32>) -> bool {
-        let path = self.base.join(file);
-        // A file that does not load is reported when the scene loads; no turn is decided from it.
-        crate::scene::mesh::load_mesh_file(&path, file, true, shape_index)
-            .map_or(true, |meshes| meshes.iter().all(|m| m.mesh.normals.is_some()))
-    }
-
-    /// Whether a mesh file's shading differs from its faces' somewhere (`TriMesh::shaded_as_faces`): by
-    /// its own vertex normals, else by the smooth ones Mitsuba computes for it. An emitter on it is where
-    /// the two renderers' emitting sides differ (`placed_shape`); on a flat mesh they do not. A file that
-    /// does not load counts as smooth (it is reported when the scene loads).
-    fn file_is_smooth_shaded(&self, file: &str, shape_index: Option<u32>) -> bool {
-        let path = self.base.join(file);
-        crate::scene::mesh::load_mesh_file(&path, file, true, shape_index).map_or(true, |meshes| {
-            meshes.into_iter().any(|mut m| {
-                if m.mesh.normals.is_none() {
-                    m.mesh.compute_smooth_normals();
-                }
-                !m.mesh.shaded_as_faces()
-            })
-        })
+    /// The meshes of a file the import's checks read (`placed_shape`), or None where it does not load:
+    /// that is reported when the scene loads, with the file and what is wrong.
+    fn load_file_meshes(&self, file: &str, shape_index: Option<u32>) -> Option<Vec<crate::scene::mesh::LoadedMesh>> {
+        crate::scene::mesh::load_mesh_file(&self.base.join(file), file, true, shape_index).ok()
     }
 
     /// A bump map on a shape whose own `to_world` mirrors and whose geometric normal Mitsuba 3.9.1 turns
@@ -1694,5 +1679,29 @@ pub fn named_ior(name: &str) -> Option<f32> {
         "pet" => 1.575,
         "diamond" => 2.419,
         _ => return None,
+    })
+}
+
+/// Whether a mesh file carries vertex normals (each mesh in it): Mitsuba renders a mirrored mesh inside
+/// out unless it does and `face_normals` is off (`placed_shape`). A file that did not load (None) turns
+/// nothing.
+fn file_has_normals(meshes: Option<&[crate::scene::mesh::LoadedMesh]>) -> bool {
+    meshes.is_none_or(|meshes| meshes.iter().all(|m| m.mesh.normals.is_some()))
+}
+
+/// Whether a mesh file's shading differs from its faces' somewhere (`TriMesh::shaded_as_faces`): by its
+/// own vertex normals, else by the smooth ones Mitsuba computes for it. An emitter on it is where the two
+/// renderers' emitting sides differ (`placed_shape`); on a flat mesh they do not. A file that did not
+/// load (None) counts as smooth.
+fn file_is_smooth_shaded(meshes: Option<&[crate::scene::mesh::LoadedMesh]>) -> bool {
+    meshes.is_none_or(|meshes| {
+        meshes.iter().any(|m| match &m.mesh.normals {
+            Some(_) => !m.mesh.shaded_as_faces(),
+            None => {
+                let mut smooth = m.mesh.clone();
+                smooth.compute_smooth_normals();
+                !smooth.shaded_as_faces()
+            }
+        })
     })
 }
