@@ -589,8 +589,8 @@ impl<'a> Cx<'a> {
                     self.warnings.push(format!(
                         "{}: line {}: an area emitter on a smooth-shaded mesh: Mitsuba emits on the front of \
                          each point's shading normal, caustica of its face's normal, so the two differ near \
-                         the mesh's silhouettes (about 1% for a coarse mesh); `face_normals` true makes them \
-                         agree",
+                         the mesh's silhouettes (up to 3% of the whole image in random scenes lit mostly by \
+                         a coarse one); `face_normals` true makes them agree",
                         n.file.display(),
                         n.line
                     ));
