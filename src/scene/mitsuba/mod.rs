@@ -579,17 +579,19 @@ impl<'a> Cx<'a> {
                     return Err(n.error(format!("a `serialized` shape's file must end in .serialized, got `{file}`")));
                 }
                 let file = self.resolve(n, &file);
-                // The two checks below read the mesh file; it is loaded once, and only if one needs it.
+                // The two checks below read the mesh file; it is loaded once, and only if one needs it
+                // (None where neither does, and where it does not load: each check then keeps its default).
                 let smooth_emitter_check = emission.is_some() && !face_normals;
                 let mirror_check = mirrors && !face_normals;
-                let meshes = (smooth_emitter_check || mirror_check).then(|| self.load_file_meshes(&file, shape_index));
+                let meshes =
+                    (smooth_emitter_check || mirror_check).then(|| self.load_file_meshes(&file, shape_index)).flatten();
                 // Mitsuba keeps a mirrored mesh's winding, so its faces' normals turn inward, and so
                 // do the vertex normals it computes for a mesh without any: it renders that mesh
                 // inside out, as the mesh turned inside out before its transform (caustica's
                 // `flip_normals`) renders here. Vertex normals from the file stay outward (transformed
                 // as normals), the shading Mitsuba gives them too, only its media swapping sides.
-                inside_out = mirrors && (face_normals || !file_has_normals(meshes.as_ref().and_then(|m| m.as_deref())));
-                if smooth_emitter_check && file_is_smooth_shaded(meshes.as_ref().and_then(|m| m.as_deref())) {
+                inside_out = mirrors && (face_normals || !file_has_normals(meshes.as_deref()));
+                if smooth_emitter_check && file_is_smooth_shaded(meshes.as_deref()) {
                     // README "Not done": Mitsuba's area emitter tests the shading frame, caustica's the
                     // geometric normal (as pbrt-v4's); measured in docs/mitsuba-differences/.
                     let extent = if flip_normals ^ inside_out {
