@@ -38,12 +38,28 @@ fn furnace_box_is_le_over_one_minus_albedo_everywhere() {
 /// vertex joined to the film point above it) on average over the square, and nothing outside it.
 #[test]
 fn orthographic_camera_frames_a_lit_square_at_its_closed_form() {
+    lit_square_seen_from_above(-0.5, false, 4..12);
+}
+
+/// The same camera mirrored (`camera.mirror`, what a Mitsuba sensor whose `to_world` has a negative
+/// determinant renders), over a square moved to x ∈ [0.25, 1.25]: unmirrored it would fill pixel
+/// columns 10 to 15 (the film ends at x = 1), mirrored it fills columns 0 to 5, in PT and in light
+/// tracing (whose splats land through `project`), and nothing else is lit.
+#[test]
+fn a_mirrored_camera_sees_the_square_on_the_other_side() {
+    lit_square_seen_from_above(0.25, false, 10..16);
+    lit_square_seen_from_above(0.25, true, 0..6);
+}
+
+/// The square's x from `x0` to `x0 + 1` (z from −0.5 to 0.5), seen as above with the film mirrored or
+/// not: lit exactly in pixel columns `columns` and rows 4 to 11.
+fn lit_square_seen_from_above(x0: f32, mirror: bool, columns: std::ops::Range<u32>) {
     let fov = 2.0 * 0.5f32.atan().to_degrees();
     let mut scene = common::scene(&format!(
         "[camera]\nprojection = \"orthographic\"\nfov = {fov}\norigin = [0.0, 2.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n\
-         up = [0.0, 0.0, -1.0]\nresolution = [16, 16]\n\
+         up = [0.0, 0.0, -1.0]\nresolution = [16, 16]\nmirror = {mirror}\n\
          [materials]\nm = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
-         [[shapes]]\ntype = \"quad\"\ncorner = [-0.5, 0.0, -0.5]\nedge_u = [0.0, 0.0, 1.0]\nedge_v = [1.0, 0.0, 0.0]\nmaterial = \"m\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [{x0:?}, 0.0, -0.5]\nedge_u = [0.0, 0.0, 1.0]\nedge_v = [1.0, 0.0, 0.0]\nmaterial = \"m\"\n\
          [[lights]]\ntype = \"distant\"\ndirection = [0.0, -1.0, 0.0]\nirradiance = [2.0, 2.0, 2.0]\n\
          [render]\nmax_depth = 1\n"
     ));
@@ -52,12 +68,12 @@ fn orthographic_camera_frames_a_lit_square_at_its_closed_form() {
     scene.render.sampler = caustica::math::rng::Sampler::Independent;
     let accel = Accel::new(&scene).unwrap();
     let expect = 1.0 / std::f32::consts::PI;
+    let lit = |x: u32, y: u32| columns.contains(&x) && (4..12).contains(&y);
     let check = |label: &str, img: &caustica::film::Image, tol: f32| {
         for y in 0..16u32 {
             for x in 0..16u32 {
-                let inside = (4..12).contains(&x) && (4..12).contains(&y);
                 let got = img.pixels[(y * 16 + x) as usize].x;
-                let want = if inside { expect } else { 0.0 };
+                let want = if lit(x, y) { expect } else { 0.0 };
                 assert!((got - want).abs() <= tol * expect, "{label}: pixel ({x}, {y}) {got} vs {want}");
             }
         }
@@ -74,11 +90,11 @@ fn orthographic_camera_frames_a_lit_square_at_its_closed_form() {
             sum[k] += p.x as f64 / n as f64;
         }
     }
+    let count = (columns.len() * 8) as f64;
     let (mut inside, mut outside) = (0.0f64, 0.0f64);
     for (k, v) in sum.iter().enumerate() {
-        let (x, y) = (k % 16, k / 16);
-        if (4..12).contains(&x) && (4..12).contains(&y) {
-            inside += v / 64.0;
+        if lit(k as u32 % 16, k as u32 / 16) {
+            inside += v / count;
         } else {
             outside += v;
         }

@@ -109,6 +109,12 @@ pub struct CameraSpec {
     pub near_clip: Option<f32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub far_clip: Option<f32>,
+    /// The image mirrored left to right (default false): what lay on the film's right shows on its left,
+    /// as a camera whose `to_world` has a negative determinant sees it (Mitsuba's `<scale x="-1"/>`
+    /// before `lookat`, common in converted scenes). Crop windows and the principal point offset are
+    /// read on the mirrored film.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub mirror: bool,
 }
 
 fn is_box_filter(f: &crate::scene::camera::FilterSpec) -> bool {

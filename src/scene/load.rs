@@ -353,6 +353,11 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
     } else {
         Camera::new(o, t, up, fov, c.fov_axis.unwrap_or(FovAxis::X), c.resolution)
     };
+    if c.mirror {
+        // The film's x axis turned round: rays, projections (light tracing's splats), the lens's disc,
+        // the shift and the crop all go through `right`, so they all follow.
+        camera.right = -camera.right;
+    }
     // Each parameter's bounds: a reach a film sample can afford, and for the filters with negative lobes
     // a clearly positive integral however the film cuts them (`PixelFilter`'s weights stay bounded).
     let bounded: &[(&str, f32, std::ops::RangeInclusive<f32>, &str)] = match c.filter {

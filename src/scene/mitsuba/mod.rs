@@ -139,6 +139,7 @@ fn empty_file() -> SceneFile {
         focus_distance: None,
         near_clip: None,
         far_clip: None,
+        mirror: false,
     };
     let mut render = RenderSettings { max_depth: UNLIMITED_DEPTH, ..Default::default() };
     render.spp = 4;
@@ -209,10 +210,7 @@ impl<'a> Cx<'a> {
                 s.error("the camera's to_world scales (Mitsuba refuses this too); use lookat, rotate, translate")
             );
         }
-        if x.cross(y).dot(z) < 0.0 {
-            return Err(s.error("the camera's to_world mirrors the image (a negative scale); caustica cannot"));
-        }
-        self.place_camera(m.w_axis.truncate(), y, z);
+        self.place_camera(m.w_axis.truncate(), x, y, z);
         let (fov, fov_axis) = (p.float("fov")?, p.string("fov_axis")?);
         let focal = p.string("focal_length")?;
         if !thin_lens {
@@ -241,10 +239,13 @@ impl<'a> Cx<'a> {
     }
 
     /// The camera's place: `origin` (a sensor's `to_world` translation), the view direction `z` and up
-    /// `y` (its local axes, unit vectors).
-    fn place_camera(&mut self, origin: Vec3, y: Vec3, z: Vec3) {
+    /// `y` (its local axes, unit vectors). Mitsuba's film runs along −x, its local left: where `x`
+    /// is not `y × z` (`to_world` mirrors: a negative scale, as converted scenes often put before
+    /// `lookat`) the image is mirrored left to right, as Mitsuba renders it.
+    fn place_camera(&mut self, origin: Vec3, x: Vec3, y: Vec3, z: Vec3) {
         let cam = &mut self.file.camera;
         (cam.origin, cam.target, cam.up) = (origin.to_array(), (origin + z).to_array(), y.to_array());
+        cam.mirror = x.dot(y.cross(z)) < 0.0;
     }
 
     /// What every sensor may hold besides its projection: the clipping planes (Mitsuba's defaults 0.01
@@ -294,10 +295,7 @@ impl<'a> Cx<'a> {
         if xn.dot(yn).abs() > 1e-3 || xn.dot(zn).abs() > 1e-3 || yn.dot(zn).abs() > 1e-3 {
             return Err(s.error("the camera's to_world shears the film (its axes are not at right angles)"));
         }
-        if xn.cross(yn).dot(zn) < 0.0 {
-            return Err(s.error("the camera's to_world mirrors the image (a negative scale); caustica cannot"));
-        }
-        self.place_camera(m.w_axis.truncate(), yn, zn);
+        self.place_camera(m.w_axis.truncate(), xn, yn, zn);
         self.sensor_common(s, &p)?;
         // The planes are read as depths in scene units, which a z scale of to_world would make ambiguous
         // (local or scaled units): refused rather than guessed.
