@@ -1830,7 +1830,6 @@ fn what_is_not_read_is_refused_naming_the_line() {
         }
     }
     let whole: &[(&str, &str, &str)] = &[
-        ("mirror-cam", &panel_with("<lookat", "<scale x=\"-1\"/><lookat"), "mirrors"),
         ("no-sensor", r#"<scene version="3.0.0"><shape type="sphere"/></scene>"#, "no <sensor"),
         ("not-xml", "<scene version=\"3.0.0\"><shape", "XML"),
         ("cycle", r#"<scene version="3.0.0"><include filename="cycle.xml"/></scene>"#, "nested deeper"),
