@@ -54,13 +54,20 @@ impl<'a> Props<'a> {
         self.objects_of(&[tag])
     }
 
-    /// The unnamed children with any of `tags`, in the order written (a `<ref>` may be named `bsdf`).
+    /// The children with any of `tags` that are objects, not named properties, in the order written.
+    /// A nested `<bsdf>`, `<emitter>`, `<shape>`, `<film>`, `<sampler>` or `<rfilter>` is one whatever
+    /// its `name`: Mitsuba gathers nested objects by kind and the name only labels them, and exporters
+    /// write one (Blender's: `<bsdf type="principled" name="bsdf">`, `<film name="film">`). A `<ref>`
+    /// is one unnamed or named `bsdf`; under other names it is a property (a texture's, a medium's).
     pub fn objects_of(&self, tags: &[&str]) -> Vec<&'a Node> {
         let mut used = self.used.borrow_mut();
         let mut out = Vec::new();
         for (i, c) in self.node.children.iter().enumerate() {
-            let unnamed = c.attr("name").is_none() || (c.tag == "ref" && c.attr("name") == Some("bsdf"));
-            if tags.contains(&c.tag.as_str()) && !used[i] && unnamed {
+            let object = match c.tag.as_str() {
+                "ref" => c.attr("name").is_none() || c.attr("name") == Some("bsdf"),
+                _ => true,
+            };
+            if tags.contains(&c.tag.as_str()) && !used[i] && object {
                 used[i] = true;
                 out.push(c);
             }
