@@ -80,6 +80,51 @@ fn cornell_box_xml_matches_mitsuba() {
     matches_mitsuba("cornell", 1024, 0.003);
 }
 
+/// Mitsuba 3's path replay integrators (`prb`, `prb_basic`, `prb_projective`, `prbvolpath`), which
+/// differentiable-rendering scenes name, render what `path` and `volpath` render but stop at a
+/// `max_depth` of 6 when none is given: `cornell-prb.xml` (the Cornell box under `<integrator
+/// type="prb"/>`, 4.4% less red than unlimited paths) is held to Mitsuba's render of it, and each kind
+/// reads as the path tracer with that depth, `prbvolpath` with media as `volpath` (`absorb.xml`'s scene
+/// hashes equal), `direct_projective` as `direct`. Refused before (integrator not read): seen failing.
+#[test]
+fn path_replay_integrators_render_as_mitsuba() {
+    use caustica::scene::file::Mode;
+    matches_mitsuba("cornell-prb", 1024, 0.003);
+    let with = |name: &str, from: &str, to: &str| {
+        let text = std::fs::read_to_string(dir().join(format!("{name}.xml"))).unwrap();
+        assert!(text.contains(from), "{name}.xml: {from}");
+        // Beside the original, so that its meshes and images resolve.
+        let path = dir().join(format!("{name}-{}.tmp.xml", std::process::id()));
+        std::fs::write(&path, text.replace(from, to)).unwrap();
+        let scene = load_scene_with(&path, &[]);
+        std::fs::remove_file(&path).unwrap();
+        scene.unwrap_or_else(|e| panic!("{to}: {e}"))
+    };
+    let path = load_scene_with(&dir().join("cornell.xml"), &[]).unwrap();
+    let unlimited = with("cornell", "<integer name=\"max_depth\" value=\"8\"/>", "");
+    for kind in ["prb", "prb_basic", "prb_projective", "prbvolpath"] {
+        let s = with("cornell", "type=\"path\">", &format!("type=\"{kind}\">"));
+        assert_eq!((s.render.mode, s.render.max_depth), (Mode::Path, path.render.max_depth), "{kind}");
+        let s = with(
+            "cornell",
+            "<integrator type=\"path\">\n        <integer name=\"max_depth\" value=\"8\"/>",
+            &format!("<integrator type=\"{kind}\">"),
+        );
+        assert_eq!(s.render.max_depth, 5, "{kind}: Mitsuba's default depth 6");
+        assert!(unlimited.render.max_depth > 100, "path's default is unlimited");
+    }
+    let projective = "<integer name=\"sppc\" value=\"4\"/><integer name=\"sppp\" value=\"4\"/><string name=\"guiding\" value=\"octree\"/><boolean name=\"guiding_proj\" value=\"true\"/>";
+    let s = with("cornell", "type=\"path\">", &format!("type=\"prb_projective\">{projective}"));
+    assert_eq!(s.render.max_depth, path.render.max_depth);
+    let direct =
+        with("cornell", "type=\"path\">\n        <integer name=\"max_depth\" value=\"8\"/>", "type=\"direct\">");
+    let dp = with("cornell", "type=\"path\">", &format!("type=\"direct_projective\">{projective}"));
+    assert_eq!((dp.render.mode, dp.render.max_depth, dp.content_hash()), (Mode::Path, 1, direct.content_hash()));
+    let volpath = load_scene_with(&dir().join("absorb.xml"), &[]).unwrap();
+    let prbvolpath = with("absorb", "type=\"volpath\"", "type=\"prbvolpath\"");
+    assert_eq!(volpath.content_hash(), prbvolpath.content_hash(), "prbvolpath reads media as volpath");
+}
+
 /// Spectra (`spectra.xml`): pairs, `.spd` files and constants on reflectances, a light, a point
 /// light, a conductor's eta and k, a checkerboard's colours, a saturated green and a `d65` sky.
 #[test]
@@ -2016,7 +2061,7 @@ fn what_is_not_read_is_refused_naming_the_line() {
         (
             "integrator-kind",
             &panel_with("<scene version=\"3.0.0\">", "<scene version=\"3.0.0\"><integrator type=\"aov\"/>"),
-            "not read (read: path, volpath (media: absorbing glass), direct, ptracer; 0.6's photonmapper, sppm, bdpt)",
+            "not read (read: path, volpath (media: absorbing glass), direct, ptracer, prb, prb_basic, prb_projective, prbvolpath, direct_projective; 0.6's photonmapper, sppm, bdpt)",
         ),
         (
             "crop-off-film",

@@ -37,6 +37,20 @@ const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric
 const EMITTERS: &str = "area (inside a shape), point, spot, projector, directional, constant, envmap";
 /// Mitsuba's `max_depth = -1` (no limit): a bound Russian roulette never reaches in practice.
 const UNLIMITED_DEPTH: u32 = 1000;
+/// The `max_depth` Mitsuba 3's path replay integrators (`prb`, `prb_basic`, `prb_projective`,
+/// `prbvolpath`) stop at when none is given (Mitsuba's depth: 6 segments).
+const PRB_MAX_DEPTH: i64 = 6;
+
+/// Reads a projective sampling integrator's settings (`prb_projective`, `direct_projective`): how many
+/// samples and what guiding its gradients take. A forward render does not use them.
+fn projective_sampling(p: &Props) -> Result<(), SceneError> {
+    for key in ["sppc", "sppp", "sppi", "guiding_rounds"] {
+        p.int(key)?;
+    }
+    p.string("guiding")?;
+    p.boolean("guiding_proj")?;
+    Ok(())
+}
 
 /// Reads a Mitsuba XML scene. File names in the result (meshes, images) are as Mitsuba resolves them,
 /// relative to the scene file's folder when they lie inside it, absolute otherwise.
@@ -55,7 +69,7 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
         media: root
             .children
             .iter()
-            .any(|c| c.tag == "integrator" && matches!(c.attr("type"), Some("volpath" | "volpathmis"))),
+            .any(|c| c.tag == "integrator" && matches!(c.attr("type"), Some("volpath" | "volpathmis" | "prbvolpath"))),
     };
     for c in &root.children {
         if let Some(id) = c.attr("id") {
@@ -413,12 +427,23 @@ impl<'a> Cx<'a> {
             }
         };
         match n.attr("type") {
-            Some(kind @ ("path" | "volpath" | "volpathmis" | "ptracer" | "bdpt")) => {
+            Some(
+                kind @ ("path" | "volpath" | "volpathmis" | "ptracer" | "bdpt" | "prb" | "prb_basic" | "prb_projective"
+                | "prbvolpath"),
+            ) => {
                 // Mitsuba 3's particle tracer (light paths joined to the camera, and emitters seen
                 // directly) and 0.6's BDPT estimate what `path` does, with other noise: caustica renders
                 // them with its BDPT, whose strategies include light tracing.
                 let light_paths = matches!(kind, "ptracer" | "bdpt");
                 r.mode = if light_paths { Mode::Bdpt } else { Mode::Path };
+                // Mitsuba 3's path replay integrators (for differentiable rendering) render what `path`
+                // and `volpath` render, but stop at a max_depth of 6 unless told otherwise.
+                if kind.starts_with("prb") {
+                    r.max_depth = depth(PRB_MAX_DEPTH)?;
+                }
+                if kind == "prb_projective" {
+                    projective_sampling(&p)?;
+                }
                 if let Some(d) = p.int("max_depth")? {
                     r.max_depth = depth(d)?;
                 }
@@ -432,13 +457,20 @@ impl<'a> Cx<'a> {
                     p.boolean("sample_direct")?;
                 }
             }
-            Some("direct") => {
+            Some(kind @ ("direct" | "direct_projective")) => {
                 r.mode = Mode::Path;
                 r.max_depth = 1;
                 r.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
-                p.int("emitter_samples")?;
-                p.int("bsdf_samples")?;
-                p.int("shading_samples")?;
+                if kind == "direct" {
+                    p.int("emitter_samples")?;
+                    p.int("bsdf_samples")?;
+                    p.int("shading_samples")?;
+                } else {
+                    // Mitsuba's projective direct integrator reads these and keeps its depth of 2.
+                    p.int("max_depth")?;
+                    p.int("rr_depth")?;
+                    projective_sampling(&p)?;
+                }
             }
             Some(kind @ ("photonmapper" | "sppm")) => {
                 r.mode = if kind == "sppm" { Mode::Sppm } else { Mode::PhotonMap };
@@ -463,12 +495,19 @@ impl<'a> Cx<'a> {
             }
             _ => {
                 return Err(n.error(
-                    "not read (read: path, volpath (media: absorbing glass), direct, ptracer; 0.6's photonmapper, sppm, bdpt)",
+                    "not read (read: path, volpath (media: absorbing glass), direct, ptracer, prb, prb_basic, \
+                     prb_projective, prbvolpath, direct_projective; 0.6's photonmapper, sppm, bdpt)",
                 ))
             }
         }
         p.finish(match n.attr("type") {
             Some("direct") => "hide_emitters, emitter_samples, bsdf_samples, shading_samples",
+            Some("direct_projective") => {
+                "hide_emitters, max_depth, rr_depth, sppc, sppp, sppi, guiding, guiding_proj, guiding_rounds"
+            }
+            Some("prb_projective") => {
+                "max_depth, rr_depth, hide_emitters, sppc, sppp, sppi, guiding, guiding_proj, guiding_rounds"
+            }
             Some("photonmapper" | "sppm") => {
                 "max_depth, photon_count, max_passes, alpha, global_photons, caustic_photons"
             }
