@@ -959,6 +959,12 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["shapes[0].file", "nan.obj", "shape_index is for a Mitsuba `.serialized` file"],
         ),
         (
+            "serialized_flip_tex_coords",
+            with_shape("type = \"mesh\"\nfile = \"text.serialized\"\nflip_tex_coords = true"),
+            vec![],
+            vec!["shapes[0].flip_tex_coords", "is read only for an OBJ or PLY file"],
+        ),
+        (
             "serialized_garbage",
             with_shape("type = \"mesh\"\nfile = \"text.serialized\""),
             vec![],

@@ -1241,6 +1241,42 @@ fn a_mirrored_camera_matches_mitsuba_pixel_by_pixel() {
     every_mode_means_match_mitsuba("mirrorcam");
 }
 
+/// Texture rows, held to Mitsuba pixel by pixel: `fliptex.xml` shows `label.png` on the same square as
+/// an OBJ and as a PLY (`uv-tile.ply`), each with Mitsuba's default (an OBJ's v flipped, a PLY's not)
+/// and with `flip_tex_coords` the other way (refused before: seen failing). Any one square's rows the
+/// other way up must miss by more than twice caustica's noise. The TOML `convert` writes keeps the key.
+#[test]
+fn texture_rows_flip_as_mitsubas_flip_tex_coords() {
+    use caustica::scene::Geometry;
+    fn turn(s: &mut Scene, k: usize) {
+        let Geometry::Mesh(m) = &mut s.shapes[k].geometry else { panic!("shape {k} is a mesh") };
+        for uv in m.uvs.iter_mut().flatten() {
+            uv[1] = 1.0 - uv[1];
+        }
+    }
+    let labels = ["the OBJ", "the OBJ with flip_tex_coords false", "the PLY", "the PLY with flip_tex_coords true"];
+    let wrong: Vec<Variant> = (0..4)
+        .map(|k| (format!("{}'s rows the other way", labels[k]), Box::new(move |s: &mut Scene| turn(s, k)) as _))
+        .collect();
+    let check = |s: &Scene| assert_eq!(s.shapes.len(), 5, "four squares and the floor");
+    pixels_match_mitsuba("fliptex", &check, &wrong);
+    let bin = env!("CARGO_BIN_EXE_caustica");
+    let out = tmp("fliptex").join("fliptex.toml");
+    let o = std::process::Command::new(bin)
+        .arg("convert")
+        .arg(dir().join("fliptex.xml"))
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("flip_tex_coords = false") && text.contains("flip_tex_coords = true"), "{text}");
+    let (a, b) = (load_scene_with(&dir().join("fliptex.xml"), &[]).unwrap(), load_scene_with(&out, &[]).unwrap());
+    assert_eq!(a.content_hash(), b.content_hash());
+    let _ = std::fs::remove_dir_all(tmp("fliptex"));
+}
+
 /// Mitsuba 3's `ptracer` (and 0.6's `bdpt`) estimate what `path` does: caustica renders them with its
 /// BDPT, one pass a sample, keeping `max_depth`. The Cornell box as a particle tracer: BDPT mode, a pass
 /// for each of its sampler's samples, and at 256 passes the mean of Mitsuba's path-traced reference within 0.6% (BDPT's bar in every
@@ -1672,6 +1708,43 @@ fn names_on_nested_objects_are_labels() {
     let b = load_scene_with(&named, &[]).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(a.content_hash(), b.content_hash());
     assert_eq!((a.render.spp, b.render.spp), (6, 6));
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// Settings Mitsuba 3.9.1 accepts that change nothing in the image here, each read and left out (the
+/// scene hashes equal to the one without): an envmap's `mis_compensation` (how its directions are
+/// drawn), a sensor's `shutter_open` and `shutter_close` (nothing in an XML scene moves), a film's
+/// `compensate` (removed from Mitsuba, which ignores it); and booleans spelled "True" or "FALSE", which
+/// Mitsuba reads in any case. Each was refused before: seen failing.
+#[test]
+fn settings_that_change_nothing_are_read() {
+    let d = tmp("no-change");
+    let base = panel_with(
+        "<emitter type=\"point\">",
+        "<emitter type=\"envmap\"><string name=\"filename\" value=\"SKY\"/></emitter><emitter type=\"point\">",
+    )
+    .replace("SKY", &dir().join("sky.exr").display().to_string());
+    let plain = load_scene_with(&write(&d, "plain.xml", &base), &[]).unwrap_or_else(|e| panic!("{e}"));
+    let cases = [
+        ("<string name=\"filename\"", "<boolean name=\"mis_compensation\" value=\"true\"/><string name=\"filename\""),
+        ("<transform name=\"to_world\"><lookat", "<float name=\"shutter_open\" value=\"0\"/><float name=\"shutter_close\" value=\"0.5\"/><transform name=\"to_world\"><lookat"),
+        ("<rfilter", "<boolean name=\"compensate\" value=\"true\"/><rfilter"),
+        ("<rfilter", "<boolean name=\"banner\" value=\"FALSE\"/><rfilter"),
+    ];
+    for (k, (from, to)) in cases.iter().enumerate() {
+        assert!(base.contains(from), "{from}");
+        let path = write(&d, &format!("case{k}.xml"), &base.replacen(from, to, 1));
+        let s = load_scene_with(&path, &[]).unwrap_or_else(|e| panic!("{to}: {e}"));
+        assert_eq!(s.content_hash(), plain.content_hash(), "{to}");
+    }
+    // "True" is true: the emitters hidden.
+    let hidden = base.replacen(
+        "<sensor",
+        "<integrator type=\"path\"><boolean name=\"hide_emitters\" value=\"True\"/></integrator><sensor",
+        1,
+    );
+    let s = load_scene_with(&write(&d, "hidden.xml", &hidden), &[]).unwrap_or_else(|e| panic!("{e}"));
+    assert!(s.render.hide_emitters && !plain.render.hide_emitters);
     let _ = std::fs::remove_dir_all(d);
 }
 

@@ -596,6 +596,11 @@ pub enum ShapeSpec {
         /// Which mesh of a Mitsuba `.serialized` file (0, the first, by default; only for those).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         shape_index: Option<u32>,
+        /// The texture coordinates' v read upside down (v → 1 − v), Mitsuba's `flip_tex_coords`: by
+        /// default true for an OBJ (whose rows count from the bottom of the image) and false for a PLY;
+        /// not for a `.serialized` file.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        flip_tex_coords: Option<bool>,
     },
     /// Analytic sphere (exact hits; not tessellated).
     Sphere {

@@ -235,7 +235,7 @@ impl<'a> Cx<'a> {
             }
         }
         self.sensor_common(s, &p)?;
-        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, film, sampler (for perspective principal_point_offset_x, principal_point_offset_y; for thinlens aperture_radius, focus_distance)")?;
+        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, shutter_open, shutter_close, film, sampler (for perspective principal_point_offset_x, principal_point_offset_y; for thinlens aperture_radius, focus_distance)")?;
         let [w, h] = self.file.camera.resolution.map(|v| v as f32);
         let (deg, axis) = field_of_view(s, fov, fov_axis, focal)?;
         let half = (deg.to_radians() * 0.5).tan();
@@ -273,6 +273,9 @@ impl<'a> Cx<'a> {
             )));
         }
         (self.file.camera.near_clip, self.file.camera.far_clip) = (Some(near), Some(far));
+        // When the shutter opens and closes: nothing in a Mitsuba XML scene moves, so the image is the same.
+        p.float("shutter_open")?;
+        p.float("shutter_close")?;
         for film in p.objects("film") {
             self.film(film)?;
         }
@@ -317,7 +320,7 @@ impl<'a> Cx<'a> {
         if clips && (sz - 1.0).abs() > 1e-3 {
             return Err(s.error("an orthographic camera whose to_world scales z may not set near_clip or far_clip"));
         }
-        p.finish("to_world, near_clip, far_clip, film, sampler")?;
+        p.finish("to_world, near_clip, far_clip, shutter_open, shutter_close, film, sampler")?;
         let [w, h] = self.file.camera.resolution.map(|v| v as f32);
         let cam = &mut self.file.camera;
         cam.projection = Projection::Orthographic;
@@ -368,6 +371,8 @@ impl<'a> Cx<'a> {
         }
         p.boolean("banner")?;
         p.boolean("high_quality_edges")?;
+        // Removed from Mitsuba 3, which reads and ignores it (Kahan summation of the film).
+        p.boolean("compensate")?;
         if p.boolean("sample_border")? == Some(true) {
             // Only the edge pixels of a filter wider than a pixel differ.
             self.warnings.push(format!(
@@ -602,9 +607,9 @@ impl<'a> Cx<'a> {
             kind @ ("obj" | "ply" | "serialized") => {
                 let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
                 let face_normals = p.boolean("face_normals")?.unwrap_or(false);
-                if kind == "obj" && p.boolean("flip_tex_coords")? == Some(false) {
-                    return Err(n.error("flip_tex_coords = false is not supported (OBJ texture rows are flipped)"));
-                }
+                // Mitsuba flips an OBJ's texture rows by default and a PLY's not; a `serialized` mesh
+                // does not read it (refused as Mitsuba refuses it).
+                let flip_tex_coords = if kind == "serialized" { None } else { p.boolean("flip_tex_coords")? };
                 let shape_index = match p.int("shape_index")? {
                     Some(i) if kind == "serialized" => {
                         Some(u32::try_from(i).map_err(|_| n.error(format!("shape_index must be ≥ 0, got {i}")))?)
@@ -656,6 +661,7 @@ impl<'a> Cx<'a> {
                     smooth: !face_normals,
                     flip_normals: flip_normals ^ inside_out,
                     shape_index,
+                    flip_tex_coords,
                 }
             }
             "rectangle" => ShapeSpec::Quad {
@@ -701,7 +707,7 @@ impl<'a> Cx<'a> {
             self.mirror_warning(n, has_media);
         }
         p.finish(
-            "to_world, filename, face_normals, flip_normals, shape_index, center, radius, p0, p1, a bsdf or <ref>, an area emitter",
+            "to_world, filename, face_normals, flip_normals, flip_tex_coords (obj, ply), shape_index, center, radius, p0, p1, a bsdf or <ref>, an area emitter",
         )?;
         self.file.shapes.push(spec);
         Ok(())
@@ -1554,6 +1560,8 @@ impl<'a> Cx<'a> {
                 let file = p.string("filename")?.ok_or_else(|| e.error("needs a `filename`"))?;
                 let scale = p.float("scale")?.unwrap_or(1.0);
                 let transform = transform_spec(p.transform("to_world")?);
+                // How Mitsuba draws directions from the sky (sharpened for MIS): the image is the same.
+                p.boolean("mis_compensation")?;
                 self.file.lights.push(LightSpec::Envmap { file: self.resolve(e, &file), scale, transform });
             }
             Some("directional") => {
@@ -1571,7 +1579,7 @@ impl<'a> Cx<'a> {
         }
         p.finish(
             "intensity, position, to_world (point); intensity, cutoff_angle, beam_width, texture, to_world (spot); irradiance, scale, fov, fov_axis, focal_length, to_world (projector); irradiance, direction, to_world (directional); radiance \
-             (constant); filename, scale, to_world (envmap)",
+             (constant); filename, scale, to_world, mis_compensation (envmap)",
         )
     }
 }

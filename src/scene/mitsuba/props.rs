@@ -125,7 +125,8 @@ impl<'a> Props<'a> {
 
     pub fn boolean(&self, name: &str) -> Result<Option<bool>, SceneError> {
         let Some(n) = self.take(name) else { return Ok(None) };
-        match (n.tag.as_str(), Self::value(n)?.trim()) {
+        // Mitsuba reads the two words in any case ("True", as Python writers put it), nothing else.
+        match (n.tag.as_str(), Self::value(n)?.trim().to_ascii_lowercase().as_str()) {
             ("boolean", "true") => Ok(Some(true)),
             ("boolean", "false") => Ok(Some(false)),
             _ => Err(n.error(format!("`{name}` must be <boolean value=\"true\"> or \"false\""))),
