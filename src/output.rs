@@ -139,7 +139,8 @@ fn check_exr_header(path: &Path) -> std::result::Result<(usize, usize), String> 
     Ok((first.layer_size.width(), first.layer_size.height()))
 }
 
-/// The first RGB(A) layer of an EXR as (width, height, pixels, row 0 first), its header checked first
+/// The first RGB(A) layer of an EXR (or else its first grey `Y` layer, as three equal channels) as
+/// (width, height, pixels, row 0 first), its header checked first
 /// (`check_exr_header`). Images under 2^20 texels are decoded on this thread: a thread pool for a
 /// small texture costs more than it saves.
 pub fn read_exr_pixels(path: &Path) -> std::result::Result<(usize, usize, Vec<Rgb>), String> {
@@ -154,17 +155,43 @@ pub fn read_exr_pixels(path: &Path) -> std::result::Result<(usize, usize, Vec<Rg
             *t = [r, g, b];
         }
     };
-    use exr::prelude::{ReadChannels, ReadLayers};
+    use exr::prelude::{ReadChannels, ReadLayers, ReadSpecificChannel};
+    let small = (w as u64 * h as u64) < 1 << 20;
     let reader = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
         .rgba_channels(create, set)
         .first_valid_layer()
         .all_attributes();
-    let read =
-        if (w as u64 * h as u64) < 1 << 20 { reader.non_parallel().from_file(path) } else { reader.from_file(path) };
-    let img = read.map_err(|e| format!("cannot read EXR: {e}"))?;
-    let (w, h, pixels) = img.layer_data.channel_data.pixels;
+    let read = if small { reader.non_parallel().from_file(path) } else { reader.from_file(path) };
+    let (w, h, pixels) = match read {
+        Ok(img) => img.layer_data.channel_data.pixels,
+        Err(rgb_error) => {
+            // A grey image (a luminance channel `Y`, with or without alpha, as Mitsuba writes a
+            // one-channel bitmap): each texel its Y in all three channels, as Mitsuba reads it.
+            let set_grey = |img: &mut (usize, usize, Vec<[f32; 3]>), pos: exr::prelude::Vec2<usize>, (y,): (f32,)| {
+                if let Some(t) = img.2.get_mut(pos.y() * img.0 + pos.x()) {
+                    *t = [y; 3];
+                }
+            };
+            let grey = exr::prelude::read()
+                .no_deep_data()
+                .largest_resolution_level()
+                .specific_channels()
+                .required("Y")
+                .collect_pixels(
+                    |res: exr::prelude::Vec2<usize>, _: &_| (res.width(), res.height(), vec![[0.0f32; 3]; res.area()]),
+                    set_grey,
+                )
+                .first_valid_layer()
+                .all_attributes();
+            let read = if small { grey.non_parallel().from_file(path) } else { grey.from_file(path) };
+            read.map_err(|_| format!("cannot read EXR: {rgb_error} (neither R, G, B nor a grey Y channel)"))?
+                .layer_data
+                .channel_data
+                .pixels
+        }
+    };
     if pixels.is_empty() {
         return Err(format!("{w}×{h} EXR is empty"));
     }
@@ -254,5 +281,37 @@ mod tests {
         assert_eq!(output_base(Path::new("out/glass-egg-1.1")), Path::new("out/glass-egg-1.1"));
         assert_eq!(output_base(Path::new("out/.exr")), Path::new("out/.exr"));
         assert_eq!(output_base(Path::new("out/x.tar")), Path::new("out/x.tar"));
+    }
+
+    /// A grey EXR (one `Y` channel, with or without alpha, as Mitsuba writes a one-channel bitmap) reads
+    /// as three equal channels, row 0 first; one with neither R, G, B nor Y is refused, naming both.
+    #[test]
+    fn a_grey_exr_reads_as_grey() {
+        use exr::prelude::*;
+        let dir = std::env::temp_dir().join(format!("caustica-grey-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let value = |x: usize, y: usize| (y * 3 + x) as f32 * 0.25;
+        let y_only = dir.join("y.exr");
+        let channel =
+            |name: &str| AnyChannel::new(name, FlatSamples::F32((0..6).map(|i| value(i % 3, i / 3)).collect()));
+        let write = |path: &std::path::Path, names: &[&str]| {
+            let channels = AnyChannels::sort(names.iter().map(|n| channel(n)).collect());
+            Image::from_channels((3, 2), channels).write().to_file(path).unwrap();
+        };
+        write(&y_only, &["Y"]);
+        let ya = dir.join("ya.exr");
+        write(&ya, &["Y", "A"]);
+        for path in [&y_only, &ya] {
+            let (w, h, pixels) = super::read_exr_pixels(path).unwrap();
+            assert_eq!((w, h), (3, 2));
+            for (i, p) in pixels.iter().enumerate() {
+                assert_eq!(p.to_array(), [value(i % 3, i / 3); 3], "{} texel {i}", path.display());
+            }
+        }
+        let z = dir.join("z.exr");
+        write(&z, &["Z"]);
+        let err = super::read_exr_pixels(&z).unwrap_err();
+        assert!(err.contains("neither R, G, B nor a grey Y channel"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -1730,6 +1730,7 @@ fn settings_that_change_nothing_are_read() {
         ("<transform name=\"to_world\"><lookat", "<float name=\"shutter_open\" value=\"0\"/><float name=\"shutter_close\" value=\"0.5\"/><transform name=\"to_world\"><lookat"),
         ("<rfilter", "<boolean name=\"compensate\" value=\"true\"/><rfilter"),
         ("<rfilter", "<boolean name=\"banner\" value=\"FALSE\"/><rfilter"),
+        ("<sensor", "<integrator type=\"path\"><integer name=\"samples_per_pass\" value=\"4\"/></integrator><sensor"),
     ];
     for (k, (from, to)) in cases.iter().enumerate() {
         assert!(base.contains(from), "{from}");
@@ -1745,6 +1746,74 @@ fn settings_that_change_nothing_are_read() {
     );
     let s = load_scene_with(&write(&d, "hidden.xml", &hidden), &[]).unwrap_or_else(|e| panic!("{e}"));
     assert!(s.render.hide_emitters && !plain.render.hide_emitters);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// Two more of Mitsuba 3's ways to write a scene, each read as the plain form it stands for (equal
+/// scene hashes): `<alias id="a" as="b"/>`, after which `b` names what `a` names, and the `srgb`
+/// texture, Mitsuba's constant colour (what an `<rgb>` becomes), nested or referenced, its `color`
+/// within [0, 1] unless `unbounded`. Both were refused before: seen failing.
+#[test]
+fn aliases_and_srgb_textures_are_read() {
+    let d = tmp("alias-srgb");
+    let diffuse = |colour: &str| format!(r#"<bsdf type="diffuse">{colour}</bsdf>"#);
+    let rgb = r#"<rgb name="reflectance" value="0.3, 0.5, 0.7"/>"#;
+    let load = |name: &str, text: &str| load_scene_with(&write(&d, name, text), &[]);
+    let plain = load("plain.xml", &panel_scene(&diffuse(rgb))).unwrap();
+    let top = |body: &str, bsdf: &str| panel_scene(bsdf).replacen("<shape", &format!("{body}<shape"), 1);
+    let cases = [
+        (
+            "alias",
+            top(&format!(r#"<bsdf id="a" type="diffuse">{rgb}</bsdf><alias id="a" as="b"/>"#), r#"<ref id="b"/>"#),
+        ),
+        (
+            "srgb",
+            panel_scene(&diffuse(
+                r#"<texture type="srgb" name="reflectance"><rgb name="color" value="0.3, 0.5, 0.7"/></texture>"#,
+            )),
+        ),
+        (
+            "srgb-ref",
+            top(
+                r#"<texture type="srgb" id="paint"><rgb name="color" value="0.3, 0.5, 0.7"/></texture>"#,
+                &diffuse(r#"<ref id="paint" name="reflectance"/>"#),
+            ),
+        ),
+    ];
+    // The alias against the same scene naming the BSDF by its id (a named BSDF keeps its name).
+    let by_id =
+        load("by-id.xml", &top(&format!(r#"<bsdf id="a" type="diffuse">{rgb}</bsdf>"#), r#"<ref id="a"/>"#)).unwrap();
+    for (name, text) in &cases {
+        let s = load(&format!("{name}.xml"), text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let want = if *name == "alias" { &by_id } else { &plain };
+        assert_eq!(s.content_hash(), want.content_hash(), "{name}");
+    }
+    let bright = |extra: &str| {
+        panel_scene(&diffuse(&format!(
+            r#"<texture type="srgb" name="reflectance"><rgb name="color" value="1.5, 0.5, 0.7"/>{extra}</texture>"#
+        )))
+    };
+    let err = load("bright.xml", &bright("")).err().expect("refused").to_string();
+    assert!(err.contains("must lie in [0, 1]") && err.contains("line 6"), "{err}");
+    // Unbounded, as a light's: the point light of intensity 2 written as an `<rgb>`.
+    let light = |intensity: &str| panel_scene(&diffuse(rgb)).replace(r#"<rgb name="intensity" value="1"/>"#, intensity);
+    let unbounded = r#"<texture type="srgb" name="intensity"><rgb name="color" value="2, 2, 2"/><boolean name="unbounded" value="true"/></texture>"#;
+    assert!(light(unbounded).contains("unbounded"));
+    let a = load("unbounded.xml", &light(unbounded)).unwrap_or_else(|e| panic!("{e}"));
+    let b = load("two.xml", &light(r#"<rgb name="intensity" value="2"/>"#)).unwrap();
+    assert_eq!(a.content_hash(), b.content_hash());
+    for (name, text, want) in [
+        ("alias-unknown", top(r#"<alias id="nothing" as="b"/>"#, r#"<ref id="b"/>"#), "refers to id `nothing`"),
+        (
+            "alias-taken",
+            top(r#"<bsdf id="a" type="diffuse"/><alias id="a" as="a"/>"#, r#"<ref id="a"/>"#),
+            "the id `a` is taken",
+        ),
+        ("alias-half", top(r#"<alias id="a"/>"#, ""), "an alias needs `id`"),
+    ] {
+        let err = load(&format!("{name}.xml"), &text).err().expect("refused").to_string();
+        assert!(err.contains(want), "{name}: {err}");
+    }
     let _ = std::fs::remove_dir_all(d);
 }
 

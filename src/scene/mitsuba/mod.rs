@@ -72,14 +72,25 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
             .any(|c| c.tag == "integrator" && matches!(c.attr("type"), Some("volpath" | "volpathmis" | "prbvolpath"))),
     };
     for c in &root.children {
-        if let Some(id) = c.attr("id") {
+        if let Some(id) = c.attr("id").filter(|_| c.tag != "alias") {
             cx.ids.insert(id.to_string(), c);
         }
+    }
+    // `<alias id="a" as="b"/>`: `b` names what `a` names, in the order written.
+    for c in root.children.iter().filter(|c| c.tag == "alias") {
+        let (Some(id), Some(alias)) = (c.attr("id"), c.attr("as")) else {
+            return Err(c.error("an alias needs `id` (an element's) and `as` (its other name)"));
+        };
+        let target = cx.lookup(c, id)?;
+        if cx.ids.contains_key(alias) {
+            return Err(c.error(format!("the id `{alias}` is taken already")));
+        }
+        cx.ids.insert(alias.to_string(), target);
     }
     let mut sensor = None;
     for c in &root.children {
         match c.tag.as_str() {
-            "default" => {}
+            "default" | "alias" => {}
             "sensor" if sensor.is_some() => return Err(c.error("a second sensor (caustica renders one view)")),
             "sensor" => sensor = Some(c),
             "integrator" => cx.integrator(c)?,
@@ -93,7 +104,7 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
             _ => {
                 return Err(c.error(format!(
                     "not supported at scene level (read: sensor, integrator, bsdf, texture, medium, shape \
-                     ({SHAPES}), emitter ({EMITTERS}), default, include)"
+                     ({SHAPES}), emitter ({EMITTERS}), default, include, alias)"
                 )))
             }
         }
@@ -456,8 +467,9 @@ impl<'a> Cx<'a> {
                     r.rr_depth = (d.max(1) - 1) as u32;
                 }
                 r.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
+                // How many samples a pass takes (deprecated in Mitsuba 3, which warns): the image is the same.
+                p.int("samples_per_pass")?;
                 if light_paths {
-                    p.int("samples_per_pass")?;
                     p.boolean("light_image")?;
                     p.boolean("sample_direct")?;
                 }
@@ -519,7 +531,7 @@ impl<'a> Cx<'a> {
             Some("ptracer" | "bdpt") => {
                 "max_depth, rr_depth, hide_emitters, samples_per_pass, light_image, sample_direct"
             }
-            _ => "max_depth, rr_depth, hide_emitters",
+            _ => "max_depth, rr_depth, hide_emitters, samples_per_pass",
         })
     }
 
@@ -1228,7 +1240,10 @@ impl<'a> Cx<'a> {
             None => return Ok(None),
             Some(ColourProp::Rgb(c)) => Valued::Rgb(c),
             Some(ColourProp::Texture(t)) => Valued::Texture(t, format!("{name}-{key}")),
-            Some(ColourProp::Ref(r, id)) => Valued::Texture(self.lookup(r, &id)?, id),
+            Some(ColourProp::Ref(r, id)) => match self.lookup(r, &id)? {
+                t if t.tag == "texture" && t.attr("type") == Some("srgb") => Valued::Rgb(props::srgb_texture(t)?),
+                t => Valued::Texture(t, id),
+            },
         }))
     }
 
@@ -1458,7 +1473,7 @@ impl<'a> Cx<'a> {
                     }
                 }
             }
-            _ => return Err(t.error("texture type not read (read: bitmap, checkerboard, mesh_attribute)")),
+            _ => return Err(t.error("texture type not read (read: bitmap, checkerboard, mesh_attribute, srgb)")),
         };
         p.finish(
             "filename, filter_type, wrap_mode, raw, to_uv, accel, format (bitmap); color0, color1, to_uv (checkerboard); \

@@ -171,6 +171,7 @@ impl<'a> Props<'a> {
             "rgb" | "float" => ColourProp::Rgb(rgb(Self::numbers(n, Self::value(n)?)?)?),
             "spectrum" => ColourProp::Rgb(self.spectrum(n, name)?),
             "srgb" => ColourProp::Rgb(srgb(n, Self::value(n)?)?),
+            "texture" if n.attr("type") == Some("srgb") => ColourProp::Rgb(srgb_texture(n)?),
             "texture" => ColourProp::Texture(n),
             "ref" => ColourProp::Ref(n, n.attr("id").ok_or_else(|| n.error("needs an `id`"))?.to_string()),
             _ => return Err(n.error(format!("`{name}` must be <rgb>, <spectrum>, <float> or a <texture>"))),
@@ -270,6 +271,21 @@ impl<'a> Props<'a> {
             ))),
         }
     }
+}
+
+/// `<texture type="srgb">`: Mitsuba 3's constant colour (`color`, what an `<rgb>` becomes), within
+/// [0, 1] unless `unbounded`, as Mitsuba checks it.
+pub fn srgb_texture(n: &Node) -> Result<[f32; 3], SceneError> {
+    let p = Props::new(n);
+    let c = p.rgb("color")?.ok_or_else(|| n.error("<texture type=\"srgb\"> needs a `color`"))?;
+    let unbounded = p.boolean("unbounded")?.unwrap_or(false);
+    p.finish("color, unbounded")?;
+    if !unbounded && c.iter().any(|v| !(0.0..=1.0).contains(v)) {
+        return Err(
+            n.error(format!("color {c:?} must lie in [0, 1] (Mitsuba refuses it too) unless `unbounded` is true"))
+        );
+    }
+    Ok(c)
 }
 
 /// `<spectrum type="…">`: the plugins that have a colour in Mitsuba 3's RGB variants.
