@@ -1817,6 +1817,103 @@ fn aliases_and_srgb_textures_are_read() {
     let _ = std::fs::remove_dir_all(d);
 }
 
+/// A scene in the Mitsuba 0.5 form of Benedikt Bitterli's rendering resources (the scenes most users
+/// have in Mitsuba's format): `strictNormals` on the path tracer, a tone-mapped `ldrfilm`, a `sobol`
+/// sampler, a rough conductor with `extEta`, OBJ meshes with `faceNormals`. Each 0.x-only setting is read
+/// (the film's size and filter kept, its tone mapping warned of and left out; η and k divided by
+/// `extEta`); a texture's 0.6 `uscale`/`vscale`/`uoffset`/`voffset`, `gamma` and MIP-mapped filters too.
+/// Mitsuba 3 reads none of these, and in a 3.x file neither does the import. Refused before
+/// (`strict_normals`): seen failing.
+#[test]
+fn version_0_5_scenes_as_bitterlis_are_read() {
+    use caustica::scene::file::{MaterialSpec, TextureSpec};
+    let d = tmp("bitterli");
+    std::fs::create_dir_all(d.join("models")).unwrap();
+    std::fs::copy(dir().join("tile.obj"), d.join("models/Mesh007.obj")).unwrap();
+    std::fs::copy(dir().join("label.png"), d.join("label.png")).unwrap();
+    let scene = |version: &str, ext_eta: &str, texture: &str| {
+        format!(
+            r#"<?xml version="1.0" encoding="utf-8"?>
+<scene version="{version}">
+  <integrator type="path"><integer name="maxDepth" value="65"/><boolean name="strictNormals" value="true"/></integrator>
+  <sensor type="perspective"><float name="fov" value="27.39"/>
+    <transform name="toWorld"><matrix value="-1 0 0 0 0 0.952123 -0.305717 3.27783 0 -0.305717 -0.952123 15.1 0 0 0 1"/></transform>
+    <sampler type="sobol"><integer name="sampleCount" value="64"/></sampler>
+    <film type="ldrfilm"><integer name="width" value="128"/><integer name="height" value="72"/><string name="fileFormat" value="png"/>
+      <string name="pixelFormat" value="rgb"/><float name="gamma" value="2.2"/><boolean name="banner" value="false"/><rfilter type="tent"/></film>
+  </sensor>
+  <bsdf type="twosided" id="Diffuse"><bsdf type="diffuse">{texture}</bsdf></bsdf>
+  <bsdf type="roughconductor" id="Smooth"><float name="alpha" value="0.01"/><string name="distribution" value="ggx"/>{ext_eta}
+    <rgb name="specularReflectance" value="0.35, 0.35, 0.35"/><rgb name="eta" value="1.5, 0.9, 0.6"/><rgb name="k" value="9, 6, 4.5"/></bsdf>
+  <shape type="obj"><string name="filename" value="models/Mesh007.obj"/><transform name="toWorld"><scale value="8"/></transform>
+    <boolean name="faceNormals" value="true"/><ref id="Diffuse"/></shape>
+  <shape type="obj"><string name="filename" value="models/Mesh007.obj"/><transform name="toWorld"><translate z="1"/></transform>
+    <boolean name="faceNormals" value="true"/><ref id="Smooth"/></shape>
+  <shape type="sphere"><float name="radius" value="0.1"/><transform name="toWorld"><translate x="1" y="4" z="3"/></transform>
+    <emitter type="area"><rgb name="radiance" value="800, 800, 800"/></emitter></shape>
+</scene>"#
+        )
+    };
+    let plain = r#"<rgb name="reflectance" value="0.5, 0.5, 0.5"/>"#;
+    let textured = r#"<texture type="bitmap" name="reflectance"><string name="filename" value="label.png"/>
+      <string name="filterType" value="trilinear"/><float name="gamma" value="1"/><float name="maxAnisotropy" value="16"/>
+      <float name="uscale" value="2"/><float name="voffset" value="0.5"/></texture>"#;
+    let path = write(&d, "scene.xml", &scene("0.5.0", r#"<float name="extEta" value="1.5"/>"#, textured));
+    let converted = caustica::scene::mitsuba::convert(&path).unwrap_or_else(|e| panic!("{e}"));
+    let f = &converted.file;
+    assert_eq!((f.camera.resolution, f.render.max_depth, f.render.spp), ([128, 72], 64, 64));
+    assert_eq!(f.camera.filter, caustica::scene::camera::FilterSpec::Tent { radius: 1.0 });
+    assert!(
+        converted.warnings.iter().any(|w| w.contains("ldrfilm") && w.contains("line 7")),
+        "{:?}",
+        converted.warnings
+    );
+    match &f.materials["Smooth"] {
+        MaterialSpec::Conductor { eta: Some(eta), k: Some(k), .. } => {
+            let over = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+            assert!(over(*eta, [1.0, 0.6, 0.4]) && over(*k, [6.0, 4.0, 3.0]), "η {eta:?} and k {k:?} over extEta 1.5");
+        }
+        m => panic!("{m:?}"),
+    }
+    match f.textures.values().next() {
+        Some(TextureSpec::Bitmap { raw, bilinear, scale, offset, matrix: None, .. }) => {
+            assert_eq!((*raw, *bilinear, *scale, *offset), (true, true, [2.0, 1.0], [0.0, 0.5]));
+        }
+        t => panic!("{t:?}"),
+    }
+    // It renders, and without extEta the η and k are as written.
+    load_scene_with(&path, &[]).unwrap_or_else(|e| panic!("{e}"));
+    let path = write(&d, "plain.xml", &scene("0.5.0", "", plain));
+    let converted = caustica::scene::mitsuba::convert(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(matches!(&converted.file.materials["Smooth"], MaterialSpec::Conductor { eta: Some([1.5, 0.9, 0.6]), .. }));
+    // A 3.x file: Mitsuba 3 reads none of the 0.x settings, and neither does the import.
+    let modern = |from: &str, to: &str| {
+        let mut text = scene("3.0.0", "", plain);
+        for (a, b) in [
+            ("toWorld", "to_world"),
+            ("maxDepth", "max_depth"),
+            ("strictNormals", "strict_normals"),
+            ("sampleCount", "sample_count"),
+            ("fileFormat", "file_format"),
+            ("pixelFormat", "pixel_format"),
+            ("specularReflectance", "specular_reflectance"),
+            ("faceNormals", "face_normals"),
+            (from, to),
+        ] {
+            text = text.replace(a, b);
+        }
+        text
+    };
+    for (from, to, want) in [
+        ("<boolean name=\"strict_normals\" value=\"true\"/>", "", "only `hdrfilm` is read"),
+        ("<film type=\"ldrfilm\">", "<film type=\"hdrfilm\">", "<boolean name=\"strict_normals\">: not supported"),
+    ] {
+        let err = load_scene_with(&write(&d, "modern.xml", &modern(from, to)), &[]).err().expect("refused").to_string();
+        assert!(err.contains(want), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(d);
+}
+
 #[test]
 fn what_is_not_read_is_refused_naming_the_line() {
     let d = tmp("refuse");

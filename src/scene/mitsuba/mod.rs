@@ -66,6 +66,7 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
         done: HashMap::new(),
         blends: Vec::new(),
         in_sides: false,
+        legacy: root.attr("version").is_some_and(|v| v.starts_with("0.")),
         media: root
             .children
             .iter()
@@ -195,6 +196,9 @@ struct Cx<'a> {
     in_sides: bool,
     /// Whether the integrator renders media (`volpath`, `volpathmis`); Mitsuba's others ignore them.
     media: bool,
+    /// A Mitsuba 0.5/0.6 file (`<scene version="0.x">`): its own settings are read too (`ldrfilm`,
+    /// `strictNormals`, a conductor's `extEta`, MIP-mapped texture filters).
+    legacy: bool,
 }
 
 impl<'a> Cx<'a> {
@@ -341,10 +345,28 @@ impl<'a> Cx<'a> {
     }
 
     fn film(&mut self, f: &Node) -> Result<(), SceneError> {
-        if f.attr("type") != Some("hdrfilm") {
-            return Err(f.error("only `hdrfilm` is read"));
-        }
         let p = Props::new(f);
+        match f.attr("type") {
+            Some("hdrfilm") => {}
+            Some("ldrfilm") if self.legacy => {
+                // 0.5/0.6's tone-mapped film: its size, crop and filter as an HDR film's. caustica writes
+                // the linear EXR and an sRGB PNG, so the tone mapping is left to the user.
+                for key in ["gamma", "exposure", "key", "burn"] {
+                    p.float(key)?;
+                }
+                p.string("tonemap_method")?;
+                self.warnings.push(format!(
+                    "{}: line {}: 0.6's ldrfilm is read as an HDR film (size, crop, filter): caustica writes the \
+                     linear EXR and an sRGB PNG, without its tone mapping (gamma, exposure)",
+                    f.file.display(),
+                    f.line
+                ));
+            }
+            _ => return Err(f.error("only `hdrfilm` is read (and 0.5/0.6's `ldrfilm` in files of those versions)")),
+        }
+        if self.legacy {
+            p.boolean("attach_log")?;
+        }
         let dim = |v: Option<i64>, d: u32| {
             v.map_or(Ok(d), |v| {
                 u32::try_from(v)
@@ -467,6 +489,11 @@ impl<'a> Cx<'a> {
                     r.rr_depth = (d.max(1) - 1) as u32;
                 }
                 r.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
+                if self.legacy {
+                    // 0.6's option to stop paths where a shading normal and the geometric one put the
+                    // direction on different sides (README: read, not applied).
+                    p.boolean("strict_normals")?;
+                }
                 // How many samples a pass takes (deprecated in Mitsuba 3, which warns): the image is the same.
                 p.int("samples_per_pass")?;
                 if light_paths {
@@ -1263,6 +1290,9 @@ impl<'a> Cx<'a> {
         let specular = self.colour_prop(p, "specular_reflectance", name)?;
         let (eta, k) = (p.rgb("eta")?, p.rgb("k")?);
         let material = p.string("material")?;
+        // 0.6's index of refraction of the medium outside a conductor (Mitsuba 3 has it as 1): the
+        // Fresnel term reads η and k relative to it.
+        let outside = if self.legacy { p.float_or_name("ext_eta", named_ior)? } else { None };
         let (eta, k) = match (material.as_deref(), eta, k) {
             (None | Some("none"), None, None) => {
                 let specular = specular.unwrap_or(Reflectance::Colour([1.0; 3]));
@@ -1277,6 +1307,11 @@ impl<'a> Cx<'a> {
             (None, Some(e), Some(k)) => (e, k),
             (None, Some(e), None) => (e, [0.0; 3]),
             _ => return Err(b.error("give `material`, or `eta` and `k`, not both")),
+        };
+        let (eta, k) = match outside {
+            Some(o) if o > 0.0 => (eta.map(|x| x / o), k.map(|x| x / o)),
+            Some(o) => return Err(b.error(format!("ext_eta must be > 0, got {o}"))),
+            None => (eta, k),
         };
         Ok(MaterialSpec::Conductor {
             preset: None,
@@ -1419,19 +1454,44 @@ impl<'a> Cx<'a> {
             let c = |r: usize, col: usize| m.col(col)[r];
             [[c(0, 0), c(0, 1), c(0, 3)], [c(1, 0), c(1, 1), c(1, 3)]]
         });
+        // 0.5/0.6 placed a texture by `uscale`, `vscale`, `uoffset` and `voffset` (uv · scale + offset).
+        let (scale, offset) = if self.legacy {
+            let scale = [p.float("uscale")?.unwrap_or(1.0), p.float("vscale")?.unwrap_or(1.0)];
+            let offset = [p.float("uoffset")?.unwrap_or(0.0), p.float("voffset")?.unwrap_or(0.0)];
+            if matrix.is_some() && (scale != [1.0; 2] || offset != [0.0; 2]) {
+                return Err(t.error("give `to_uv`, or uscale, vscale, uoffset and voffset, not both"));
+            }
+            (scale, offset)
+        } else {
+            ([1.0; 2], [0.0; 2])
+        };
         let spec = match t.attr("type") {
             Some("checkerboard") => {
                 let color0 = p.rgb("color0")?.unwrap_or([0.4; 3]);
                 let color1 = p.rgb("color1")?.unwrap_or([0.2; 3]);
-                TextureSpec::Checkerboard { color0, color1, scale: [1.0; 2], offset: [0.0; 2], matrix }
+                TextureSpec::Checkerboard { color0, color1, scale, offset, matrix }
             }
             Some("bitmap") => {
                 let file = p.string("filename")?.ok_or_else(|| t.error("needs a `filename`"))?;
                 let bilinear = match p.string("filter_type")?.as_deref() {
                     None | Some("bilinear") => true,
                     Some("nearest") => false,
+                    // 0.6's MIP-mapped filters prefilter what a pixel covers; many samples a pixel of
+                    // the bilinear image average the same texels (README: a blur apart where minified).
+                    Some("trilinear" | "ewa") if self.legacy => true,
                     Some(f) => return Err(t.error(format!("filter_type `{f}` (read: bilinear, nearest)"))),
                 };
+                // 0.6's override of the image's encoding: 1 linear, −1 sRGB.
+                let legacy_raw = match self.legacy.then(|| p.float("gamma")).transpose()?.flatten() {
+                    None => None,
+                    Some(1.0) => Some(true),
+                    Some(-1.0) => Some(false),
+                    Some(g) => return Err(t.error(format!("gamma {g} (read: 1, linear, and -1, sRGB)"))),
+                };
+                if self.legacy {
+                    p.float("max_anisotropy")?;
+                    p.boolean("cache")?;
+                }
                 use crate::scene::texture::Wrap;
                 let wrap = match p.string("wrap_mode")?.as_deref() {
                     None | Some("repeat") => Wrap::Repeat,
@@ -1445,16 +1505,8 @@ impl<'a> Cx<'a> {
                 if let Some(f) = p.string("format")?.filter(|f| !["auto", "variant", "fp16"].contains(&f.as_str())) {
                     return Err(t.error(format!("format `{f}` (read: auto, variant, fp16)")));
                 }
-                let raw = p.boolean("raw")?.unwrap_or(false);
-                TextureSpec::Bitmap {
-                    file: self.resolve(t, &file),
-                    raw,
-                    bilinear,
-                    wrap,
-                    scale: [1.0; 2],
-                    offset: [0.0; 2],
-                    matrix,
-                }
+                let raw = p.boolean("raw")?.or(legacy_raw).unwrap_or(false);
+                TextureSpec::Bitmap { file: self.resolve(t, &file), raw, bilinear, wrap, scale, offset, matrix }
             }
             Some("mesh_attribute") => {
                 // The hit mesh's attribute, times `scale`: caustica reads the vertex colours
@@ -1477,7 +1529,8 @@ impl<'a> Cx<'a> {
         };
         p.finish(
             "filename, filter_type, wrap_mode, raw, to_uv, accel, format (bitmap); color0, color1, to_uv (checkerboard); \
-             name = vertex_color or face_color, scale (mesh_attribute)",
+             name = vertex_color or face_color, scale (mesh_attribute); in 0.5/0.6 files uscale, vscale, uoffset, voffset, \
+             and gamma, max_anisotropy, cache (bitmap)",
         )?;
         self.file.textures.insert(name.clone(), spec);
         self.done.insert(t as *const Node, name.clone());
