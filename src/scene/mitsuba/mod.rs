@@ -52,6 +52,15 @@ fn projective_sampling(p: &Props) -> Result<(), SceneError> {
     Ok(())
 }
 
+/// The integrator whose image Mitsuba writes as R, G, B: `n`, or under the `aov` and `moment` wrappers
+/// (which add channels of their own) their first nested integrator's.
+fn rendering_integrator(n: &Node) -> &Node {
+    match n.attr("type") {
+        Some("aov" | "moment") => n.children.iter().find(|c| c.tag == "integrator").map_or(n, rendering_integrator),
+        _ => n,
+    }
+}
+
 /// Reads a Mitsuba XML scene. File names in the result (meshes, images) are as Mitsuba resolves them,
 /// relative to the scene file's folder when they lie inside it, absolute otherwise.
 pub fn convert(path: &Path) -> Result<Converted, SceneError> {
@@ -67,10 +76,10 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
         blends: Vec::new(),
         in_sides: false,
         legacy: root.attr("version").is_some_and(|v| v.starts_with("0.")),
-        media: root
-            .children
-            .iter()
-            .any(|c| c.tag == "integrator" && matches!(c.attr("type"), Some("volpath" | "volpathmis" | "prbvolpath"))),
+        media: root.children.iter().any(|c| {
+            c.tag == "integrator"
+                && matches!(rendering_integrator(c).attr("type"), Some("volpath" | "volpathmis" | "prbvolpath"))
+        }),
     };
     for c in &root.children {
         if let Some(id) = c.attr("id").filter(|_| c.tag != "alias") {
@@ -455,6 +464,34 @@ impl<'a> Cx<'a> {
     }
 
     fn integrator(&mut self, n: &Node) -> Result<(), SceneError> {
+        if let Some(kind @ ("aov" | "moment")) = n.attr("type") {
+            // Wrappers that add channels (arbitrary outputs, or the second moments of the nested
+            // integrators' images) to the R, G, B image of their first nested integrator.
+            let p = Props::new(n);
+            let aovs = if kind == "aov" { p.string("aovs")? } else { None };
+            let nested = p.objects("integrator");
+            p.finish("aovs (aov), nested integrators")?;
+            let Some(first) = nested.first() else {
+                return Err(n.error(format!(
+                    "an `{kind}` integrator without a nested integrator makes no image of light (caustica \
+                     renders the nested integrator's image)"
+                )));
+            };
+            let extra = match aovs {
+                Some(a) => format!("the outputs `{a}`"),
+                None if kind == "aov" => "no outputs".to_string(),
+                None => "the second moments".to_string(),
+            };
+            let others = if nested.len() > 1 { " and the other nested integrators' images" } else { "" };
+            self.warnings.push(format!(
+                "{}: line {}: the `{kind}` integrator's extra channels ({extra}{others}) are not written: \
+                 caustica renders the image of its first nested integrator (line {}), Mitsuba's R, G, B",
+                n.file.display(),
+                n.line,
+                first.line
+            ));
+            return self.integrator(first);
+        }
         let p = Props::new(n);
         let r = &mut self.file.render;
         let depth = |d: i64| {
@@ -540,7 +577,8 @@ impl<'a> Cx<'a> {
             _ => {
                 return Err(n.error(
                     "not read (read: path, volpath (media: absorbing glass), direct, ptracer, prb, prb_basic, \
-                     prb_projective, prbvolpath, direct_projective; 0.6's photonmapper, sppm, bdpt)",
+                     prb_projective, prbvolpath, direct_projective, aov and moment around one of these; 0.6's \
+                     photonmapper, sppm, bdpt)",
                 ))
             }
         }
