@@ -203,7 +203,8 @@ struct Cx<'a> {
     blends: Vec<*const Node>,
     /// Whether a `twosided` of two BSDFs is being converted (no normal map may sit inside it).
     in_sides: bool,
-    /// Whether the integrator renders media (`volpath`, `volpathmis`); Mitsuba's others ignore them.
+    /// Whether the integrator renders media (`volpath`, `volpathmis`, `prbvolpath`, also inside an `aov`
+    /// or `moment`); Mitsuba's others ignore them.
     media: bool,
     /// A Mitsuba 0.5/0.6 file (`<scene version="0.x">`): its own settings are read too (`ldrfilm`,
     /// `strictNormals`, a conductor's `extEta`, MIP-mapped texture filters).
