@@ -1,7 +1,7 @@
 """A random Mitsuba 3 XML scene made of what caustica's import reads, for scripts/random-check (caustica's
 path tracer against Mitsuba's on scenes nobody chose).
 
-    python3 scripts/peer/random_scene.py SEED OUT.xml [--no-blend] [--area-lights]
+    python3 scripts/peer/random_scene.py SEED OUT.xml [--no-blend] [--area-lights] [--more] [--exporter]
 
 The same SEED gives the same scene. A floor (and half the time a back wall) under one to four objects
 (sphere, cube, cylinder, disk, rectangle, the PLY ball, the OBJ tile) with random transforms, each of a
@@ -39,6 +39,9 @@ volpath) in four in five closed shapes of smooth or rough glass; a mirroring sca
 on a fourth of the rectangles, disks, cubes and meshes without media; flip_normals, a mirroring
 scale or both on half the spheres that neither emit nor hold a medium; a ball in diffuse colour, rough
 gold or clear glass at the centre of half the spheres, cubes and PLY balls with a medium.
+--exporter writes the same scene as exporters and converters write it (from a stream of its own, each
+half the time): `name` labels on nested objects, booleans spelled "True" and "FALSE", references through
+<alias>, and a camera mirrored by <scale x="-1"/> (the image mirrored in both renderers).
 """
 import argparse
 import os
@@ -51,6 +54,8 @@ ap.add_argument("out")
 ap.add_argument("--no-blend", action="store_true", help="no blendbsdf, mask or twosided")
 ap.add_argument("--area-lights", action="store_true", help="no point, spot or directional emitter")
 ap.add_argument("--more", action="store_true", help="emitting meshes, bitmap textures, thin lens, more filters")
+ap.add_argument("--exporter", action="store_true",
+                help="the same scene written as other tools write it (labels, True, aliases, a mirrored camera)")
 args = ap.parse_args()
 R = random.Random(args.seed)
 # The extras' own stream: the scene without them stays the one the seed gives.
@@ -805,5 +810,26 @@ if args.more:
 # transmittance, as no bounce, as caustica does: the reference for such scenes.
 if 'type="mask"' in text or 'type="thindielectric"' in text:
     text = text.replace('<integrator type="path">', '<integrator type="volpath">', 1)
+if args.exporter:
+    # The same scene as exporters and converters write it, from a stream of its own, each change half
+    # the time: a `name` label on every nested object (Blender's add-on; Mitsuba gathers nested objects
+    # by kind), booleans spelled "True"/"FALSE", each top-level BSDF, texture or medium referred to
+    # through an <alias>, and
+    # the camera mirrored by a <scale x="-1"/> before its to_world (the image mirrored in both renderers).
+    E = random.Random(args.seed * 8831 + 97)
+    if E.random() < 0.5:
+        count = iter(range(10**6))
+        text = re.sub(r'<(bsdf|emitter|film|sampler|rfilter) type=',
+                      lambda m: f'<{m.group(1)} name="{m.group(1)}_{next(count)}" type=', text)
+    if E.random() < 0.5:
+        text = re.sub(r'(<boolean name="[^"]+" value=")true"', r'\1True"', text)
+        text = re.sub(r'(<boolean name="[^"]+" value=")false"', r'\1FALSE"', text)
+    if E.random() < 0.5:
+        for ident in re.findall(r'<(?:bsdf|texture|medium) type="\w+" id="([^"]+)"', text):
+            text = re.sub(rf'(<ref[^>]*) id="{re.escape(ident)}"', rf'\1 id="{ident}-alias"', text)
+            text = text.replace('</scene>', f'<alias id="{ident}" as="{ident}-alias"/>\n</scene>', 1)
+    if E.random() < 0.5:
+        text = re.sub(r'(<sensor type="\w+">(?:(?!</sensor>).)*?<transform name="to_world">)', r'\1<scale x="-1"/>',
+                      text, count=1, flags=re.S)
 with open(args.out, "w") as fh:
     fh.write(text)
