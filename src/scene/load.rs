@@ -1254,20 +1254,13 @@ fn build_shape(
             let path = dir.join(file);
             let shown_mesh = path.display().to_string();
             let in_scene = |e: SceneError| cx.err(&format!("{key}.file"), e.to_string());
-            // The loaders read an OBJ's v upside down and a PLY's as it is (Mitsuba's defaults).
-            let lower = file.to_lowercase();
-            let obj = lower.ends_with(".obj");
-            if flip_tex_coords.is_some() && !(obj || lower.ends_with(".ply") || lower.ends_with(".ply.gz")) {
+            let textured = matches!(mesh::MeshFormat::of(file), Some(mesh::MeshFormat::Obj | mesh::MeshFormat::Ply));
+            if flip_tex_coords.is_some() && !textured {
                 return Err(cx.err(&format!("{key}.flip_tex_coords"), "is read only for an OBJ or PLY file"));
             }
-            let turn_v = flip_tex_coords.is_some_and(|f| f != obj);
-            let loaded = mesh::load_mesh_file(&path, &shown_mesh, *smooth, *shape_index).map_err(in_scene)?;
-            for mut lm in loaded {
-                if turn_v {
-                    for uv in lm.mesh.uvs.iter_mut().flatten() {
-                        uv[1] = 1.0 - uv[1];
-                    }
-                }
+            let loaded =
+                mesh::load_mesh_file(&path, &shown_mesh, *smooth, *shape_index, *flip_tex_coords).map_err(in_scene)?;
+            for lm in loaded {
                 lm.mesh.validate(&shown_mesh).map_err(in_scene)?;
                 let mat = match (material, lm.mtl_diffuse, &lm.mtl_texture) {
                     (Some(m), _, _) => lookup(m)?,

@@ -213,15 +213,43 @@ pub struct LoadedMesh {
     pub mtl_error: Option<String>,
 }
 
+/// The mesh file formats `load_mesh_file` reads, told by the file name's ending.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshFormat {
+    Obj,
+    /// `.ply` or gzip-compressed `.ply.gz`.
+    Ply,
+    /// Mitsuba's `.serialized`, which holds several meshes.
+    Serialized,
+}
+
+impl MeshFormat {
+    pub fn of(name: &str) -> Option<MeshFormat> {
+        let name = name.to_lowercase();
+        if name.ends_with(".serialized") {
+            Some(MeshFormat::Serialized)
+        } else if name.ends_with(".obj") {
+            Some(MeshFormat::Obj)
+        } else if name.ends_with(".ply") || name.ends_with(".ply.gz") {
+            Some(MeshFormat::Ply)
+        } else {
+            None
+        }
+    }
+}
+
 /// Loads an OBJ, a PLY (optionally gzip-compressed) or mesh `shape_index` (0 unless given) of a Mitsuba
 /// `.serialized` file. Vertex normals are read only when `normals` (smooth shading asked for); texture
 /// coordinates and colours (of vertices and of faces) whenever the file has them; other properties
-/// never are.
+/// never are. Texture coordinates' v is read upside down (v → 1 − v) where `flip_tex_coords` says so,
+/// Mitsuba's convention (an OBJ's by default, whose rows count from the bottom of the image; a PLY's
+/// only when asked); a `.serialized` file's as stored (the caller refuses the option there).
 pub fn load_mesh_file(
     path: &Path,
     shown: &str,
     normals: bool,
     shape_index: Option<u32>,
+    flip_tex_coords: Option<bool>,
 ) -> Result<Vec<LoadedMesh>, SceneError> {
     let name = path.to_string_lossy().to_lowercase();
     let err = |msg: String| SceneError::Mesh { file: shown.into(), msg };
@@ -229,17 +257,17 @@ pub fn load_mesh_file(
         return Err(SceneError::MissingFile { file: shown.into() });
     }
     crate::scene::regular_file(path).map_err(err)?;
-    let serialized = name.ends_with(".serialized");
-    if shape_index.is_some() && !serialized {
+    let format = MeshFormat::of(&name);
+    if shape_index.is_some() && format != Some(MeshFormat::Serialized) {
         return Err(err("shape_index is for a Mitsuba `.serialized` file, which holds several meshes".into()));
     }
-    if serialized {
+    if format == Some(MeshFormat::Serialized) {
         let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
         let mesh = parse_serialized(&bytes, shape_index.unwrap_or(0), normals).map_err(err)?;
         Ok(vec![LoadedMesh { mesh, mtl_diffuse: None, mtl_texture: None, mtl_error: None }])
-    } else if name.ends_with(".obj") {
-        load_obj(path, normals).map_err(err)
-    } else if name.ends_with(".ply") || name.ends_with(".ply.gz") {
+    } else if format == Some(MeshFormat::Obj) {
+        load_obj(path, normals, flip_tex_coords.unwrap_or(true)).map_err(err)
+    } else if format == Some(MeshFormat::Ply) {
         let f = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
         let mut bytes = Vec::new();
         if name.ends_with(".gz") {
@@ -249,14 +277,19 @@ pub fn load_mesh_file(
         } else {
             BufReader::new(f).read_to_end(&mut bytes).map_err(|e| err(e.to_string()))?;
         }
-        let mesh = parse_ply(&bytes, normals).map_err(err)?;
+        let mut mesh = parse_ply(&bytes, normals).map_err(err)?;
+        if flip_tex_coords == Some(true) {
+            for uv in mesh.uvs.iter_mut().flatten() {
+                uv[1] = 1.0 - uv[1];
+            }
+        }
         Ok(vec![LoadedMesh { mesh, mtl_diffuse: None, mtl_texture: None, mtl_error: None }])
     } else {
         Err(err("unknown mesh format (accepted: .obj, .ply, .ply.gz, .serialized)".into()))
     }
 }
 
-fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> {
+fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedMesh>, String> {
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let file = std::fs::File::open(path).map_err(|e| format!("OBJ: {e}"))?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
@@ -292,7 +325,7 @@ fn load_obj(path: &Path, want_normals: bool) -> Result<Vec<LoadedMesh>, String> 
             .then(|| mm.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()).collect());
         let mtl_diffuse = mm.material_id.and_then(|i| mtls.get(i)).and_then(|m| m.diffuse);
         let uvs = (mm.texcoords.len() * 3 == mm.positions.len() * 2 && !mm.texcoords.is_empty())
-            .then(|| mm.texcoords.chunks_exact(2).map(|c| [c[0], 1.0 - c[1]]).collect());
+            .then(|| mm.texcoords.chunks_exact(2).map(|c| [c[0], if flip_v { 1.0 - c[1] } else { c[1] }]).collect());
         let mtl = mm.material_id.and_then(|i| mtls.get(i));
         let mtl_texture = mtl.and_then(|m| m.diffuse_texture.clone()).filter(|t| !t.is_empty());
         // An object with no faces (points, lines, an empty group) has nothing to render.

@@ -794,7 +794,7 @@ impl<'a> Cx<'a> {
     /// The meshes of a file the import's checks read (`placed_shape`), or None where it does not load:
     /// that is reported when the scene loads, with the file and what is wrong.
     fn load_file_meshes(&self, file: &str, shape_index: Option<u32>) -> Option<Vec<crate::scene::mesh::LoadedMesh>> {
-        crate::scene::mesh::load_mesh_file(&self.base.join(file), file, true, shape_index).ok()
+        crate::scene::mesh::load_mesh_file(&self.base.join(file), file, true, shape_index, None).ok()
     }
 
     /// A bump map on a shape whose own `to_world` mirrors and whose geometric normal Mitsuba 3.9.1 turns
