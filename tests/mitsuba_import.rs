@@ -24,6 +24,20 @@ fn dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba")
 }
 
+/// `NAME.xml` with its first `from` replaced by `to`, written beside the original (so that its meshes and
+/// images resolve) under a name no other test uses, handed to `read` and removed after.
+fn beside<T>(name: &str, from: &str, to: &str, read: impl FnOnce(&Path) -> T) -> T {
+    static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let text = std::fs::read_to_string(dir().join(format!("{name}.xml"))).unwrap();
+    assert!(text.contains(from), "{name}.xml: {from}");
+    let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let path = dir().join(format!("{name}-{}-{k}.tmp.xml", std::process::id()));
+    std::fs::write(&path, text.replacen(from, to, 1)).unwrap();
+    let out = read(&path);
+    std::fs::remove_file(&path).unwrap();
+    out
+}
+
 fn render(path: &Path, spp: u32) -> Image {
     let scene = load_scene_with(path, &[format!("render.spp={spp}")]).unwrap_or_else(|e| panic!("{e}"));
     let accel = Accel::new(&scene).unwrap();
@@ -91,14 +105,7 @@ fn path_replay_integrators_render_as_mitsuba() {
     use caustica::scene::file::Mode;
     matches_mitsuba("cornell-prb", 1024, 0.003);
     let with = |name: &str, from: &str, to: &str| {
-        let text = std::fs::read_to_string(dir().join(format!("{name}.xml"))).unwrap();
-        assert!(text.contains(from), "{name}.xml: {from}");
-        // Beside the original, so that its meshes and images resolve.
-        let path = dir().join(format!("{name}-{}.tmp.xml", std::process::id()));
-        std::fs::write(&path, text.replace(from, to)).unwrap();
-        let scene = load_scene_with(&path, &[]);
-        std::fs::remove_file(&path).unwrap();
-        scene.unwrap_or_else(|e| panic!("{to}: {e}"))
+        beside(name, from, to, |path| load_scene_with(path, &[])).unwrap_or_else(|e| panic!("{to}: {e}"))
     };
     let path = load_scene_with(&dir().join("cornell.xml"), &[]).unwrap();
     let unlimited = with("cornell", "<integer name=\"max_depth\" value=\"8\"/>", "");
@@ -152,11 +159,8 @@ fn aov_and_moment_render_their_first_nested_integrator() {
             ),
         ];
         for (k, w) in wrapped.iter().enumerate() {
-            let path = dir().join(format!("{name}-wrapped{k}-{}.tmp.xml", std::process::id()));
-            std::fs::write(&path, text.replacen(inner, w, 1)).unwrap();
-            let converted = caustica::scene::mitsuba::convert(&path);
-            let scene = load_scene_with(&path, &[]);
-            std::fs::remove_file(&path).unwrap();
+            let (converted, scene) =
+                beside(name, inner, w, |path| (caustica::scene::mitsuba::convert(path), load_scene_with(path, &[])));
             let (converted, scene) =
                 (converted.unwrap_or_else(|e| panic!("{e}")), scene.unwrap_or_else(|e| panic!("{e}")));
             assert_eq!(scene.content_hash(), plain.content_hash(), "{name}, wrapper {k}");
