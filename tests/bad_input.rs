@@ -616,6 +616,42 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["shapes[0].emission", "unknown texture `glow`"],
         ),
         (
+            "checkerboard_contains_itself",
+            with_textures(
+                with_white("white = { type = \"diffuse\", reflectance = \"a\" }"),
+                "a = { type = \"checkerboard\", color1 = \"b\" }\nb = { type = \"checkerboard\", color0 = \"a\" }",
+            ),
+            vec![],
+            vec!["textures.b.color0", "texture `a` contains itself (a → b → a)"],
+        ),
+        (
+            "checkerboard_unknown_square",
+            with_textures(
+                with_white("white = { type = \"diffuse\", reflectance = \"a\" }"),
+                "a = { type = \"checkerboard\", color1 = \"wood\" }",
+            ),
+            vec![],
+            vec!["textures.a.color1", "unknown texture `wood`"],
+        ),
+        (
+            "checkerboard_of_vertex_colours",
+            with_textures(
+                with_white("white = { type = \"diffuse\", reflectance = \"a\" }"),
+                "a = { type = \"checkerboard\", color0 = \"vc\" }\nvc = { type = \"vertex_color\" }",
+            ),
+            vec![],
+            vec!["textures.a.color0", "`vc` is a vertex_color texture, which a checkerboard's squares cannot show"],
+        ),
+        (
+            "checkerboard_square_too_bright",
+            with_textures(
+                with_white("white = { type = \"diffuse\", reflectance = \"a\" }"),
+                "a = { type = \"checkerboard\", color0 = \"b\" }\nb = { type = \"checkerboard\", color1 = [0.5, 1.5, 0.5] }",
+            ),
+            vec![],
+            vec!["materials.white.reflectance", "texture `a` reaches 1.5"],
+        ),
+        (
             "vertex_colors_none",
             with_textures(with_white("white = { type = \"diffuse\", reflectance = \"vc\" }"), "vc = { type = \"vertex_color\" }"),
             vec![],

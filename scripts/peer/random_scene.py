@@ -802,6 +802,25 @@ if args.more:
         return body + "\n" + ball
 
     text = re.sub(r'<shape type="(\w+)">(?:(?!</shape>).)*</shape>', immersed, text)
+    # Textured squares (session 69), from a twenty-fifth stream, last: in half the checkerboards that
+    # are a reflectance (diffuse, a plastic's base, a principled base colour), one square becomes a
+    # texture read at the hit's own uv through its own to_uv: label.png, or a finer checkerboard.
+    N = random.Random(args.seed * 4409 + 73)
+
+    def nested_square(m):
+        if N.random() >= 0.5:
+            return m.group(0)
+        which = N.choice(["color0", "color1"])
+        if N.random() < 0.5:
+            tex = (f'<texture type="bitmap" name="{which}"><string name="filename" value="label.png"/>'
+                   f'<transform name="to_uv"><scale value="{f(N.uniform(0.5, 3))}"/></transform></texture>')
+        else:
+            colour = lambda: ", ".join(f(N.uniform(0.05, 0.95)) for _ in range(3))
+            tex = checkerboard(which, colour(), colour(), f(N.uniform(3, 9)))
+        return re.sub(rf'<(rgb|spectrum|float) name="{which}"[^>]*/>', lambda _: tex, m.group(0), count=1)
+
+    text = re.sub(r'<texture type="checkerboard" name="(?:reflectance|diffuse_reflectance|base_color)">(?:(?!</texture>).)*</texture>',
+                  nested_square, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)

@@ -479,12 +479,13 @@ fn is_false(b: &bool) -> bool {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum TextureSpec {
-    /// Two colours in squares of ½ × ½ in uv (color0 at the origin).
+    /// Two colours in squares of ½ × ½ in uv (color0 at the origin). Either may name another
+    /// `[textures]` entry (not mesh colours), read at the same uv through its own scale and offset.
     Checkerboard {
         #[serde(default = "checker0")]
-        color0: V3,
+        color0: Reflectance,
         #[serde(default = "checker1")]
-        color1: V3,
+        color1: Reflectance,
         #[serde(default = "one2")]
         scale: [f32; 2],
         #[serde(default)]
@@ -535,11 +536,11 @@ fn is_one(x: &f32) -> bool {
     *x == 1.0
 }
 
-fn checker0() -> V3 {
-    [0.4; 3]
+fn checker0() -> Reflectance {
+    Reflectance::Colour([0.4; 3])
 }
-fn checker1() -> V3 {
-    [0.2; 3]
+fn checker1() -> Reflectance {
+    Reflectance::Colour([0.2; 3])
 }
 fn one2() -> [f32; 2] {
     [1.0, 1.0]

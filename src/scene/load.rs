@@ -10,11 +10,12 @@ use crate::scene::material::{
     SurfaceMaterial, MIN_ALPHA, PRINCIPLED_WEIGHTS,
 };
 use crate::scene::mesh::{self, TriMesh};
-use crate::scene::texture::{load_image, MeshColors, Texture, UvMap};
+use crate::scene::texture::{load_image, MeshColors, Patch, Texture, UvMap};
 use crate::scene::{Camera, Geometry, Scene, SceneError, Shape};
 use glam::{Mat3, Mat4, Vec3};
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Largest image we agree to allocate (pixels); beyond it the run is refused up front.
 pub const MAX_PIXELS: u64 = 64 * 1024 * 1024;
@@ -186,10 +187,11 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     check_render(&cx, &file.render)?;
 
     let mut textures = Textures { list: Vec::new(), index: HashMap::new(), files: HashMap::new() };
-    for (name, spec) in &file.textures {
-        let t = build_texture(&cx, &format!("textures.{name}"), spec, dir)?;
+    let mut built = HashMap::new();
+    for name in file.textures.keys() {
+        let t = resolve_texture(&cx, &file.textures, name, dir, &mut built, &mut Vec::new())?;
         textures.index.insert(name.clone(), textures.list.len() as u32);
-        textures.list.push(t);
+        textures.list.push((*t).clone());
     }
     let mut materials = Vec::new();
     let mut names = Vec::new();
@@ -559,28 +561,82 @@ fn uv_map(
     }
 }
 
-fn build_texture(cx: &Ctx, key: &str, spec: &TextureSpec, dir: &Path) -> Result<Texture, SceneError> {
-    Ok(match spec {
+/// Deepest nesting of textures in checkerboards accepted (a real scene nests one or two).
+pub const MAX_TEXTURE_DEPTH: usize = 16;
+
+/// The `[textures]` entry `name`, built once (`built`) with the textures its checkerboard squares name
+/// (`chain`: the entries being built that lead to it, for a clear refusal of one that contains itself).
+fn resolve_texture<'s>(
+    cx: &Ctx,
+    specs: &'s BTreeMap<String, TextureSpec>,
+    name: &'s str,
+    dir: &Path,
+    built: &mut HashMap<&'s str, Arc<Texture>>,
+    chain: &mut Vec<&'s str>,
+) -> Result<Arc<Texture>, SceneError> {
+    if let Some(t) = built.get(name) {
+        return Ok(t.clone());
+    }
+    let key = format!("textures.{name}");
+    chain.push(name);
+    let t = match &specs[name] {
         TextureSpec::Checkerboard { color0, color1, scale, offset, matrix } => Texture::Checkerboard {
-            color0: cx.colour(&format!("{key}.color0"), *color0, None)?,
-            color1: cx.colour(&format!("{key}.color1"), *color1, None)?,
-            to_uv: uv_map(cx, key, *scale, *offset, *matrix)?,
+            color0: patch(cx, specs, &format!("{key}.color0"), color0, dir, built, chain)?,
+            color1: patch(cx, specs, &format!("{key}.color1"), color1, dir, built, chain)?,
+            to_uv: uv_map(cx, &key, *scale, *offset, *matrix)?,
         },
         TextureSpec::Bitmap { file, raw, bilinear, wrap, scale, offset, matrix } => {
             let path = dir.join(file);
             let (width, height, texels) = load_image(&path, *raw)
                 .map_err(|e| cx.err(&format!("{key}.file"), format!("{}: {e}", path.display())))?;
-            let to_uv = uv_map(cx, key, *scale, *offset, *matrix)?;
+            let to_uv = uv_map(cx, &key, *scale, *offset, *matrix)?;
             Texture::Bitmap { file: file.clone(), width, height, texels, to_uv, bilinear: *bilinear, wrap: *wrap }
         }
-        TextureSpec::VertexColor { scale } | TextureSpec::FaceColor { scale } => {
+        spec @ (TextureSpec::VertexColor { scale } | TextureSpec::FaceColor { scale }) => {
             if !(scale.is_finite() && *scale >= 0.0) {
                 return Err(cx.err(&format!("{key}.scale"), format!("must be a finite number ≥ 0, got {scale}")));
             }
             let of = if let TextureSpec::FaceColor { .. } = spec { MeshColors::Face } else { MeshColors::Vertex };
             Texture::MeshColor { of, scale: *scale }
         }
-    })
+    };
+    chain.pop();
+    let t = Arc::new(t);
+    built.insert(name, t.clone());
+    Ok(t)
+}
+
+/// A checkerboard's squares (field `key`): a colour, or the texture an entry of `specs` is.
+fn patch<'s>(
+    cx: &Ctx,
+    specs: &'s BTreeMap<String, TextureSpec>,
+    key: &str,
+    value: &'s Reflectance,
+    dir: &Path,
+    built: &mut HashMap<&'s str, Arc<Texture>>,
+    chain: &mut Vec<&'s str>,
+) -> Result<Patch, SceneError> {
+    let name = match value {
+        Reflectance::Colour(c) => return Ok(Patch::Colour(cx.colour(key, *c, None)?)),
+        Reflectance::Texture(name) => name,
+    };
+    let Some((name, _)) = specs.get_key_value(name.as_str()) else {
+        let known: Vec<&String> = specs.keys().collect();
+        return Err(cx.err(key, format!("unknown texture `{name}` (defined: {known:?})")));
+    };
+    if let Some(from) = chain.iter().position(|c| *c == name.as_str()) {
+        let cycle: Vec<&str> = chain[from..].iter().copied().chain([name.as_str()]).collect();
+        return Err(cx.err(key, format!("texture `{name}` contains itself ({})", cycle.join(" → "))));
+    }
+    if chain.len() >= MAX_TEXTURE_DEPTH {
+        return Err(cx.err(key, format!("textures nested deeper than {MAX_TEXTURE_DEPTH} ({})", chain.join(" → "))));
+    }
+    let t = resolve_texture(cx, specs, name, dir, built, chain)?;
+    if let Texture::MeshColor { of, .. } = *t {
+        let msg = format!("`{name}` is a {} texture, which a checkerboard's squares cannot show", of.name());
+        return Err(cx.err(key, msg));
+    }
+    Ok(Patch::Texture(t))
 }
 
 /// Deepest nesting of blends accepted (real scenes nest one or two; this bounds every walk down them).

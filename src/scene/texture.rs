@@ -1,10 +1,13 @@
 //! Textures a diffuse reflectance can read per hit: a procedural checkerboard and bitmaps (`load_image`:
-//! 8/16-bit formats decoded from sRGB, float ones linear), both through a 2-D affine `to_uv` map.
+//! 8/16-bit formats decoded from sRGB, float ones linear), both through a 2-D affine `to_uv` map. A
+//! checkerboard's squares may be other textures, read at the hit's own uv (through their own maps), as
+//! Mitsuba reads a `<texture>` nested in a checkerboard.
 //!
 //! ```toml
 //! [textures]
 //! checks = { type = "checkerboard", color0 = [0.8, 0.8, 0.8], color1 = [0.1, 0.1, 0.1], scale = [8.0, 8.0] }
 //! wood   = { type = "bitmap", file = "assets/wood.jpg" }
+//! inlay  = { type = "checkerboard", color0 = "wood", color1 = [0.1, 0.1, 0.1], scale = [4.0, 4.0] }
 //!
 //! [materials]
 //! floor = { type = "diffuse", reflectance = "checks" }
@@ -12,6 +15,7 @@
 use crate::color::Rgb;
 use glam::Vec2;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Largest bitmap accepted (texels), so a hostile header cannot ask for unbounded memory.
 pub const MAX_TEXELS: u64 = 1 << 28;
@@ -19,7 +23,7 @@ pub const MAX_TEXELS: u64 = 1 << 28;
 #[derive(Clone, Debug, PartialEq)]
 pub enum Texture {
     /// color0 where both of frac(u), frac(v) are on the same side of ½ (Mitsuba's convention), else color1.
-    Checkerboard { color0: Rgb, color1: Rgb, to_uv: UvMap },
+    Checkerboard { color0: Patch, color1: Patch, to_uv: UvMap },
     /// Linear RGB texels, row 0 at v = 0; bilinear (or nearest) lookup with texel centres at (i + ½)/size,
     /// texels beyond the edges read as `wrap` says.
     Bitmap { file: String, width: u32, height: u32, texels: Vec<Rgb>, to_uv: UvMap, bilinear: bool, wrap: Wrap },
@@ -28,6 +32,61 @@ pub enum Texture {
     /// it (`Scene::texture_at`); `eval` alone gives `scale` (white), and the loader checks the colours of
     /// every mesh that reads it lie in [0, 1], the bounds `min_value` and `max_value` give.
     MeshColor { of: MeshColors, scale: f32 },
+}
+
+/// What a checkerboard's squares of one kind show: a colour, or another texture read at the same uv
+/// (never mesh colours: the loader refuses them there, as `eval` has no hit to read them at).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Patch {
+    Colour(Rgb),
+    Texture(Arc<Texture>),
+}
+
+impl From<Rgb> for Patch {
+    fn from(c: Rgb) -> Patch {
+        Patch::Colour(c)
+    }
+}
+
+impl Patch {
+    fn eval(&self, uv: Vec2) -> Rgb {
+        match self {
+            Patch::Colour(c) => *c,
+            Patch::Texture(t) => t.eval(uv),
+        }
+    }
+
+    fn mean(&self) -> Rgb {
+        match self {
+            Patch::Colour(c) => *c,
+            Patch::Texture(t) => t.mean(),
+        }
+    }
+
+    fn min_value(&self) -> f32 {
+        match self {
+            Patch::Colour(c) => c.min_element(),
+            Patch::Texture(t) => t.min_value(),
+        }
+    }
+
+    fn max_value(&self) -> f32 {
+        match self {
+            Patch::Colour(c) => c.max_element(),
+            Patch::Texture(t) => t.max_value(),
+        }
+    }
+
+    fn hash_into(&self, h: &mut sha2::Sha256) {
+        use sha2::Digest;
+        match self {
+            Patch::Colour(c) => h.update(format!("colour {c:?}")),
+            Patch::Texture(t) => {
+                h.update("texture");
+                t.hash_into(h);
+            }
+        }
+    }
 }
 
 /// Which colours of a mesh a `MeshColor` texture reads.
@@ -106,9 +165,9 @@ impl Texture {
                 let t = to_uv.apply(uv);
                 let (fu, fv) = (t.x - t.x.floor(), t.y - t.y.floor());
                 if (fu > 0.5) == (fv > 0.5) {
-                    *color0
+                    color0.eval(uv)
                 } else {
-                    *color1
+                    color1.eval(uv)
                 }
             }
             Texture::Bitmap { width, height, texels, to_uv, bilinear, wrap, .. } => {
@@ -157,7 +216,12 @@ impl Texture {
     pub fn hash_into(&self, h: &mut sha2::Sha256) {
         use sha2::Digest;
         match self {
-            Texture::Checkerboard { .. } | Texture::MeshColor { .. } => h.update(format!("{self:?}")),
+            Texture::Checkerboard { color0, color1, to_uv } => {
+                h.update(format!("checkerboard {to_uv:?}"));
+                color0.hash_into(h);
+                color1.hash_into(h);
+            }
+            Texture::MeshColor { .. } => h.update(format!("{self:?}")),
             Texture::Bitmap { width, height, texels, to_uv, bilinear, wrap, .. } => {
                 h.update(format!("bitmap {width} {height} {to_uv:?} {bilinear} {wrap:?}"));
                 crate::scene::hash_vec3s(h, texels);
@@ -165,11 +229,11 @@ impl Texture {
         }
     }
 
-    /// Mean value over the texture (a checkerboard's two colours equally; a bitmap's texels), in
-    /// double precision.
+    /// Mean value over the texture (a checkerboard's two colours equally, as Mitsuba's `mean` has it, also
+    /// where they are textures; a bitmap's texels), in double precision.
     pub fn mean(&self) -> Rgb {
         match self {
-            Texture::Checkerboard { color0, color1, .. } => (*color0 + *color1) * 0.5,
+            Texture::Checkerboard { color0, color1, .. } => (color0.mean() + color1.mean()) * 0.5,
             Texture::Bitmap { texels, .. } => {
                 let sum =
                     texels.iter().fold([0.0f64; 3], |a, t| [a[0] + t.x as f64, a[1] + t.y as f64, a[2] + t.z as f64]);
@@ -184,7 +248,7 @@ impl Texture {
     /// Smallest value any channel of the texture takes (an emitter's must stay ≥ 0).
     pub fn min_value(&self) -> f32 {
         match self {
-            Texture::Checkerboard { color0, color1, .. } => color0.min_element().min(color1.min_element()),
+            Texture::Checkerboard { color0, color1, .. } => color0.min_value().min(color1.min_value()),
             Texture::Bitmap { texels, .. } => texels.iter().map(|t| t.min_element()).fold(f32::INFINITY, f32::min),
             Texture::MeshColor { scale, .. } => scale.min(0.0),
         }
@@ -193,7 +257,7 @@ impl Texture {
     /// Largest value the texture takes (a reflectance must stay ≤ 1).
     pub fn max_value(&self) -> f32 {
         match self {
-            Texture::Checkerboard { color0, color1, .. } => color0.max_element().max(color1.max_element()),
+            Texture::Checkerboard { color0, color1, .. } => color0.max_value().max(color1.max_value()),
             Texture::Bitmap { texels, .. } => texels.iter().map(|t| t.max_element()).fold(0.0, f32::max),
             Texture::MeshColor { scale, .. } => scale.max(0.0),
         }
@@ -363,8 +427,8 @@ mod tests {
     #[test]
     fn checkerboard_follows_mitsuba_halves_and_scale() {
         let t = Texture::Checkerboard {
-            color0: Rgb::ONE,
-            color1: Rgb::ZERO,
+            color0: Rgb::ONE.into(),
+            color1: Rgb::ZERO.into(),
             to_uv: UvMap::scale_offset([2.0, 2.0], [0.0, 0.0]),
         };
         assert_eq!(t.eval(Vec2::new(0.1, 0.1)), Rgb::ONE);
@@ -372,6 +436,34 @@ mod tests {
         assert_eq!(t.eval(Vec2::new(0.3, 0.3)), Rgb::ONE);
         // Wraps: negative coordinates keep the pattern.
         assert_eq!(t.eval(Vec2::new(-0.1, 0.1)), Rgb::ZERO);
+    }
+
+    /// A square that is a texture is read at the hit's own uv through that texture's map, not the
+    /// board's; the board's mean, least and largest values take the nested texture's.
+    #[test]
+    fn a_nested_square_reads_its_own_uv() {
+        let inner = Texture::Bitmap {
+            file: "g".into(),
+            width: 2,
+            height: 1,
+            texels: vec![Rgb::new(0.2, 0.2, 0.2), Rgb::new(0.6, 0.0, 0.9)],
+            to_uv: UvMap::scale_offset([1.0, 1.0], [0.5, 0.0]),
+            bilinear: false,
+            wrap: Wrap::Repeat,
+        };
+        let t = Texture::Checkerboard {
+            color0: Patch::Texture(Arc::new(inner)),
+            color1: Rgb::splat(0.05).into(),
+            to_uv: UvMap::scale_offset([2.0, 2.0], [0.0, 0.0]),
+        };
+        // (0.1, 0.1): the board's color0; the image at u + 0.5 = 0.6 (texel 1), not at 2u + 0.5 = 0.7.
+        assert_eq!(t.eval(Vec2::new(0.1, 0.1)), Rgb::new(0.6, 0.0, 0.9));
+        // (0.3, 0.3): color0 again; the image at 0.8 (texel 1). (0.8, 0.3): at 1.3, texel 0.
+        assert_eq!(t.eval(Vec2::new(0.3, 0.3)), Rgb::new(0.6, 0.0, 0.9));
+        assert_eq!(t.eval(Vec2::new(0.8, 0.3)), Rgb::splat(0.2));
+        assert_eq!(t.eval(Vec2::new(0.3, 0.1)), Rgb::splat(0.05));
+        assert!((t.mean() - Rgb::new(0.225, 0.075, 0.3)).abs().max_element() < 1e-6, "{:?}", t.mean());
+        assert_eq!((t.min_value(), t.max_value()), (0.0, 0.9));
     }
 
     /// Mitsuba 3.9.1's `eval_1_grad` of a 7 × 5 raw EXR (texel (x, y) = ((3x + 5y) mod 7)/7,
@@ -428,7 +520,8 @@ mod tests {
             wrap: Wrap::Repeat,
         };
         assert_eq!(nearest.gradient(Vec2::new(0.31, 0.73)), Some(Vec2::ZERO));
-        let checks = Texture::Checkerboard { color0: Rgb::ONE, color1: Rgb::ZERO, to_uv: UvMap::default() };
+        let checks =
+            Texture::Checkerboard { color0: Rgb::ONE.into(), color1: Rgb::ZERO.into(), to_uv: UvMap::default() };
         assert_eq!(checks.gradient(Vec2::new(0.3, 0.3)), None);
     }
 

@@ -74,6 +74,7 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
         file: empty_file(),
         done: HashMap::new(),
         blends: Vec::new(),
+        textures: Vec::new(),
         in_sides: false,
         legacy: root.attr("version").is_some_and(|v| v.starts_with("0.")),
         media: root.children.iter().any(|c| {
@@ -201,6 +202,9 @@ struct Cx<'a> {
     done: HashMap<*const Node, String>,
     /// The blends being converted, outermost first (a blend that refers to itself is refused).
     blends: Vec<*const Node>,
+    /// The textures being converted, outermost first (a checkerboard whose square refers to itself, or
+    /// textures nested deeper than the loader takes, are refused).
+    textures: Vec<*const Node>,
     /// Whether a `twosided` of two BSDFs is being converted (no normal map may sit inside it).
     in_sides: bool,
     /// Whether the integrator renders media (`volpath`, `volpathmis`, `prbvolpath`, also inside an `aov`
@@ -1462,20 +1466,30 @@ impl<'a> Cx<'a> {
     /// `color0`), so a second checkerboard with them swapped.
     fn scalar_texture(&mut self, t: &'a Node, fallback: &str) -> Result<String, SceneError> {
         let name = self.texture(t, fallback)?;
-        if let Some(TextureSpec::Checkerboard { color0, color1, scale, offset, matrix }) = self.file.textures.get(&name)
-        {
-            let swapped = TextureSpec::Checkerboard {
-                color0: *color1,
-                color1: *color0,
-                scale: *scale,
-                offset: *offset,
-                matrix: *matrix,
-            };
-            let scalar = format!("{name}-as-weight");
-            self.file.textures.entry(scalar.clone()).or_insert(swapped);
-            return Ok(scalar);
+        Ok(self.as_weight(name))
+    }
+
+    /// `[textures]` entry `name` as Mitsuba's `eval_1` reads it: a checkerboard with its squares swapped,
+    /// and each square that is a texture read so too (a textured square's `eval_1`); others as they are.
+    fn as_weight(&mut self, name: String) -> String {
+        let Some(TextureSpec::Checkerboard { color0, color1, scale, offset, matrix }) = self.file.textures.get(&name)
+        else {
+            return name;
+        };
+        let scalar = format!("{name}-as-weight");
+        if self.file.textures.contains_key(&scalar) {
+            return scalar;
         }
-        Ok(name)
+        let (color0, color1, scale, offset, matrix) = (color0.clone(), color1.clone(), *scale, *offset, *matrix);
+        // The loader refuses nesting deeper than it takes, so this walk ends.
+        let mut square = |c: Reflectance| match c {
+            Reflectance::Texture(n) => Reflectance::Texture(self.as_weight(n)),
+            c => c,
+        };
+        let swapped =
+            TextureSpec::Checkerboard { color0: square(color1), color1: square(color0), scale, offset, matrix };
+        self.file.textures.insert(scalar.clone(), swapped);
+        scalar
     }
 
     /// Converts a `<texture>` once and returns its name in `[textures]`.
@@ -1486,6 +1500,13 @@ impl<'a> Cx<'a> {
         let mut name = t.attr("id").map_or_else(|| fallback.to_string(), str::to_string);
         while self.file.textures.contains_key(&name) {
             name += "'";
+        }
+        if self.textures.contains(&(t as *const Node)) {
+            return Err(t.error("a checkerboard's square refers to the texture it is part of"));
+        }
+        if self.textures.len() >= crate::scene::load::MAX_TEXTURE_DEPTH {
+            let msg = format!("textures nested deeper than {} in checkerboards", crate::scene::load::MAX_TEXTURE_DEPTH);
+            return Err(t.error(msg));
         }
         let p = Props::new(t);
         // Mitsuba keeps the 2-D part of the 4×4: [m00 m01 m03; m10 m11 m13].
@@ -1506,8 +1527,11 @@ impl<'a> Cx<'a> {
         };
         let spec = match t.attr("type") {
             Some("checkerboard") => {
-                let color0 = p.rgb("color0")?.unwrap_or([0.4; 3]);
-                let color1 = p.rgb("color1")?.unwrap_or([0.2; 3]);
+                // A square may be another texture, read at the same uv through its own `to_uv`.
+                self.textures.push(t);
+                let color0 = self.colour_prop(&p, "color0", &name)?.unwrap_or(Reflectance::Colour([0.4; 3]));
+                let color1 = self.colour_prop(&p, "color1", &name)?.unwrap_or(Reflectance::Colour([0.2; 3]));
+                self.textures.pop();
                 TextureSpec::Checkerboard { color0, color1, scale, offset, matrix }
             }
             Some("bitmap") => {
