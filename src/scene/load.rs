@@ -188,10 +188,15 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
 
     let mut textures = Textures { list: Vec::new(), index: HashMap::new(), files: HashMap::new() };
     let mut built = HashMap::new();
+    let mut order = Vec::new();
     for name in file.textures.keys() {
-        let t = resolve_texture(&cx, &file.textures, name, dir, &mut built, &mut Vec::new())?;
+        order.push((name, resolve_texture(&cx, &file.textures, name, dir, &mut built, &mut Vec::new())?));
+    }
+    drop(built);
+    for (name, t) in order {
+        // Moved out, unless a checkerboard shows it too (then copied: such an image is kept twice).
         textures.index.insert(name.clone(), textures.list.len() as u32);
-        textures.list.push((*t).clone());
+        textures.list.push(Arc::try_unwrap(t).unwrap_or_else(|shared| (*shared).clone()));
     }
     let mut materials = Vec::new();
     let mut names = Vec::new();

@@ -1481,7 +1481,7 @@ impl<'a> Cx<'a> {
             return scalar;
         }
         let (color0, color1, scale, offset, matrix) = (color0.clone(), color1.clone(), *scale, *offset, *matrix);
-        // The loader refuses nesting deeper than it takes, so this walk ends.
+        // `texture` refuses boards nested deeper than `MAX_TEXTURE_DEPTH` or containing themselves: this walk ends.
         let mut square = |c: Reflectance| match c {
             Reflectance::Texture(n) => Reflectance::Texture(self.as_weight(n)),
             c => c,
