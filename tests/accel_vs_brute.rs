@@ -25,6 +25,7 @@ fn random_scene(seed: u64, tris: usize, spheres: usize) -> caustica::scene::Scen
             material: 0,
             emission: Vec3::ZERO,
             emission_texture: None,
+            emit_by_shading_normal: false,
         });
     }
     for i in 0..spheres {
@@ -36,6 +37,7 @@ fn random_scene(seed: u64, tris: usize, spheres: usize) -> caustica::scene::Scen
             material: 0,
             emission: Vec3::ZERO,
             emission_texture: None,
+            emit_by_shading_normal: false,
         });
     }
     common::shapes_scene(shapes)
@@ -105,6 +107,7 @@ fn rays_from_inside_a_sphere_hit_its_far_side_exactly() {
         material: 0,
         emission: Vec3::ZERO,
         emission_texture: None,
+        emit_by_shading_normal: false,
     }]);
     let a = Accel::new(&scene).unwrap();
     let mut r = Rng::new(3, 0, 0);
@@ -137,6 +140,7 @@ fn rays_with_subnormal_or_huge_components_get_answers_not_an_abort() {
         material: 0,
         emission: Vec3::ZERO,
         emission_texture: None,
+        emit_by_shading_normal: false,
     };
     let scene = common::shapes_scene(vec![
         shape("floor", Geometry::Mesh(floor)),

@@ -616,6 +616,12 @@ fn each_malformed_scene_gets_its_own_message() {
             vec!["shapes[0].emission", "unknown texture `glow`"],
         ),
         (
+            "emit_by_shading_normal_flat",
+            with_shape("type = \"mesh\"\nfile = \"bright.ply\"\nemission = [1.0, 1.0, 1.0]\nemit_by_shading_normal = true"),
+            vec![],
+            vec!["shapes[0].emit_by_shading_normal", "is for an emitting mesh with smooth normals"],
+        ),
+        (
             "checkerboard_contains_itself",
             with_textures(
                 with_white("white = { type = \"diffuse\", reflectance = \"a\" }"),

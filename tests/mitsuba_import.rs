@@ -196,12 +196,43 @@ fn a_spectrum_clipped_into_gamut_is_warned_of() {
     assert!(clipped[0].contains("clipped to (0, 0.2956"), "{}", clipped[0]);
 }
 
-/// An area emitter on a smooth-shaded mesh is where caustica knowingly differs from Mitsuba (emission
-/// on the front of the face's normal, Mitsuba's of the shading normal; `docs/mitsuba-differences/`),
-/// and the import says so once, naming the line; with `face_normals`, on a rectangle or a sphere
-/// (whose shading normal is the geometric one) or on a flat mesh (the OBJ tile, whose smooth normals are
-/// its faces'), it says nothing. On a mesh turned inward (a mirror without the file's normals, or
-/// `flip_normals`), it says that the light outside is then Mitsuba's leak alone.
+/// An area emitter on a coarse smooth-shaded mesh (session 69): Mitsuba emits where the direction lies
+/// in front of each point's interpolated normal, so `facets.ply`'s silhouettes are dark where that normal
+/// turns away, and the import marks such a mesh `emit_by_shading_normal` (not one with `face_normals`).
+/// `smooth-emitter.xml`, the mesh seen straight on and lighting a floor, a wall and a ball, is held to
+/// Mitsuba's means within 0.3% and its 16 × 16 blocks within 4%, every other mode's mean too. Emitting
+/// over each whole face, as caustica did before, must fail those bounds (it read +0.66% on the luminance,
+/// seen failing).
+#[test]
+fn a_smooth_emitting_mesh_emits_as_mitsuba() {
+    let scene = load_scene_with(&dir().join("smooth-emitter.xml"), &[]).unwrap();
+    let marked: Vec<bool> =
+        scene.shapes.iter().filter(|s| s.emission != Default::default()).map(|s| s.emit_by_shading_normal).collect();
+    assert_eq!(marked, [true, false], "the smooth mesh marked, the one with face_normals not");
+    matches_mitsuba("smooth-emitter", 1024, 0.003);
+    every_mode_means_match_mitsuba("smooth-emitter");
+    let mut whole_faces = scene;
+    whole_faces.shapes.iter_mut().for_each(|s| s.emit_by_shading_normal = false);
+    let accel = Accel::new(&whole_faces).unwrap();
+    let ours = render_path(&whole_faces, &accel, 1024, true).image;
+    let theirs = read_exr(&dir().join("ref/smooth-emitter.exr")).unwrap();
+    let ((m1, b1), (m2, b2)) = (stats(&ours, 16), stats(&theirs, 16));
+    let mean_off = (0..3).map(|k| (m1[k] / m2[k] - 1.0).abs()).fold(0.0, f64::max);
+    let block_off =
+        b1.iter().zip(&b2).filter(|(_, b)| **b > 0.01).map(|(a, b)| (a / b - 1.0).abs()).fold(0.0, f64::max);
+    println!(
+        "smooth-emitter.xml emitting over whole faces: means off by up to {mean_off:.4}, blocks by {block_off:.4}"
+    );
+    assert!(mean_off > 0.003 || block_off > 0.04, "whole faces should miss Mitsuba: {mean_off}, {block_off}");
+}
+
+/// An area emitter on a smooth-shaded mesh whose faces are turned inward (a mirror without the file's
+/// normals, or `flip_normals`) is where caustica still knowingly differs from Mitsuba: it emits in front
+/// of both the face and the shading normal, Mitsuba of the shading normal alone, so the light outside is
+/// then Mitsuba's leak alone (`docs/mitsuba-differences/`); the import says so once, naming the line.
+/// Facing out (since session 69, `a_smooth_emitting_mesh_emits_as_mitsuba`), with `face_normals`, on a
+/// rectangle or a sphere (whose shading normal is the geometric one) or on a flat mesh (the OBJ tile,
+/// whose smooth normals are its faces'), it says nothing.
 #[test]
 fn an_emitting_smooth_mesh_is_warned_of() {
     let d = tmp("smooth-emitter");
@@ -210,9 +241,9 @@ fn an_emitting_smooth_mesh_is_warned_of() {
     let emitter = r#"<emitter type="area"><rgb name="radiance" value="1"/></emitter>"#;
     let mirror = r#"<transform name="to_world"><scale y="-1"/></transform>"#;
     let flip = r#"<boolean name="flip_normals" value="true"/>"#;
-    // How many warn (0, 1), and 2: warns that the faces are turned inward.
+    // 0: no warning; 2: a warning that the faces are turned inward.
     let cases = [
-        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ply.display()), 1),
+        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ply.display()), 0),
         (
             format!(
                 r#"<shape type="ply"><string name="filename" value="{}"/><boolean name="face_normals" value="true"/>{emitter}</shape>"#,
@@ -225,7 +256,7 @@ fn an_emitting_smooth_mesh_is_warned_of() {
         (format!(r#"<shape type="sphere">{emitter}</shape>"#), 0),
         // A flat mesh's smooth normals are its faces' (random scene 2532 was warned of its tile).
         (format!(r#"<shape type="obj"><string name="filename" value="{}"/>{emitter}</shape>"#, tile.display()), 0),
-        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ball.display()), 1),
+        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ball.display()), 0),
         // Turned inward, by a mirror (no vertex normals in the file) or by flip_normals: the warning
         // says that the whole difference is Mitsuba's leak (random scene 2455).
         (
@@ -242,14 +273,14 @@ fn an_emitting_smooth_mesh_is_warned_of() {
                 r#"<shape type="ply"><string name="filename" value="{}"/>{mirror}{flip}{emitter}</shape>"#,
                 ply.display()
             ),
-            1,
+            0,
         ),
         (
             format!(
                 r#"<shape type="ply"><string name="filename" value="{}"/>{mirror}{emitter}</shape>"#,
                 ball.display()
             ),
-            1,
+            0,
         ),
     ];
     for (k, (shape, want)) in cases.iter().enumerate() {

@@ -734,7 +734,7 @@ impl Vcm<'_> {
             };
             e = aimed;
         }
-        if e.pdf_emit <= 0.0 || e.phi == Rgb::ZERO {
+        if e.pdf_emit <= 0.0 || e.phi == Rgb::ZERO || !lights.leaves(scene, &e) {
             return;
         }
         let delta = kind.is_delta();

@@ -683,7 +683,10 @@ fn record(si: &crate::scene::SurfaceHit, wo: Vec3, phi: Rgb, depth: u32) -> Stor
 
 /// Uniform emission from the lights (power-weighted choice, then position and direction on the light).
 fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
-    let e = scene.lights.emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d())?;
+    let e = scene
+        .lights
+        .emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d())
+        .filter(|e| scene.lights.leaves(scene, e))?;
     Some(Launch { ray: e.ray, phi: e.phi, aim: None, delta: scene.lights.list[e.light].is_delta() })
 }
 
@@ -717,7 +720,7 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     let dist = dist2.sqrt();
     let w = d / dist;
     let cos_x = if lp.n == Vec3::ZERO { 1.0 } else { lp.n.dot(w) };
-    if cos_x <= 0.0 {
+    if cos_x <= 0.0 || !lights.emits(scene, li, lp.p, w) {
         return None;
     }
     let cos_y = ny.dot(w).abs();

@@ -602,6 +602,11 @@ pub enum ShapeSpec {
         /// not for a `.serialized` file.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         flip_tex_coords: Option<bool>,
+        /// With `emission` and `smooth`: emit only where the direction is in front of each point's
+        /// interpolated vertex normal as well as of its face, as Mitsuba's area emitter does on a mesh
+        /// with normals (the import sets it): a coarse smooth mesh's silhouettes are then dark.
+        #[serde(default, skip_serializing_if = "is_false")]
+        emit_by_shading_normal: bool,
     },
     /// Analytic sphere (exact hits; not tessellated).
     Sphere {

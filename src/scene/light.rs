@@ -529,7 +529,7 @@ impl Lights {
                 let dist = dist2.sqrt();
                 let wi = d / dist;
                 let cos_l = -wi.dot(lp.n);
-                if cos_l <= 0.0 || !lp.pdf_area.is_finite() {
+                if cos_l <= 0.0 || !lp.pdf_area.is_finite() || !self.emits(scene, i, lp.p, -wi) {
                     return None;
                 }
                 let pdf = p_sel * lp.pdf_area * dist2 / cos_l;
@@ -668,8 +668,26 @@ impl Lights {
         })
     }
 
+    /// Whether the point `p` that `sample_point` drew on light `i` emits towards `w` as far as its shading
+    /// normal says (`Scene::emits_towards`; the face's front is the caller's test): a mesh that
+    /// `emit_by_shading_normal` emits only in front of both.
+    pub fn emits(&self, scene: &Scene, i: usize, p: Vec3, w: Vec3) -> bool {
+        match self.list[i] {
+            LightKind::Triangle { shape, prim } => scene.emits_towards(shape, prim, p, w),
+            _ => true,
+        }
+    }
+
+    /// Whether an emitted ray carries light where it leaves (`emits`): `emit` draws its direction over
+    /// the face's front, and a caller that turns it (VCM's aim) asks this of the direction it keeps. A ray
+    /// that does not counts as a photon shot with no power.
+    pub fn leaves(&self, scene: &Scene, e: &EmittedRay) -> bool {
+        self.emits(scene, e.light, e.origin, e.ray.d)
+    }
+
     /// Emits a photon: light chosen by power, position uniform on it, direction uniform (point; over its
-    /// cone for a spot) or cosine.
+    /// cone for a spot) or cosine. A mesh that `emit_by_shading_normal` may draw a direction its
+    /// shading normal turns away from: ask `leaves` of the direction kept.
     /// The returned power is Φ_light / p_choice; divide by the number of photons shot.
     pub fn emit(&self, scene: &Scene, u_sel: f32, u_pos: [f32; 2], u_dir: [f32; 2]) -> Option<EmittedRay> {
         if self.is_empty() {

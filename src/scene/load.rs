@@ -1289,7 +1289,8 @@ fn build_shape(
                 transform: &TransformSpec,
                 material: u32,
                 (emission, emission_texture): (Rgb, Option<u32>),
-                smooth: bool| {
+                smooth: bool,
+                emit_by_shading_normal: bool| {
         if flip {
             mesh.flip();
         }
@@ -1298,7 +1299,7 @@ fn build_shape(
             mesh.compute_smooth_normals();
         }
         let geometry = Geometry::Mesh(mesh);
-        shapes.push(Shape { name: key.into(), geometry, material, emission, emission_texture });
+        shapes.push(Shape { name: key.into(), geometry, material, emission, emission_texture, emit_by_shading_normal });
         Ok::<(), SceneError>(())
     };
     match spec {
@@ -1311,7 +1312,12 @@ fn build_shape(
             flip_normals,
             shape_index,
             flip_tex_coords,
+            emit_by_shading_normal,
         } => {
+            if *emit_by_shading_normal && !(*smooth && e.is_some()) {
+                let msg = "is for an emitting mesh with smooth normals (`emission` and `smooth = true`)";
+                return Err(cx.err(&format!("{key}.emit_by_shading_normal"), msg));
+            }
             let path = dir.join(file);
             let shown_mesh = path.display().to_string();
             let in_scene = |e: SceneError| cx.err(&format!("{key}.file"), e.to_string());
@@ -1339,29 +1345,38 @@ fn build_shape(
                         );
                     }
                 };
-                push(out.shapes, lm.mesh, *flip_normals, transform, mat, emission(e, out.textures)?, *smooth)?;
+                let emits = emission(e, out.textures)?;
+                push(out.shapes, lm.mesh, *flip_normals, transform, mat, emits, *smooth, *emit_by_shading_normal)?;
             }
         }
         ShapeSpec::Sphere { center, radius, material, transform, emission: e, flip_normals } => {
             let geometry = sphere_geometry(cx, key, *center, *radius, transform, *flip_normals)?;
             let (emission, emission_texture) = emission(e, out.textures)?;
             let material = lookup(material)?;
-            out.shapes.push(Shape { name: key.into(), geometry, material, emission, emission_texture });
+            let emit_by_shading_normal = false;
+            out.shapes.push(Shape {
+                name: key.into(),
+                geometry,
+                material,
+                emission,
+                emission_texture,
+                emit_by_shading_normal,
+            });
         }
         ShapeSpec::Heightfield { material, transform, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, false, transform, lookup(material)?, (Rgb::ZERO, None), false)?;
+            push(out.shapes, mesh, false, transform, lookup(material)?, (Rgb::ZERO, None), false, false)?;
         }
         ShapeSpec::Quad { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Disk { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Cylinder { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Box { material, transform, emission: e, flip_normals: flip, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e, out.textures)?, false)?;
+            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e, out.textures)?, false, false)?;
         }
         ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, false, transform, lookup(material)?, emission(e, out.textures)?, false)?;
+            push(out.shapes, mesh, false, transform, lookup(material)?, emission(e, out.textures)?, false, false)?;
         }
     }
     // Mesh colours are read off the hit mesh: it must have them, each within [0, 1] times the
@@ -1709,7 +1724,14 @@ fn build_light(
             let emission = radiance_of(cx, key, power, radiance, area)?;
             let geometry =
                 Geometry::Sphere { center: Vec3::from_array(*center), radius: r, frame: None, inward: false };
-            shapes.push(Shape { name: key.into(), geometry, material: black, emission, emission_texture: None });
+            shapes.push(Shape {
+                name: key.into(),
+                geometry,
+                material: black,
+                emission,
+                emission_texture: None,
+                emit_by_shading_normal: false,
+            });
         }
         LightSpec::Quad { corner, edge_u, edge_v, power, radiance } => {
             let (eu, ev) = (Vec3::from_array(*edge_u), Vec3::from_array(*edge_v));
@@ -1719,7 +1741,14 @@ fn build_light(
             }
             let emission = radiance_of(cx, key, power, radiance, area)?;
             let geometry = Geometry::Mesh(mesh::quad(Vec3::from_array(*corner), eu, ev));
-            shapes.push(Shape { name: key.into(), geometry, material: black, emission, emission_texture: None });
+            shapes.push(Shape {
+                name: key.into(),
+                geometry,
+                material: black,
+                emission,
+                emission_texture: None,
+                emit_by_shading_normal: false,
+            });
         }
         LightSpec::Constant { .. } | LightSpec::Envmap { .. } | LightSpec::Distant { .. } => {
             unreachable!("built in build()")

@@ -52,19 +52,38 @@ impl TriMesh {
         }
     }
 
-    /// The vertex colours interpolated at point `p` of triangle `i` (by its barycentric coordinates,
-    /// from the areas `p` makes with the triangle's edges); black without colours.
-    pub fn color_at(&self, i: usize, p: Vec3) -> Vec3 {
-        let Some(c) = &self.colors else { return Vec3::ZERO };
-        let [a, b, cc] = self.triangle(i);
-        let n = (b - a).cross(cc - a);
+    /// Barycentric coordinates `[u, v]` of point `p` of triangle `i` (p = a·(1 − u − v) + b·u + c·v),
+    /// from the areas `p` makes with the triangle's edges; None for a degenerate triangle.
+    fn barycentrics(&self, i: usize, p: Vec3) -> Option<[f32; 2]> {
+        let [a, b, c] = self.triangle(i);
+        let n = (b - a).cross(c - a);
         let nn = n.length_squared();
         if nn == 0.0 || !nn.is_finite() {
-            return c[self.indices[i][0] as usize];
+            return None;
         }
-        let u = (p - a).cross(cc - a).dot(n) / nn;
-        let v = (b - a).cross(p - a).dot(n) / nn;
+        Some([(p - a).cross(c - a).dot(n) / nn, (b - a).cross(p - a).dot(n) / nn])
+    }
+
+    /// The vertex normals interpolated at point `p` of triangle `i`, unit length, as the mesh gives them
+    /// (not turned towards the face's normal); None without vertex normals, or where they cancel.
+    pub fn interpolated_normal(&self, i: usize, p: Vec3) -> Option<Vec3> {
+        let ns = self.normals.as_ref()?;
         let [i0, i1, i2] = self.indices[i];
+        let n = match self.barycentrics(i, p) {
+            Some([u, v]) => ns[i0 as usize] * (1.0 - u - v) + ns[i1 as usize] * u + ns[i2 as usize] * v,
+            None => ns[i0 as usize],
+        };
+        Some(n.normalize_or_zero()).filter(|n| *n != Vec3::ZERO)
+    }
+
+    /// The vertex colours interpolated at point `p` of triangle `i` (by its barycentric coordinates);
+    /// black without colours.
+    pub fn color_at(&self, i: usize, p: Vec3) -> Vec3 {
+        let Some(c) = &self.colors else { return Vec3::ZERO };
+        let [i0, i1, i2] = self.indices[i];
+        let Some([u, v]) = self.barycentrics(i, p) else {
+            return c[i0 as usize];
+        };
         c[i0 as usize] * (1.0 - u - v) + c[i1 as usize] * u + c[i2 as usize] * v
     }
 

@@ -147,6 +147,10 @@ pub struct Shape {
     /// Index into `Scene::textures`: the radiance at each point, read at its texture coordinates
     /// (Mitsuba's textured `radiance`), times `emission`.
     pub emission_texture: Option<u32>,
+    /// A smooth mesh that emits only towards the front of its shading normal as well as of its faces
+    /// (`Scene::emits_towards`): Mitsuba's area emitter on a mesh with vertex normals, whose coarse
+    /// silhouettes are then dark where the interpolated normal turns away.
+    pub emit_by_shading_normal: bool,
 }
 
 impl Shape {
@@ -872,13 +876,29 @@ impl Scene {
         }
     }
 
-    /// Radiance the surface at `si` emits towards `wo` (the front of its geometric normal).
+    /// Radiance the surface at `si` emits towards `wo` (the front of its geometric normal; and of its
+    /// shading normal for a shape that `emit_by_shading_normal`).
     pub fn emitted(&self, si: &SurfaceHit, wo: Vec3) -> crate::color::Rgb {
         let e = self.shapes[si.shape as usize].emission;
-        if e != crate::color::Rgb::ZERO && wo.dot(si.ng) > 0.0 {
+        if e != crate::color::Rgb::ZERO && wo.dot(si.ng) > 0.0 && self.emits_towards(si.shape, si.prim, si.p, wo) {
             self.radiance_at(si.shape, || si.uv)
         } else {
             crate::color::Rgb::ZERO
+        }
+    }
+
+    /// Whether point `p` of primitive `prim` of emitter `shape` emits towards `w` as far as its shading
+    /// normal says: always, but for a shape that `emit_by_shading_normal`, where `w` must lie in front
+    /// of the vertex normals interpolated at `p` (as given in the mesh, not turned towards the face's).
+    /// The front of the face is the caller's test.
+    pub fn emits_towards(&self, shape: u32, prim: u32, p: Vec3, w: Vec3) -> bool {
+        let s = &self.shapes[shape as usize];
+        if !s.emit_by_shading_normal {
+            return true;
+        }
+        match &s.geometry {
+            Geometry::Mesh(m) => m.interpolated_normal(prim as usize, p).is_none_or(|n| n.dot(w) > 0.0),
+            Geometry::Sphere { .. } => true,
         }
     }
 

@@ -715,22 +715,14 @@ impl<'a> Cx<'a> {
                 // `flip_normals`) renders here. Vertex normals from the file stay outward (transformed
                 // as normals), the shading Mitsuba gives them too, only its media swapping sides.
                 inside_out = mirrors && (face_normals || !file_has_normals(meshes.as_deref()));
-                if smooth_emitter_check && file_is_smooth_shaded(meshes.as_deref()) {
-                    // README "Not done": Mitsuba's area emitter tests the shading frame, caustica's the
-                    // geometric normal (as pbrt-v4's); measured in docs/mitsuba-differences/.
-                    let extent = if flip_normals ^ inside_out {
-                        // Its faces turned inward (random scene 2455): a closed mesh lights only its
-                        // inside here, and Mitsuba's leak past the faces is all the light outside.
-                        "; its faces are turned inward (by `flip_normals` or a mirroring `to_world`, in both \
-                         renderers), so outside a closed mesh caustica's light from it is none and Mitsuba's is \
-                         what leaks out past the faces (1.5% of what a coarse ball gives facing out)"
-                    } else {
-                        " (up to 3% of the whole image in random scenes lit mostly by a coarse mesh)"
-                    };
+                // Mitsuba's area emitter emits towards the front of each point's shading normal
+                // (`emit_by_shading_normal`, with the face's front, which is all a closed mesh seen from
+                // outside shows). Where the faces are turned inward (random scene 2455) the two differ:
+                // outside a closed mesh caustica's light is none and Mitsuba's is what leaks past the
+                // faces, in front of the shading normal and behind the face.
+                if smooth_emitter_check && flip_normals ^ inside_out && file_is_smooth_shaded(meshes.as_deref()) {
                     self.warnings.push(format!(
-                        "{}: line {}: an area emitter on a smooth-shaded mesh: Mitsuba emits on the front of \
-                         each point's shading normal, caustica of its face's normal, so the two differ near \
-                         the mesh's silhouettes{extent}; `face_normals` true makes them agree",
+                        "{}: line {}: an area emitter on a smooth-shaded mesh whose faces are turned inward (by                          `flip_normals` or a mirroring `to_world`, in both renderers): caustica emits where the                          direction is in front of both the face and the shading normal, Mitsuba of the shading                          normal alone, so outside a closed mesh caustica's light from it is none and Mitsuba's is                          what leaks out past the faces (1.5% of what a coarse ball gives facing out);                          `face_normals` true makes them agree",
                         n.file.display(),
                         n.line
                     ));
@@ -744,6 +736,7 @@ impl<'a> Cx<'a> {
                     flip_normals: flip_normals ^ inside_out,
                     shape_index,
                     flip_tex_coords,
+                    emit_by_shading_normal: smooth_emitter_check,
                 }
             }
             "rectangle" => ShapeSpec::Quad {
