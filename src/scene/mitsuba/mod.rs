@@ -722,7 +722,12 @@ impl<'a> Cx<'a> {
                 // faces, in front of the shading normal and behind the face.
                 if smooth_emitter_check && flip_normals ^ inside_out && file_is_smooth_shaded(meshes.as_deref()) {
                     self.warnings.push(format!(
-                        "{}: line {}: an area emitter on a smooth-shaded mesh whose faces are turned inward (by                          `flip_normals` or a mirroring `to_world`, in both renderers): caustica emits where the                          direction is in front of both the face and the shading normal, Mitsuba of the shading                          normal alone, so outside a closed mesh caustica's light from it is none and Mitsuba's is                          what leaks out past the faces (1.5% of what a coarse ball gives facing out);                          `face_normals` true makes them agree",
+                        "{}: line {}: an area emitter on a smooth-shaded mesh whose faces are turned inward (by \
+                         `flip_normals` or a mirroring `to_world`, in both renderers): caustica emits where the \
+                         direction is in front of both the face and the shading normal, Mitsuba of the shading \
+                         normal alone, so outside a closed mesh caustica's light from it is none and Mitsuba's is \
+                         what leaks out past the faces (1.5% of what a coarse ball gives facing out); \
+                         `face_normals` true makes them agree",
                         n.file.display(),
                         n.line
                     ));

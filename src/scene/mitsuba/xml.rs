@@ -64,9 +64,65 @@ pub fn read_scene(path: &Path) -> Result<Node, SceneError> {
     Ok(root)
 }
 
+/// An XML declaration after blank lines or spaces (a file a script wrote with a newline first), which
+/// XML forbids and Mitsuba's reader takes: blanked to spaces, every length and line kept (the reader
+/// takes UTF-8 whatever the declaration says).
+fn lenient_declaration(text: &str) -> std::borrow::Cow<'_, str> {
+    use std::borrow::Cow;
+    let body = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let lead = body.len() - body.trim_start().len();
+    if lead == 0 || !body[lead..].starts_with("<?xml") {
+        return Cow::Borrowed(text);
+    }
+    let Some(end) = body[lead..].find("?>") else { return Cow::Borrowed(text) };
+    let at = text.len() - body.len() + lead;
+    let blank: String = text[at..at + end + 2].chars().map(|c| if c == '\n' { c } else { ' ' }).collect();
+    Cow::Owned(format!("{}{blank}{}", &text[..at], &text[at + end + 2..]))
+}
+
+/// Comments as Mitsuba's reader (pugixml) takes them. XML forbids `--` inside a comment and a comment
+/// ending `--->`, which decorative comments (`<!-- ---- lights ---- -->`) and dashes in prose break;
+/// Mitsuba reads them, so each dash next to another dash (or to the closing `-->`) becomes a space,
+/// every length, line and column kept for the strict parser's messages. A comment ends at its first
+/// `-->`, as in both; CDATA sections are left alone; an unterminated comment stays for the parser to
+/// report.
+fn lenient_comments(text: &str) -> std::borrow::Cow<'_, str> {
+    use std::borrow::Cow;
+    let find = |b: &[u8], from: usize, pat: &[u8]| b[from.min(b.len())..].windows(pat.len()).position(|w| w == pat);
+    let b = text.as_bytes();
+    let mut out: Option<Vec<u8>> = None;
+    let mut i = 0;
+    while let Some(at) = find(b, i, b"<") {
+        i += at;
+        if b[i..].starts_with(b"<![CDATA[") {
+            let Some(n) = find(b, i + 9, b"]]>") else { break };
+            i += 9 + n + 3;
+        } else if b[i..].starts_with(b"<!--") {
+            let start = i + 4;
+            let Some(n) = find(b, start, b"-->") else { break };
+            let end = start + n;
+            for k in start..end {
+                if b[k] == b'-' && (k + 1 == end || b[k + 1] == b'-') {
+                    out.get_or_insert_with(|| b.to_vec())[k] = b' ';
+                }
+            }
+            i = end + 3;
+        } else {
+            i += 1;
+        }
+    }
+    // Only ASCII dashes were replaced, by ASCII spaces: still UTF-8.
+    match out {
+        Some(o) => String::from_utf8(o).map_or(Cow::Borrowed(text), Cow::Owned),
+        None => Cow::Borrowed(text),
+    }
+}
+
 fn read_file(path: &Path, depth: usize, includes: &mut usize) -> Result<Node, SceneError> {
     let shown = path.display().to_string();
     let text = crate::scene::read_text(path).map_err(|msg| SceneError::Io { file: shown.clone(), msg })?;
+    let declared = lenient_declaration(&text);
+    let text = lenient_comments(&declared);
     let doc = roxmltree::Document::parse(&text)
         .map_err(|e| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") })?;
     let root = doc.root_element();
@@ -190,5 +246,38 @@ mod tests {
         assert_eq!(replace_refs("$spp", &d).unwrap(), "64");
         assert_eq!(replace_refs("a $spp, b", &d).unwrap(), "a 64, b");
         assert_eq!(replace_refs("$res_x", &d).unwrap_err(), "res_x");
+    }
+
+    /// Comments Mitsuba reads and strict XML does not (`--` inside, `--->` at the end) parse, each with
+    /// its text's length and lines kept; other dashes, CDATA and a well-formed file are left alone.
+    #[test]
+    fn comments_with_dashes_are_read_as_mitsuba_reads_them() {
+        let text = "<scene version=\"3.0.0\">\n<!-- ---- lights ---- -->\n<!-- a -- b --->\n<!---->\n\
+                    <!-- a - b -->\n<x v=\"--\"><![CDATA[ <!-- -- --> ]]></x>\n</scene>";
+        assert!(roxmltree::Document::parse(text).is_err(), "strict XML refuses it");
+        let read = lenient_comments(text);
+        assert_eq!((read.len(), read.lines().count()), (text.len(), text.lines().count()));
+        let doc = roxmltree::Document::parse(&read).unwrap();
+        let x = doc.descendants().find(|n| n.has_tag_name("x")).unwrap();
+        assert_eq!((x.attribute("v"), x.text()), (Some("--"), Some(" <!-- -- --> ")));
+        assert!(read.contains("<!-- a - b -->") && read.contains("<!---->"), "{read}");
+        let plain = "<scene version=\"3.0.0\"><!-- fine --></scene>";
+        assert!(matches!(lenient_comments(plain), std::borrow::Cow::Borrowed(_)));
+    }
+
+    /// A declaration after blank lines, which Mitsuba reads and strict XML refuses, parses with its lines
+    /// kept; one at the very start (after a byte-order mark or not) is left alone.
+    #[test]
+    fn a_declaration_after_blank_lines_is_read_as_mitsuba_reads_it() {
+        let text = "\n  \n<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<scene version=\"3.0.0\"/>\n";
+        assert!(roxmltree::Document::parse(text).is_err(), "strict XML refuses it");
+        let read = lenient_declaration(text);
+        assert_eq!(read.lines().count(), text.lines().count());
+        let doc = roxmltree::Document::parse(&read).unwrap();
+        assert_eq!(doc.root_element().tag_name().name(), "scene");
+        assert_eq!(doc.text_pos_at(doc.root_element().range().start).row, 4);
+        for fine in ["<?xml version=\"1.0\"?><scene/>", "\u{feff}<?xml version=\"1.0\"?><scene/>", "  <scene/>"] {
+            assert!(matches!(lenient_declaration(fine), std::borrow::Cow::Borrowed(_)), "{fine}");
+        }
     }
 }
