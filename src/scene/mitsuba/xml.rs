@@ -64,6 +64,18 @@ pub fn read_scene(path: &Path) -> Result<Node, SceneError> {
     Ok(root)
 }
 
+/// Most XML nodes a file may hold (elements, text, comments; entities expanded): real scenes hold
+/// thousands, and this bounds what a hostile file's entities can ask for.
+const MAX_XML_NODES: u32 = 1 << 24;
+
+/// A file's XML, a `<!DOCTYPE>` allowed (Mitsuba's reader takes one, and internal entities as macros),
+/// entity expansion bounded by the parser's own check against exponential entities and by
+/// `MAX_XML_NODES`.
+fn parse_xml(text: &str) -> Result<roxmltree::Document<'_>, roxmltree::Error> {
+    let options = roxmltree::ParsingOptions { allow_dtd: true, nodes_limit: MAX_XML_NODES, ..Default::default() };
+    roxmltree::Document::parse_with_options(text, options)
+}
+
 /// An XML declaration after blank lines or spaces (a file a script wrote with a newline first), which
 /// XML forbids and Mitsuba's reader takes: blanked to spaces, every length and line kept (the reader
 /// takes UTF-8 whatever the declaration says).
@@ -123,8 +135,7 @@ fn read_file(path: &Path, depth: usize, includes: &mut usize) -> Result<Node, Sc
     let text = crate::scene::read_text(path).map_err(|msg| SceneError::Io { file: shown.clone(), msg })?;
     let declared = lenient_declaration(&text);
     let text = lenient_comments(&declared);
-    let doc = roxmltree::Document::parse(&text)
-        .map_err(|e| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") })?;
+    let doc = parse_xml(&text).map_err(|e| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") })?;
     let root = doc.root_element();
     let mut node = convert(&doc, root, path, 0)?;
     if node.tag != "scene" {
@@ -263,6 +274,26 @@ mod tests {
         assert!(read.contains("<!-- a - b -->") && read.contains("<!---->"), "{read}");
         let plain = "<scene version=\"3.0.0\"><!-- fine --></scene>";
         assert!(matches!(lenient_comments(plain), std::borrow::Cow::Borrowed(_)));
+    }
+
+    /// A `<!DOCTYPE>` with an internal entity reads (Mitsuba reads it); entities that double ten times
+    /// over are refused by the parser's own check, and a file of more nodes than `MAX_XML_NODES`.
+    #[test]
+    fn a_doctype_reads_and_entity_bombs_are_refused() {
+        let scene = "<!DOCTYPE scene [<!ENTITY spp \"64\">]><scene version=\"3.0.0\"><integer name=\"n\" value=\"&spp;\"/></scene>";
+        let doc = parse_xml(scene).unwrap();
+        assert_eq!(
+            doc.descendants().find(|n| n.has_tag_name("integer")).and_then(|n| n.attribute("value")),
+            Some("64")
+        );
+        let mut bomb = String::from("<!DOCTYPE scene [<!ENTITY a0 \"<x/><x/>\">");
+        for k in 1..32 {
+            bomb += &format!("<!ENTITY a{k} \"&a{};&a{};\">", k - 1, k - 1);
+        }
+        bomb += "]><scene version=\"3.0.0\">&a31;</scene>";
+        assert!(parse_xml(&bomb).is_err(), "2^32 nodes");
+        let text_bomb = bomb.replace("<x/><x/>", "lol lol lol").replace("&a31;</scene>", "<s v=\"&a31;\"/></scene>");
+        assert!(parse_xml(&text_bomb).is_err(), "2^31 × 11 bytes of text");
     }
 
     /// A declaration after blank lines, which Mitsuba reads and strict XML refuses, parses with its lines
