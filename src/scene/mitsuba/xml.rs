@@ -92,6 +92,86 @@ fn lenient_declaration(text: &str) -> std::borrow::Cow<'_, str> {
     Cow::Owned(format!("{}{blank}{}", &text[..at], &text[at + end + 2..]))
 }
 
+/// Attribute values as Mitsuba's reader (pugixml) takes them: a bare `&` that starts no reference (a file
+/// name `R&D.png`) and an entity XML does not define (`&nbsp;`, without a `<!DOCTYPE>` to define it)
+/// are read as written, and so is a `<` (strict XML refuses all three). Escaped here (`&amp;`, `&lt;`),
+/// lines kept; values outside tags, comments, CDATA and declarations are left alone.
+fn lenient_attributes(text: &str) -> std::borrow::Cow<'_, str> {
+    use std::borrow::Cow;
+    if !text.contains('&') && !text.contains('<') {
+        return Cow::Borrowed(text);
+    }
+    let has_dtd = text.contains("<!DOCTYPE");
+    // Whether `rest` (just after an `&`) is a reference the parser takes: a character reference, one of
+    // XML's five entities, or (with a DTD to define it) any well-formed name.
+    let reference = |rest: &str| {
+        let Some(end) = rest.find(';').filter(|&e| e > 0 && e <= 32) else { return false };
+        let name = &rest[..end];
+        if let Some(num) = name.strip_prefix('#') {
+            return match num.strip_prefix('x') {
+                Some(hex) => !hex.is_empty() && hex.chars().all(|c| c.is_ascii_hexdigit()),
+                None => !num.is_empty() && num.chars().all(|c| c.is_ascii_digit()),
+            };
+        }
+        let well_formed = name.chars().enumerate().all(|(i, c)| {
+            c.is_alphabetic() || c == '_' || c == ':' || (i > 0 && (c.is_alphanumeric() || matches!(c, '-' | '.')))
+        });
+        well_formed && (has_dtd || ["amp", "lt", "gt", "quot", "apos"].contains(&name))
+    };
+    let mut out = String::with_capacity(text.len());
+    let mut changed = false;
+    let mut rest = text;
+    while let Some(at) = rest.find('<') {
+        out.push_str(&rest[..at]);
+        rest = &rest[at..];
+        // Comments, CDATA, declarations and processing instructions are copied whole.
+        let skip = [("<!--", "-->"), ("<![CDATA[", "]]>"), ("<?", "?>"), ("<!", ">")]
+            .iter()
+            .find(|(open, _)| rest.starts_with(open))
+            .map(|(open, close)| rest[open.len()..].find(close).map_or(rest.len(), |e| open.len() + e + close.len()));
+        if let Some(n) = skip {
+            out.push_str(&rest[..n]);
+            rest = &rest[n..];
+            continue;
+        }
+        // A tag: copied up to its `>`, its quoted values escaped where needed.
+        out.push('<');
+        rest = &rest[1..];
+        let mut quote = None;
+        let mut end = rest.len();
+        for (i, c) in rest.char_indices() {
+            match (quote, c) {
+                (None, '>') => {
+                    out.push('>');
+                    end = i + 1;
+                    break;
+                }
+                (None, '"' | '\'') => quote = Some(c),
+                (Some(q), _) if c == q => quote = None,
+                (Some(_), '&') if !reference(&rest[i + 1..]) => {
+                    out.push_str("&amp;");
+                    changed = true;
+                    continue;
+                }
+                (Some(_), '<') => {
+                    out.push_str("&lt;");
+                    changed = true;
+                    continue;
+                }
+                _ => {}
+            }
+            out.push(c);
+        }
+        rest = &rest[end.min(rest.len())..];
+    }
+    out.push_str(rest);
+    if changed {
+        Cow::Owned(out)
+    } else {
+        Cow::Borrowed(text)
+    }
+}
+
 /// Comments as Mitsuba's reader (pugixml) takes them. XML forbids `--` inside a comment and a comment
 /// ending `--->`, which decorative comments (`<!-- ---- lights ---- -->`) and dashes in prose break;
 /// Mitsuba reads them, so each dash next to another dash (or to the closing `-->`) becomes a space,
@@ -134,7 +214,8 @@ fn read_file(path: &Path, depth: usize, includes: &mut usize) -> Result<Node, Sc
     let shown = path.display().to_string();
     let text = crate::scene::read_text(path).map_err(|msg| SceneError::Io { file: shown.clone(), msg })?;
     let declared = lenient_declaration(&text);
-    let text = lenient_comments(&declared);
+    let commented = lenient_comments(&declared);
+    let text = lenient_attributes(&commented);
     let doc = parse_xml(&text).map_err(|e| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") })?;
     let root = doc.root_element();
     let mut node = convert(&doc, root, path, 0)?;
@@ -274,6 +355,28 @@ mod tests {
         assert!(read.contains("<!-- a - b -->") && read.contains("<!---->"), "{read}");
         let plain = "<scene version=\"3.0.0\"><!-- fine --></scene>";
         assert!(matches!(lenient_comments(plain), std::borrow::Cow::Borrowed(_)));
+    }
+
+    /// Attribute values Mitsuba reads and strict XML refuses (a bare `&`, an undefined entity, a `<`) are
+    /// read as written; references XML defines, and (with a DTD) the DTD's, are read as before, and so is
+    /// everything outside tags.
+    #[test]
+    fn attribute_values_are_read_as_mitsuba_reads_them() {
+        let text =
+            "<scene version=\"3.0.0\">\n<s a=\"R&D.png\" b='x &nbsp; &amp; &#65;&#x42; & y' c=\"1 < 2\" d=\"&\"/>\n\
+                    <!-- & < --><![CDATA[ & ]]>\n</scene>";
+        assert!(roxmltree::Document::parse(text).is_err(), "strict XML refuses it");
+        let read = lenient_attributes(text);
+        assert_eq!(read.lines().count(), text.lines().count());
+        let doc = roxmltree::Document::parse(&read).unwrap();
+        let s = doc.descendants().find(|n| n.has_tag_name("s")).unwrap();
+        let got: Vec<_> = ["a", "b", "c", "d"].iter().map(|k| s.attribute(*k).unwrap()).collect();
+        assert_eq!(got, ["R&D.png", "x &nbsp; & AB & y", "1 < 2", "&"]);
+        let dtd = "<!DOCTYPE scene [<!ENTITY n \"7\">]><scene v=\"&n; & m\"/>";
+        let doc = parse_xml(&lenient_attributes(dtd)).unwrap().root_element().attribute("v").map(str::to_string);
+        assert_eq!(doc.as_deref(), Some("7 & m"));
+        let plain = "<scene version=\"3.0.0\"><a b=\"&amp;\"/></scene>";
+        assert!(matches!(lenient_attributes(plain), std::borrow::Cow::Borrowed(_)));
     }
 
     /// A `<!DOCTYPE>` with an internal entity reads (Mitsuba reads it); entities that double ten times
