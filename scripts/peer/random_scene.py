@@ -834,7 +834,8 @@ if args.exporter:
     # the time: a `name` label on every nested object (Blender's add-on; Mitsuba gathers nested objects
     # by kind), booleans spelled "True"/"FALSE", each top-level BSDF, texture or medium referred to
     # through an <alias>, and
-    # the camera mirrored by a <scale x="-1"/> before its to_world (the image mirrored in both renderers).
+    # the camera mirrored by a <scale x="-1"/> before its to_world (the image mirrored in both renderers);
+    # below, from another stream, what Mitsuba's lenient XML reader takes.
     E = random.Random(args.seed * 8831 + 97)
     if E.random() < 0.5:
         count = iter(range(10**6))
@@ -850,5 +851,17 @@ if args.exporter:
     if E.random() < 0.5:
         text = re.sub(r'(<sensor type="\w+">(?:(?!</sensor>).)*?<transform name="to_world">)', r'\1<scale x="-1"/>',
                       text, count=1, flags=re.S)
+if args.exporter:
+    # What Mitsuba's XML reader takes and strict XML refuses (session 69), from a stream of its own, each
+    # half the time: decorative comments with runs of dashes, a declaration after a blank line, and the
+    # ids of top-level objects with a bare `&` in them (and in every <ref> to them).
+    L = random.Random(args.seed * 7127 + 53)
+    if L.random() < 0.5:
+        text = re.sub(r"(<shape )", lambda m: "<!-- ---- shape -- of the scene --->" + m.group(1), text, count=3)
+    if L.random() < 0.5:
+        for ident in re.findall(r'<(?:bsdf|texture|medium) type="\w+" id="([^"&]+)"', text):
+            text = text.replace(f'id="{ident}"', f'id="{ident} & co"')
+    if L.random() < 0.5:
+        text = '\n<?xml version="1.0" encoding="utf-8"?>\n' + text
 with open(args.out, "w") as fh:
     fh.write(text)
