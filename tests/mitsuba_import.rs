@@ -1891,7 +1891,8 @@ fn names_on_nested_objects_are_labels() {
 }
 
 /// Settings Mitsuba 3.9.1 accepts that change nothing in the image here, each read and left out (the
-/// scene hashes equal to the one without): an envmap's `mis_compensation` (how its directions are
+/// scene hashes equal to the one without): any emitter's `sampling_weight` (how often Mitsuba's light
+/// samples pick it; refused before session 69: seen failing), an envmap's `mis_compensation` (how its directions are
 /// drawn), a sensor's `shutter_open` and `shutter_close` (nothing in an XML scene moves), a film's
 /// `compensate` (removed from Mitsuba, which ignores it); and booleans spelled "True" or "FALSE", which
 /// Mitsuba reads in any case. Each was refused before: seen failing.
@@ -1910,6 +1911,8 @@ fn settings_that_change_nothing_are_read() {
         ("<rfilter", "<boolean name=\"compensate\" value=\"true\"/><rfilter"),
         ("<rfilter", "<boolean name=\"banner\" value=\"FALSE\"/><rfilter"),
         ("<sensor", "<integrator type=\"path\"><integer name=\"samples_per_pass\" value=\"4\"/></integrator><sensor"),
+        ("<string name=\"filename\"", "<float name=\"sampling_weight\" value=\"0.25\"/><string name=\"filename\""),
+        ("<emitter type=\"point\">", "<emitter type=\"point\"><float name=\"sampling_weight\" value=\"3\"/>"),
     ];
     for (k, (from, to)) in cases.iter().enumerate() {
         assert!(base.contains(from), "{from}");
@@ -1917,6 +1920,20 @@ fn settings_that_change_nothing_are_read() {
         let s = load_scene_with(&path, &[]).unwrap_or_else(|e| panic!("{to}: {e}"));
         assert_eq!(s.content_hash(), plain.content_hash(), "{to}");
     }
+    // An area emitter's `sampling_weight` too.
+    let lit = base.replacen(
+        "<emitter type=\"point\">",
+        "<shape type=\"rectangle\"><emitter type=\"area\"/></shape><emitter type=\"point\">",
+        1,
+    );
+    let weighted = lit.replacen(
+        "<emitter type=\"area\"/>",
+        "<emitter type=\"area\"><float name=\"sampling_weight\" value=\"0.001\"/></emitter>",
+        1,
+    );
+    let [a, b] = [("lit.xml", &lit), ("weighted.xml", &weighted)]
+        .map(|(name, text)| load_scene_with(&write(&d, name, text), &[]).unwrap_or_else(|e| panic!("{name}: {e}")));
+    assert_eq!(a.content_hash(), b.content_hash(), "sampling_weight on an area emitter");
     // "True" is true: the emitters hidden.
     let hidden = base.replacen(
         "<sensor",

@@ -675,7 +675,9 @@ impl<'a> Cx<'a> {
             // A colour, or a texture read at each point (its `id`, else named after the shape).
             let radiance = self.colour_prop(&ep, "radiance", &format!("shapes[{index}]-emitter"))?;
             emission = Some(radiance.unwrap_or(Reflectance::Colour([1.0; 3])));
-            ep.finish("radiance")?;
+            // How often Mitsuba's light samples pick this emitter: it changes the noise, not the image.
+            ep.float("sampling_weight")?;
+            ep.finish("radiance, sampling_weight")?;
         }
         let material = self.shape_material(n, &p, index, emission.is_some())?;
         let unmediated = material.clone();
@@ -1600,6 +1602,8 @@ impl<'a> Cx<'a> {
 
     fn emitter(&mut self, e: &'a Node) -> Result<(), SceneError> {
         let p = Props::new(e);
+        // How often Mitsuba's light samples pick this emitter: it changes the noise, not the image.
+        p.float("sampling_weight")?;
         match e.attr("type") {
             Some("point") => {
                 let intensity = p.rgb("intensity")?.unwrap_or([1.0; 3]);
@@ -1708,7 +1712,7 @@ impl<'a> Cx<'a> {
         }
         p.finish(
             "intensity, position, to_world (point); intensity, cutoff_angle, beam_width, texture, to_world (spot); irradiance, scale, fov, fov_axis, focal_length, to_world (projector); irradiance, direction, to_world (directional); radiance \
-             (constant); filename, scale, to_world, mis_compensation (envmap)",
+             (constant); filename, scale, to_world, mis_compensation (envmap); sampling_weight (every emitter)",
         )
     }
 }
