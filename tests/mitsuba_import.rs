@@ -1344,21 +1344,28 @@ fn texture_rows_flip_as_mitsubas_flip_tex_coords() {
         .collect();
     let check = |s: &Scene| assert_eq!(s.shapes.len(), 5, "four squares and the floor");
     pixels_match_mitsuba("fliptex", &check, &wrong);
-    let bin = env!("CARGO_BIN_EXE_caustica");
-    let out = tmp("fliptex").join("fliptex.toml");
-    let o = std::process::Command::new(bin)
+    let text = converts_to_the_same_scene("fliptex");
+    assert!(text.contains("flip_tex_coords = false") && text.contains("flip_tex_coords = true"), "{text}");
+}
+
+/// `caustica convert NAME.xml` into a scratch folder: the TOML it writes, which must load to the scene
+/// the XML loads to (equal scene hashes).
+fn converts_to_the_same_scene(name: &str) -> String {
+    let out = tmp(name).join(format!("{name}.toml"));
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
         .arg("convert")
-        .arg(dir().join("fliptex.xml"))
+        .arg(dir().join(format!("{name}.xml")))
         .arg("-o")
         .arg(&out)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(&out).unwrap();
-    assert!(text.contains("flip_tex_coords = false") && text.contains("flip_tex_coords = true"), "{text}");
-    let (a, b) = (load_scene_with(&dir().join("fliptex.xml"), &[]).unwrap(), load_scene_with(&out, &[]).unwrap());
-    assert_eq!(a.content_hash(), b.content_hash());
-    let _ = std::fs::remove_dir_all(tmp("fliptex"));
+    let xml = load_scene_with(&dir().join(format!("{name}.xml")), &[]).unwrap();
+    let toml = load_scene_with(&out, &[]).unwrap();
+    assert_eq!(xml.content_hash(), toml.content_hash(), "{name}.xml and the TOML convert writes");
+    let _ = std::fs::remove_dir_all(tmp(name));
+    text
 }
 
 /// Checkerboards whose squares are textures, held to Mitsuba pixel by pixel (refused before: seen
@@ -1440,20 +1447,7 @@ fn checkerboard_squares_read_nested_textures_as_mitsuba() {
         ("the weight's nested squares the other way round".into(), nested_swapped),
     ];
     pixels_match_mitsuba("checker-nested", &check, &wrong);
-    let bin = env!("CARGO_BIN_EXE_caustica");
-    let out = tmp("checker-nested").join("checker-nested.toml");
-    let o = std::process::Command::new(bin)
-        .arg("convert")
-        .arg(dir().join("checker-nested.xml"))
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let a = load_scene_with(&dir().join("checker-nested.xml"), &[]).unwrap();
-    let b = load_scene_with(&out, &[]).unwrap();
-    assert_eq!(a.content_hash(), b.content_hash());
-    let _ = std::fs::remove_dir_all(tmp("checker-nested"));
+    converts_to_the_same_scene("checker-nested");
 }
 
 /// Mitsuba 3's `ptracer` (and 0.6's `bdpt`) estimate what `path` does: caustica renders them with its

@@ -1639,6 +1639,15 @@ fn build_light(
     shapes: &mut Vec<Shape>,
     points: &mut Vec<PointLight>,
 ) -> Result<(), SceneError> {
+    // A sphere or quad light: a shape of the black material emitting `emission`.
+    let light_shape = |geometry, emission| Shape {
+        name: key.into(),
+        geometry,
+        material: black,
+        emission,
+        emission_texture: None,
+        emit_by_shading_normal: false,
+    };
     match spec {
         LightSpec::Point { position, power } => {
             let power = cx.colour(&format!("{key}.power"), *power, None)?;
@@ -1724,14 +1733,7 @@ fn build_light(
             let emission = radiance_of(cx, key, power, radiance, area)?;
             let geometry =
                 Geometry::Sphere { center: Vec3::from_array(*center), radius: r, frame: None, inward: false };
-            shapes.push(Shape {
-                name: key.into(),
-                geometry,
-                material: black,
-                emission,
-                emission_texture: None,
-                emit_by_shading_normal: false,
-            });
+            shapes.push(light_shape(geometry, emission));
         }
         LightSpec::Quad { corner, edge_u, edge_v, power, radiance } => {
             let (eu, ev) = (Vec3::from_array(*edge_u), Vec3::from_array(*edge_v));
@@ -1741,14 +1743,7 @@ fn build_light(
             }
             let emission = radiance_of(cx, key, power, radiance, area)?;
             let geometry = Geometry::Mesh(mesh::quad(Vec3::from_array(*corner), eu, ev));
-            shapes.push(Shape {
-                name: key.into(),
-                geometry,
-                material: black,
-                emission,
-                emission_texture: None,
-                emit_by_shading_normal: false,
-            });
+            shapes.push(light_shape(geometry, emission));
         }
         LightSpec::Constant { .. } | LightSpec::Envmap { .. } | LightSpec::Distant { .. } => {
             unreachable!("built in build()")

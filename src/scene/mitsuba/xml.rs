@@ -92,15 +92,18 @@ fn lenient_declaration(text: &str) -> std::borrow::Cow<'_, str> {
     Cow::Owned(format!("{}{blank}{}", &text[..at], &text[at + end + 2..]))
 }
 
-/// Attribute values as Mitsuba's reader (pugixml) takes them: a bare `&` that starts no reference (a file
-/// name `R&D.png`) and an entity XML does not define (`&nbsp;`, without a `<!DOCTYPE>` to define it)
-/// are read as written, and so is a `<` (strict XML refuses all three). Escaped here (`&amp;`, `&lt;`),
-/// lines kept; values outside tags, comments, CDATA and declarations are left alone.
-fn lenient_attributes(text: &str) -> std::borrow::Cow<'_, str> {
+/// Markup as Mitsuba's reader (pugixml) takes it where strict XML refuses it, rewritten so that the
+/// strict parser reads it, lines kept (and, in comments, columns):
+/// - comments with `--` inside or ending `--->` (decorative `<!-- ---- lights ---- -->`, dashes in
+///   prose): each dash next to another dash (or to the closing `-->`) becomes a space. A comment ends
+///   at its first `-->`, as in both; an unterminated one stays for the parser to report.
+/// - attribute values with a bare `&` that starts no reference (a file name `R&D.png`), an entity XML
+///   does not define (`&nbsp;`, without a `<!DOCTYPE>` to define it) or a `<`: read as written, so
+///   escaped (`&amp;`, `&lt;`).
+///
+/// CDATA, declarations, processing instructions and text outside tags are left alone.
+fn lenient_markup(text: &str) -> std::borrow::Cow<'_, str> {
     use std::borrow::Cow;
-    if !text.contains('&') && !text.contains('<') {
-        return Cow::Borrowed(text);
-    }
     let has_dtd = text.contains("<!DOCTYPE");
     // Whether `rest` (just after an `&`) is a reference the parser takes: a character reference, one of
     // XML's five entities, or (with a DTD to define it) any well-formed name.
@@ -124,7 +127,21 @@ fn lenient_attributes(text: &str) -> std::borrow::Cow<'_, str> {
     while let Some(at) = rest.find('<') {
         out.push_str(&rest[..at]);
         rest = &rest[at..];
-        // Comments, CDATA, declarations and processing instructions are copied whole.
+        // A comment: its dash pairs blanked. CDATA, declarations and processing instructions: copied whole.
+        if let Some(n) = rest.strip_prefix("<!--").and_then(|r| r.find("-->")) {
+            let body = &rest[4..4 + n];
+            let bytes = body.as_bytes();
+            out.push_str("<!--");
+            for (k, c) in body.char_indices() {
+                let paired = c == '-' && (k + 1 == bytes.len() || bytes[k + 1] == b'-');
+                changed |= paired;
+                out.push(if paired { ' ' } else { c });
+            }
+            out.push_str("-->");
+            rest = &rest[4 + n + 3..];
+            continue;
+        }
+        // (An unterminated comment is copied whole, for the parser to report.)
         let skip = [("<!--", "-->"), ("<![CDATA[", "]]>"), ("<?", "?>"), ("<!", ">")]
             .iter()
             .find(|(open, _)| rest.starts_with(open))
@@ -172,50 +189,11 @@ fn lenient_attributes(text: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
-/// Comments as Mitsuba's reader (pugixml) takes them. XML forbids `--` inside a comment and a comment
-/// ending `--->`, which decorative comments (`<!-- ---- lights ---- -->`) and dashes in prose break;
-/// Mitsuba reads them, so each dash next to another dash (or to the closing `-->`) becomes a space,
-/// every length, line and column kept for the strict parser's messages. A comment ends at its first
-/// `-->`, as in both; CDATA sections are left alone; an unterminated comment stays for the parser to
-/// report.
-fn lenient_comments(text: &str) -> std::borrow::Cow<'_, str> {
-    use std::borrow::Cow;
-    let find = |b: &[u8], from: usize, pat: &[u8]| b[from.min(b.len())..].windows(pat.len()).position(|w| w == pat);
-    let b = text.as_bytes();
-    let mut out: Option<Vec<u8>> = None;
-    let mut i = 0;
-    while let Some(at) = find(b, i, b"<") {
-        i += at;
-        if b[i..].starts_with(b"<![CDATA[") {
-            let Some(n) = find(b, i + 9, b"]]>") else { break };
-            i += 9 + n + 3;
-        } else if b[i..].starts_with(b"<!--") {
-            let start = i + 4;
-            let Some(n) = find(b, start, b"-->") else { break };
-            let end = start + n;
-            for k in start..end {
-                if b[k] == b'-' && (k + 1 == end || b[k + 1] == b'-') {
-                    out.get_or_insert_with(|| b.to_vec())[k] = b' ';
-                }
-            }
-            i = end + 3;
-        } else {
-            i += 1;
-        }
-    }
-    // Only ASCII dashes were replaced, by ASCII spaces: still UTF-8.
-    match out {
-        Some(o) => String::from_utf8(o).map_or(Cow::Borrowed(text), Cow::Owned),
-        None => Cow::Borrowed(text),
-    }
-}
-
 fn read_file(path: &Path, depth: usize, includes: &mut usize) -> Result<Node, SceneError> {
     let shown = path.display().to_string();
     let text = crate::scene::read_text(path).map_err(|msg| SceneError::Io { file: shown.clone(), msg })?;
     let declared = lenient_declaration(&text);
-    let commented = lenient_comments(&declared);
-    let text = lenient_attributes(&commented);
+    let text = lenient_markup(&declared);
     let doc = parse_xml(&text).map_err(|e| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") })?;
     let root = doc.root_element();
     let mut node = convert(&doc, root, path, 0)?;
@@ -347,14 +325,17 @@ mod tests {
         let text = "<scene version=\"3.0.0\">\n<!-- ---- lights ---- -->\n<!-- a -- b --->\n<!---->\n\
                     <!-- a - b -->\n<x v=\"--\"><![CDATA[ <!-- -- --> ]]></x>\n</scene>";
         assert!(roxmltree::Document::parse(text).is_err(), "strict XML refuses it");
-        let read = lenient_comments(text);
+        let read = lenient_markup(text);
         assert_eq!((read.len(), read.lines().count()), (text.len(), text.lines().count()));
         let doc = roxmltree::Document::parse(&read).unwrap();
         let x = doc.descendants().find(|n| n.has_tag_name("x")).unwrap();
         assert_eq!((x.attribute("v"), x.text()), (Some("--"), Some(" <!-- -- --> ")));
         assert!(read.contains("<!-- a - b -->") && read.contains("<!---->"), "{read}");
         let plain = "<scene version=\"3.0.0\"><!-- fine --></scene>";
-        assert!(matches!(lenient_comments(plain), std::borrow::Cow::Borrowed(_)));
+        assert!(matches!(lenient_markup(plain), std::borrow::Cow::Borrowed(_)));
+        for cut in ["<", "<!", "<!-", "<!--", "<!-- a -", "<a b=\"x"] {
+            assert!(matches!(lenient_markup(cut), std::borrow::Cow::Borrowed(_)), "{cut}");
+        }
     }
 
     /// Attribute values Mitsuba reads and strict XML refuses (a bare `&`, an undefined entity, a `<`) are
@@ -366,17 +347,17 @@ mod tests {
             "<scene version=\"3.0.0\">\n<s a=\"R&D.png\" b='x &nbsp; &amp; &#65;&#x42; & y' c=\"1 < 2\" d=\"&\"/>\n\
                     <!-- & < --><![CDATA[ & ]]>\n</scene>";
         assert!(roxmltree::Document::parse(text).is_err(), "strict XML refuses it");
-        let read = lenient_attributes(text);
+        let read = lenient_markup(text);
         assert_eq!(read.lines().count(), text.lines().count());
         let doc = roxmltree::Document::parse(&read).unwrap();
         let s = doc.descendants().find(|n| n.has_tag_name("s")).unwrap();
         let got: Vec<_> = ["a", "b", "c", "d"].iter().map(|k| s.attribute(*k).unwrap()).collect();
         assert_eq!(got, ["R&D.png", "x &nbsp; & AB & y", "1 < 2", "&"]);
         let dtd = "<!DOCTYPE scene [<!ENTITY n \"7\">]><scene v=\"&n; & m\"/>";
-        let doc = parse_xml(&lenient_attributes(dtd)).unwrap().root_element().attribute("v").map(str::to_string);
+        let doc = parse_xml(&lenient_markup(dtd)).unwrap().root_element().attribute("v").map(str::to_string);
         assert_eq!(doc.as_deref(), Some("7 & m"));
         let plain = "<scene version=\"3.0.0\"><a b=\"&amp;\"/></scene>";
-        assert!(matches!(lenient_attributes(plain), std::borrow::Cow::Borrowed(_)));
+        assert!(matches!(lenient_markup(plain), std::borrow::Cow::Borrowed(_)));
     }
 
     /// A `<!DOCTYPE>` with an internal entity reads (Mitsuba reads it); entities that double ten times
