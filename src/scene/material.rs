@@ -164,6 +164,15 @@ impl Mapped {
         Frame2 { n: n.normalize_or_zero(), ns: ns_c, which: (flip != back) as usize }
     }
 
+    /// Whether the camera's side `c` lies in front of the normal `f` says the nested BSDF is taken about
+    /// (always for glass, which scatters from both sides). Mitsuba's other BSDFs are one-sided, so where
+    /// the map's normal points below the surface (a bump map's `to_back`) the reflection about it can
+    /// leave `c` behind it, and there nothing is reflected, where a BSDF that faced its normal to `c`
+    /// would reflect light from below the surface.
+    fn seen(&self, f: &Frame2, c: Vec3) -> bool {
+        matches!(self.nested, Nested::Dielectric(..)) || c.dot(f.n) > 0.0
+    }
+
     /// `nested` under this map (None where it cannot be nested: a thin pane or another map).
     fn with_nested(&self, nested: Material) -> Option<Material> {
         Some(Material::Mapped(Mapped { nested: Nested::new(nested)?, ..*self }))
@@ -208,7 +217,7 @@ impl Mapped {
         let (c, l) = if mode == TransportMode::Radiance { (wo, wi) } else { (wi, wo) };
         let f = self.frame(c, ns);
         let k = Self::factor(f.n, l, f.ns);
-        if k == 0.0 || f.n == Vec3::ZERO {
+        if k == 0.0 || f.n == Vec3::ZERO || !self.seen(&f, c) {
             return Rgb::ZERO;
         }
         self.nested.material().eval(wo, wi, f.n, mode) * k
@@ -219,7 +228,7 @@ impl Mapped {
         match mode {
             TransportMode::Radiance => {
                 let f = self.frame(wo, ns);
-                if wi.dot(f.n) * wi.dot(f.ns) <= 0.0 {
+                if wi.dot(f.n) * wi.dot(f.ns) <= 0.0 || !self.seen(&f, wo) {
                     return 0.0;
                 }
                 nested.pdf(wo, wi, f.n, mode)
@@ -235,6 +244,9 @@ impl Mapped {
         let nested = self.nested.material();
         if mode == TransportMode::Radiance {
             let f = self.frame(wo, ns);
+            if !self.seen(&f, wo) {
+                return None;
+            }
             let mut bs = nested.sample(wo, f.n, u, uc, mode)?;
             let g = Self::factor(f.n, bs.wi, f.ns);
             if g == 0.0 {
@@ -253,7 +265,7 @@ impl Mapped {
         if bs.delta {
             let f = self.frame(c, ns);
             // Only the normal c is seen about can have sent it (the other's delta lobe points elsewhere).
-            if f.which != k {
+            if f.which != k || !self.seen(&f, c) {
                 return None;
             }
             let g = Self::factor(f.n, wo, f.ns);
@@ -1271,7 +1283,9 @@ impl Material {
                 let f = m.frame(wo, n);
                 let lobe = m.nested.material().diffuse_lobe(wo, f.n)?;
                 let side = if wo.dot(f.n) < 0.0 { -1.0 } else { 1.0 };
-                Some(DiffuseLobe { map: Some(MappedFrame { n: f.n * side, ns: f.ns * side }), ..lobe })
+                // Seen from behind the normal it is taken about, the one-sided nested lobe is black.
+                let rho = if m.seen(&f, wo) { lobe.rho } else { Rgb::ZERO };
+                Some(DiffuseLobe { rho, map: Some(MappedFrame { n: f.n * side, ns: f.ns * side }), ..lobe })
             }
             _ => None,
         }
@@ -2031,6 +2045,94 @@ mod tests {
         }
     }
 
+    /// Mitsuba 3.9.1's `normalmap` over a white `diffuse` whose map's normal points below the surface
+    /// (what a bump map gives on a shape whose `to_world` mirrors: `to_back`), seen from above, light
+    /// from anywhere (`scripts/peer/normalmap_back_cases.py`). Where the camera's side c lies behind the
+    /// normal the nested BSDF is taken about, Mitsuba's one-sided nested BSDF reflects nothing (the last
+    /// four cases, light from below the surface); a nested BSDF that turned that normal to c reflected
+    /// it up through the surface (random scene 2839: a mirrored bump-mapped card lit from the floor
+    /// behind it). The same holds for every nested BSDF but glass, in both modes, and for sampling.
+    #[test]
+    fn a_map_normal_turned_back_reflects_only_on_its_front() {
+        #[allow(clippy::type_complexity)]
+        let cases: [([f32; 3], [f32; 3], [f32; 3], f32); 7] = [
+            (
+                [-0.9862756, 0.004475117, -0.1650469],
+                [-0.372093, 0.4545521, 0.8092769],
+                [-0.2770111, -0.2089739, 0.9378671],
+                3.6196694e-02,
+            ),
+            (
+                [0.2180842, 0.7421056, -0.6338127],
+                [-0.369825, 0.9177242, 0.1449542],
+                [-0.7080305, 0.6562672, 0.2607799],
+                3.692_916e-2,
+            ),
+            (
+                [-0.5333832, -0.6155397, -0.5801838],
+                [-0.9032184, 0.28365, 0.3220858],
+                [-0.8122253, 0.1682006, 0.5585683],
+                1.5958814e-03,
+            ),
+            (
+                [-0.9279292, -0.166512, -0.3334985],
+                [0.1522875, -0.818291, 0.5542637],
+                [-0.6366304, -0.6548382, -0.4072943],
+                0.0,
+            ),
+            (
+                [-0.6376179, 0.7482028, -0.1834011],
+                [-0.3314382, -0.4757887, 0.8147232],
+                [-0.5842781, 0.7984592, -0.1451961],
+                0.0,
+            ),
+            (
+                [-0.7206342, -0.3935824, -0.5707708],
+                [-0.1486399, 0.8758877, 0.4590501],
+                [-0.9958822, 0.04645708, -0.07784824],
+                0.0,
+            ),
+            (
+                [-0.04973686, -0.9652437, -0.2565751],
+                [-0.557408, -0.01955614, 0.8300084],
+                [-0.6954572, -0.1920893, -0.6924168],
+                0.0,
+            ),
+        ];
+        let rough = Material::conductor(Fresnel::Constant(Rgb::ONE), 0.3, Microfacet::Ggx);
+        let plastic =
+            Material::Plastic { diffuse: Rgb::splat(0.5), specular: Rgb::ONE, ior: 1.5, nonlinear: false, rough: None };
+        for (n, c, l, want) in cases {
+            let (c, l) = (Vec3::from(c), Vec3::from(l));
+            let normal = Vec3::from(n).normalize();
+            let diffuse = Material::Mapped(Mapped { normal, mirror_back: false, nested: Nested::Diffuse(Rgb::ONE) });
+            let got = diffuse.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
+            assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
+            assert_eq!(diffuse.eval(l, c, Vec3::Z, TransportMode::Importance).x * l.z.abs(), got);
+            if want > 0.0 {
+                continue;
+            }
+            for nested in [Nested::Diffuse(Rgb::ONE), Nested::new(rough).unwrap(), Nested::new(plastic).unwrap()] {
+                let mapped = Mapped { normal, mirror_back: false, nested };
+                let m = Material::Mapped(mapped);
+                assert_eq!(m.eval(c, l, Vec3::Z, TransportMode::Radiance), Rgb::ZERO, "{nested:?}");
+                assert_eq!(m.eval(l, c, Vec3::Z, TransportMode::Importance), Rgb::ZERO, "{nested:?}");
+                assert_eq!(m.pdf(c, l, Vec3::Z, TransportMode::Radiance), 0.0, "{nested:?}");
+                // Seen from c nothing is reflected at all: no sample, however drawn.
+                let mut r = Rng::new(3, 0, 0);
+                for _ in 0..2000 {
+                    let s = m.sample(c, Vec3::Z, r.next_2d(), r.next_f32(), TransportMode::Radiance);
+                    assert!(s.is_none_or(|s| s.weight == Rgb::ZERO), "{nested:?}: {s:?}");
+                    // A light path arriving along l finds no c behind the normal it would be seen about.
+                    if let Some(s) = m.sample(l, Vec3::Z, r.next_2d(), r.next_f32(), TransportMode::Importance) {
+                        let f = mapped.frame(s.wi, Vec3::Z);
+                        assert!(s.wi.dot(f.n) > 0.0 || s.weight == Rgb::ZERO, "{nested:?}: {s:?}");
+                    }
+                }
+            }
+        }
+    }
+
     /// Under a normal map each mode's samples weigh f·|cos|/pdf with `eval` and `pdf` of that mode, and
     /// their mean is the integral of f·|cos| over the sphere (the albedo seen from the given side). Light
     /// paths draw about either normal: with a pdf or a weight for one normal only, the importance mode's
@@ -2073,7 +2175,7 @@ mod tests {
                             let bound =
                                 5.0 * (sampled.variance_of_mean() + integrated.variance_of_mean()).sqrt() + 0.002 * b;
                             assert!(
-                                (a - b).abs() < bound,
+                                (a - b).abs() <= bound,
                                 "{nested:?}, normal {i}, {wo}, {mode:?}: sampled {a} vs integrated {b} (bound {bound})"
                             );
                         }
@@ -2223,8 +2325,8 @@ mod tests {
                 }
             }
         }
-        // Both kinds of pairs were met.
-        assert!(nonzero > 20_000 && zero > 20_000, "{nonzero} non-zero, {zero} zero");
+        // Both kinds of pairs were met (seen from below, a surface without `mirror_back` is black).
+        assert!(nonzero > 12_000 && zero > 20_000, "{nonzero} non-zero, {zero} zero");
     }
 
     /// Nested BSDFs for the normal-map tests: without delta lobes, and the rest.
