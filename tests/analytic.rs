@@ -515,3 +515,56 @@ fn an_emitter_that_follows_its_shading_normal_lights_only_what_that_normal_faces
     check("BDPT", &average(VcmOptions::bdpt(), 8192), 0.03);
     check("light tracing", &average(VcmOptions { strategy: Some((2, 1)), ..VcmOptions::bdpt() }, 8192), 0.05);
 }
+
+/// A one-sided diffuse square (its face up, +y) whose vertex normals all lean 40° towards +x, seen
+/// and lit from −x, low: the camera and the light lie in front of the face but behind the shading
+/// normal. Mitsuba's one-sided BSDFs test the side in the shading frame, so it renders the square black
+/// (the same scene in XML, its `path` integrator at 4096 spp: every pixel 0; seen and lit from +x its
+/// mean is 0.03520, caustica's 0.03518); a BSDF that only asks the camera and the light to lie on one
+/// side of the shading normal lit it (seen failing: PT read 0.0220). Every mode must read it black, and
+/// the mirror image of the scene (seen and lit from +x, in front of the shading normal) lit.
+#[test]
+fn a_one_sided_surface_seen_from_behind_its_shading_normal_is_black_in_every_mode() {
+    let dir = std::env::temp_dir().join(format!("caustica-leaning-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (s, c) = (40f32.to_radians().sin(), 40f32.to_radians().cos());
+    let mut ply = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n",
+    );
+    for (x, z) in [(-1, -1), (1, -1), (1, 1), (-1, 1)] {
+        ply += &format!("{x} 0 {z} {s} {c} 0\n");
+    }
+    // Wound to face up (+y).
+    ply += "3 0 2 1\n3 0 3 2\n";
+    std::fs::write(dir.join("leaning.ply"), ply).unwrap();
+    // side −1: camera and light at −x (behind the shading normal); +1: at +x (in front of it).
+    let mean_red = |side: f32, mode: &str| {
+        let (x_cam, x_light) = (3.0 * side, 4.0 * side);
+        // The light's edges wind it to face the square (towards −side · x).
+        let (eu, ev) = if side < 0.0 { ([0.0, 1.0, 0.0], [0.0, 0.0, 2.0]) } else { ([0.0, 0.0, 2.0], [0.0, 1.0, 0.0]) };
+        let text = format!(
+            "[camera]\norigin = [{x_cam:?}, 1.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40\nresolution = [8, 8]\n\
+             [materials]\nwhite = {{ type = \"diffuse\", reflectance = [0.8, 0.8, 0.8], two_sided = false }}\n\
+             dark = {{ type = \"diffuse\", reflectance = [0.0, 0.0, 0.0] }}\n\
+             [[shapes]]\ntype = \"mesh\"\nfile = \"leaning.ply\"\nsmooth = true\nmaterial = \"white\"\n\
+             [[shapes]]\ntype = \"quad\"\ncorner = [{x_light:?}, 0.2, -1.0]\nedge_u = {eu:?}\nedge_v = {ev:?}\n\
+             material = \"dark\"\nemission = [5.0, 5.0, 5.0]\n\
+             [render]\nspp = 64\nmax_depth = 6\n\
+             [render.photons]\nindirect = 20000\ncaustic = 0\ndirect = 20000\n\
+             [render.progressive]\npasses = 8\nphotons_per_pass = 20000\n"
+        );
+        let sets = [format!("render.mode=\"{mode}\"")];
+        let scene =
+            caustica::scene::load_scene_str(&text, "leaning.toml", &dir, &sets).unwrap_or_else(|e| panic!("{e}"));
+        let img = common::render_image(&scene);
+        img.pixels.iter().map(|p| p.x as f64).sum::<f64>() / img.pixels.len() as f64
+    };
+    for mode in ["path", "photon_map", "ppm", "sppm", "bdpt", "vcm"] {
+        let (behind, front) = (mean_red(-1.0, mode), mean_red(1.0, mode));
+        eprintln!("{mode}: seen from behind the shading normal {behind:.6}, from its front {front:.6}");
+        assert!(front > 0.01, "{mode}: the square seen from the front of its shading normal reads {front}");
+        assert!(behind < 1e-6 * front, "{mode}: seen from behind its shading normal it reads {behind}, not black");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

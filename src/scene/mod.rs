@@ -771,7 +771,11 @@ impl Scene {
     }
 
     fn leaf_bsdf(&self, m: &SurfaceMaterial, si: &SurfaceHit, wo: Vec3) -> Material {
-        if !m.two_sided && wo.dot(si.ng) <= 0.0 {
+        // A one-sided surface is black seen from behind its face, and (as Mitsuba's one-sided BSDFs,
+        // which test the side in the shading frame) from behind its shading normal: where a smooth
+        // mesh's shading normal leans away from `wo`, a BSDF that only asks both directions to lie on
+        // one side of it would reflect light from below the shading normal.
+        if !m.two_sided && (wo.dot(si.ng) <= 0.0 || wo.dot(si.ns) <= 0.0) {
             return Material::Diffuse { reflectance: Rgb::ZERO };
         }
         if let (Material::Mapped(mut mapped), Some(map)) = (m.bsdf, m.normal_map) {
