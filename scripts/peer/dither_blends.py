@@ -18,6 +18,7 @@ into the void: its alpha channel), so such a scene may still differ.
 """
 import math
 import os
+import re
 import struct
 import sys
 import xml.etree.ElementTree as ET
@@ -62,11 +63,19 @@ def ball_with_uv(src, dst):
         f.write("\n".join(header + body))
 
 
+def lenient(text):
+    """What Mitsuba's XML reader takes and Python's refuses, made strict (`random_scene.py --exporter`
+    writes each): comments (with runs of dashes) dropped, blank lines before the declaration dropped, a
+    bare `&` escaped."""
+    text = re.sub(r"<!--.*?-->", "", text, flags=re.S).lstrip()
+    return re.sub(r"&(?!(amp|lt|gt|quot|apos|#[0-9]+|#x[0-9a-fA-F]+);)", "&amp;", text)
+
+
 def main():
     if len(sys.argv) != 3:
         sys.exit(__doc__)
     src, dst = sys.argv[1:3]
-    tree = ET.parse(src)
+    tree = ET.ElementTree(ET.fromstring(lenient(open(src).read())))
     out_dir = os.path.dirname(os.path.abspath(dst))
     replaced, uses_ball = 0, False
     for shape in tree.iter("shape"):
