@@ -72,6 +72,10 @@ fn may_be_lit(scene: &Scene, s: usize) -> bool {
         }
         match light {
             LightKind::Triangle { shape, prim } => {
+                // A mesh that emits behind its faces lights both sides.
+                if scene.lights.side_share(i, -1.0) > 0.0 {
+                    return true;
+                }
                 let Geometry::Mesh(m) = &scene.shapes[*shape as usize].geometry else { return true };
                 let [a, b, c] = m.triangle(*prim as usize);
                 let n = (b - a).cross(c - a);
@@ -246,7 +250,7 @@ fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &
                 let li = i + (rng.next_u32() as usize) % (end - i);
                 let Some(lp) = lights.sample_point(scene, li, rng.next_2d()) else { return false };
                 let d = p - lp.p;
-                if d.length() <= 2.0 * eps || (lp.n != Vec3::ZERO && lp.n.dot(d) <= 0.0) {
+                if d.length() <= 2.0 * eps || (lp.n != Vec3::ZERO && lights.side_share(li, lp.n.dot(d)) <= 0.0) {
                     return false;
                 }
                 let dir = d.normalize();

@@ -234,16 +234,17 @@ fn a_smooth_emitting_mesh_emits_as_mitsuba() {
 /// rectangle or a sphere (whose shading normal is the geometric one) or on a flat mesh (the OBJ tile,
 /// whose smooth normals are its faces'), it says nothing.
 #[test]
-fn an_emitting_smooth_mesh_is_warned_of() {
+fn an_emitting_smooth_mesh_emits_by_its_shading_normal_unwarned() {
     let d = tmp("smooth-emitter");
     let ply = dir().join("facets.ply");
     let (tile, ball) = (dir().join("tile.obj"), dir().join("ball.ply"));
     let emitter = r#"<emitter type="area"><rgb name="radiance" value="1"/></emitter>"#;
     let mirror = r#"<transform name="to_world"><scale y="-1"/></transform>"#;
     let flip = r#"<boolean name="flip_normals" value="true"/>"#;
-    // 0: no warning; 2: a warning that the faces are turned inward.
+    // Whether the mesh emits by its shading normal (every emitting mesh without `face_normals`). None
+    // is warned of: since session 70 a mesh turned inward emits past its faces as Mitsuba's does.
     let cases = [
-        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ply.display()), 0),
+        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ply.display()), 1),
         (
             format!(
                 r#"<shape type="ply"><string name="filename" value="{}"/><boolean name="face_normals" value="true"/>{emitter}</shape>"#,
@@ -255,43 +256,44 @@ fn an_emitting_smooth_mesh_is_warned_of() {
         (format!(r#"<shape type="rectangle">{emitter}</shape>"#), 0),
         (format!(r#"<shape type="sphere">{emitter}</shape>"#), 0),
         // A flat mesh's smooth normals are its faces' (random scene 2532 was warned of its tile).
-        (format!(r#"<shape type="obj"><string name="filename" value="{}"/>{emitter}</shape>"#, tile.display()), 0),
-        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ball.display()), 0),
-        // Turned inward, by a mirror (no vertex normals in the file) or by flip_normals: the warning
-        // says that the whole difference is Mitsuba's leak (random scene 2455).
+        (format!(r#"<shape type="obj"><string name="filename" value="{}"/>{emitter}</shape>"#, tile.display()), 1),
+        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{emitter}</shape>"#, ball.display()), 1),
+        // Turned inward, by a mirror (no vertex normals in the file) or by flip_normals (random scene
+        // 2455, warned of until session 70).
         (
             format!(
                 r#"<shape type="ply"><string name="filename" value="{}"/>{mirror}{emitter}</shape>"#,
                 ply.display()
             ),
-            2,
+            1,
         ),
-        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{flip}{emitter}</shape>"#, ply.display()), 2),
-        // A mirror and flip_normals undo each other; a mirrored mesh with normals is not turned.
+        (format!(r#"<shape type="ply"><string name="filename" value="{}"/>{flip}{emitter}</shape>"#, ply.display()), 1),
+        // A mirror and flip_normals undo each other; a mirrored mesh with normals is not turned; every
+        // one emits by its shading normal.
         (
             format!(
                 r#"<shape type="ply"><string name="filename" value="{}"/>{mirror}{flip}{emitter}</shape>"#,
                 ply.display()
             ),
-            0,
+            1,
         ),
         (
             format!(
                 r#"<shape type="ply"><string name="filename" value="{}"/>{mirror}{emitter}</shape>"#,
                 ball.display()
             ),
-            0,
+            1,
         ),
     ];
     for (k, (shape, want)) in cases.iter().enumerate() {
-        let (xml, at) = case_scene(&d, k, None, shape);
+        let (xml, _) = case_scene(&d, k, None, shape);
         let converted = caustica::scene::mitsuba::convert(&xml).unwrap();
-        let said: Vec<&String> = converted.warnings.iter().filter(|w| w.contains("smooth-shaded mesh")).collect();
-        assert_eq!(said.len(), (*want).min(1), "case {k}: {:?}", converted.warnings);
-        if let Some(w) = said.first() {
-            assert!(w.contains(&at) && w.contains("face_normals") && !w.contains("  "), "{w}");
-            assert_eq!(w.contains("turned inward"), *want == 2, "case {k}: {w}");
-        }
+        assert!(!converted.warnings.iter().any(|w| w.contains("smooth-shaded")), "case {k}: {:?}", converted.warnings);
+        let by_shading = matches!(
+            converted.file.shapes.last(),
+            Some(caustica::scene::file::ShapeSpec::Mesh { emit_by_shading_normal: true, .. })
+        );
+        assert_eq!(by_shading, *want != 0, "case {k}");
     }
     let _ = std::fs::remove_dir_all(d);
 }

@@ -404,16 +404,18 @@ impl Aim {
     /// None: the aimed direction leaves the emitter's back or a spot's cone (it emits nothing there).
     fn apply(&self, lights: &Lights, mut e: EmittedRay, u_aim: f32, u_dir: [f32; 2]) -> Option<EmittedRay> {
         let old = lights.direction_density(e.light, e.normal, e.ray.d);
-        let old_carried = lights.emission_over_density(e.light, e.ray.d);
+        let old_carried = lights.emission_over_density(e.light, e.normal, e.ray.d);
         if u_aim < self.frac {
             let w = self.sample(e.origin, u_aim / self.frac, u_dir);
             if e.normal == Vec3::ZERO {
                 e.ray = Ray::new(e.origin, w);
             } else {
-                e.cos = w.dot(e.normal);
-                if e.cos <= 0.0 {
+                // Behind the face only for a mesh that emits there (`Lights::side_share`).
+                let cos = w.dot(e.normal);
+                if lights.side_share(e.light, cos) <= 0.0 {
                     return None;
                 }
+                e.cos = cos.abs();
                 e.ray = Ray::new(offset_ray_origin(e.origin, e.normal, w, e.size), w);
             }
         }
@@ -425,7 +427,7 @@ impl Aim {
         // light's own emission over its own density (`emission_over_density`) in the new direction
         // over that in the old, and the mixture divides by `ratio`.
         let ratio = self.ratio(e.origin, e.ray.d, new);
-        e.untinted *= lights.emission_over_density(e.light, e.ray.d) / old_carried / ratio;
+        e.untinted *= lights.emission_over_density(e.light, e.normal, e.ray.d) / old_carried / ratio;
         // A spot's projected texture, read in the direction it now leaves along.
         e.phi = e.untinted * lights.tint(e.light, e.ray.d);
         e.pdf_emit = e.pdf_emit / old * new * ratio;

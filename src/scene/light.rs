@@ -226,6 +226,23 @@ impl LightKind {
     }
 }
 
+/// The largest f32 below 1: where a draw rescaled into [0, 1) must stay.
+const ONE_MINUS: f32 = f32::from_bits(0x3f7f_ffff);
+
+/// The share of triangle `pi`'s emitted directions to draw behind its face, for a mesh that emits in
+/// front of its interpolated vertex normals on either side of the face (`Shape::emits_behind`): about
+/// the share of its light that leaves behind the face, (1 − cos θ)/2 for the vertex normal θ furthest
+/// from the face's (θ²/4 for a small lean, as the cosine-weighted sliver behind a face whose normal leans
+/// θ; a half where it lies in the face's plane), kept within [1/64, 63/64] so that either side is drawn
+/// (the share only steers sampling: each direction's density carries it).
+fn back_share(m: &crate::scene::mesh::TriMesh, pi: usize) -> f32 {
+    let [a, b, c] = m.triangle(pi);
+    let ng = (b - a).cross(c - a).normalize_or_zero();
+    let Some(ns) = &m.normals else { return 0.0 };
+    let lowest = m.indices[pi].iter().map(|&v| ns[v as usize].normalize_or_zero().dot(ng)).fold(1.0f32, f32::min);
+    (0.5 * (1.0 - lowest)).clamp(1.0f32 / 64.0, 63.0 / 64.0)
+}
+
 /// All lights with a power-proportional selection distribution.
 #[derive(Clone, Debug, Default)]
 pub struct Lights {
@@ -247,6 +264,9 @@ pub struct Lights {
     points: (usize, usize),
     /// The textures spots project (`Spot::texture`), copied from the scene's.
     spot_textures: Vec<crate::scene::Texture>,
+    /// For each light, the share of its emitted directions drawn behind its face (`side_share`): 0 but
+    /// for the triangles of a mesh that `Shape::emits_behind`; empty where no light does.
+    back_share: Vec<f32>,
 }
 
 /// A point on a light seen from a reference point.
@@ -346,6 +366,10 @@ impl Lights {
             };
             match &shape.geometry {
                 Geometry::Mesh(m) => {
+                    if shape.emits_behind() {
+                        l.back_share.resize(l.list.len(), 0.0);
+                        l.back_share.extend((0..m.indices.len()).map(|pi| back_share(m, pi)));
+                    }
                     for pi in 0..m.indices.len() {
                         l.list.push(LightKind::Triangle { shape: si as u32, prim: pi as u32 });
                         l.power.push(emission * PI * m.area(pi));
@@ -368,7 +392,24 @@ impl Lights {
             .collect();
         l.nee_cdf = l.cdf.clone();
         l.balance_infinite();
+        if !l.back_share.is_empty() {
+            l.back_share.resize(l.list.len(), 0.0);
+        }
         l
+    }
+
+    /// The share of light `i`'s emitted directions drawn on the side of its face that a direction at
+    /// cosine `cos` to its normal lies on: 1 in front and 0 behind for every light but the triangles of
+    /// a mesh that `Shape::emits_behind`, whose share behind is theirs (`back_share`); 0 along the face.
+    pub fn side_share(&self, i: usize, cos: f32) -> f32 {
+        let behind = self.back_share.get(i).copied().unwrap_or(0.0);
+        if cos > 0.0 {
+            1.0 - behind
+        } else if cos < 0.0 {
+            behind
+        } else {
+            0.0
+        }
     }
 
     /// Gives next-event estimation's lights at infinity (listed first, before `points`) together the
@@ -528,13 +569,14 @@ impl Lights {
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
                 let wi = d / dist;
+                // A mesh that emits behind its faces is sampled on both sides (`side_share`).
                 let cos_l = -wi.dot(lp.n);
-                if cos_l <= 0.0 || !lp.pdf_area.is_finite() || !self.emits(scene, i, lp.p, -wi) {
+                if self.side_share(i, cos_l) <= 0.0 || !lp.pdf_area.is_finite() || !self.emits(scene, i, lp.p, -wi) {
                     return None;
                 }
-                let pdf = p_sel * lp.pdf_area * dist2 / cos_l;
+                let pdf = p_sel * lp.pdf_area * dist2 / cos_l.abs();
                 let p = offset_ray_origin(lp.p, lp.n, -wi, lp.size);
-                let emit_ratio = cos_l / (PI * dist2);
+                let emit_ratio = self.direction_density(i, lp.n, -wi) / dist2;
                 Some(LightSample { wi, dist, p, li: lp.le, pdf, delta: false, emit_ratio, light: i, normal: lp.n })
             }
             LightKind::Env | LightKind::Distant { .. } => {
@@ -637,11 +679,11 @@ impl Lights {
         };
         let d = y - x;
         let dist2 = d.length_squared();
-        let cos_l = (-d.normalize().dot(n)).max(0.0);
-        if cos_l == 0.0 || area == 0.0 {
+        let cos_l = -d.normalize().dot(n);
+        if self.side_share(i, cos_l) <= 0.0 || area == 0.0 {
             return 0.0;
         }
-        self.choice_pdf(i) * dist2 / (cos_l * area)
+        self.choice_pdf(i) * dist2 / (cos_l.abs() * area)
     }
 
     /// A point on light `i`: position, normal (zero for point lights), area pdf (1 for point lights),
@@ -669,8 +711,8 @@ impl Lights {
     }
 
     /// Whether the point `p` that `sample_point` drew on light `i` emits towards `w` as far as its shading
-    /// normal says (`Scene::emits_towards`; the face's front is the caller's test): a mesh that
-    /// `emit_by_shading_normal` emits only in front of both.
+    /// normal says (`Scene::emits_towards`; the side of the face is the caller's test, `side_share`): a
+    /// mesh that `emit_by_shading_normal` emits only in front of its interpolated normal.
     pub fn emits(&self, scene: &Scene, i: usize, p: Vec3, w: Vec3) -> bool {
         match self.list[i] {
             LightKind::Triangle { shape, prim } => scene.emits_towards(shape, prim, p, w),
@@ -722,7 +764,7 @@ impl Lights {
             // edges are widened by a few ulps).
             let d = s.sample(u_dir);
             let pdf = s.sample_density(d);
-            let untinted = *intensity * (self.emission_over_density(i, d) / p_sel);
+            let untinted = *intensity * (self.emission_over_density(i, Vec3::ZERO, d) / p_sel);
             return Some(EmittedRay {
                 ray: Ray::new(*position, d),
                 phi: untinted * self.tint(i, d),
@@ -746,12 +788,27 @@ impl Lights {
             _ => self.power[i] / p_sel,
         };
         // A point light is no surface: its photons start exactly at it.
-        let (ray, pdf_emit, cos) = if lp.n == Vec3::ZERO {
-            (Ray::new(lp.p, sampling::uniform_sphere(u_dir)), p_sel / (4.0 * PI), 1.0)
+        let (ray, pdf_emit, cos, phi) = if lp.n == Vec3::ZERO {
+            (Ray::new(lp.p, sampling::uniform_sphere(u_dir)), p_sel / (4.0 * PI), 1.0, phi)
         } else {
-            let d = sampling::cosine_around(lp.n, u_dir);
-            let cos = d.dot(lp.n);
-            (Ray::new(offset_ray_origin(lp.p, lp.n, d, lp.size), d), p_sel * lp.pdf_area * cos / PI, cos)
+            // The cosine lobe in front of the face, or (for a mesh that emits behind its faces, with
+            // the triangle's share behind, the first draw reused) the one behind it.
+            let behind = self.side_share(i, -1.0);
+            let (u_dir, n) = if u_dir[0] < behind {
+                ([(u_dir[0] / behind).min(ONE_MINUS), u_dir[1]], -lp.n)
+            } else if behind > 0.0 {
+                ([((u_dir[0] - behind) / (1.0 - behind)).min(ONE_MINUS), u_dir[1]], lp.n)
+            } else {
+                (u_dir, lp.n)
+            };
+            let d = sampling::cosine_around(n, u_dir);
+            let cos = d.dot(n);
+            let share = self.side_share(i, d.dot(lp.n));
+            if share <= 0.0 {
+                return None;
+            }
+            let ray = Ray::new(offset_ray_origin(lp.p, lp.n, d, lp.size), d);
+            (ray, p_sel * lp.pdf_area * share * cos / PI, cos, phi / share)
         };
         Some(EmittedRay { ray, phi, untinted: phi, light: i, pdf_emit, cos, origin: lp.p, normal: lp.n, size: lp.size })
     }
@@ -812,7 +869,7 @@ impl Lights {
                 if a <= 0.0 {
                     return 0.0;
                 }
-                p_sel / a * cos.max(0.0) / PI
+                p_sel / a * self.side_share(i, cos) * cos.abs() / PI
             }
         }
     }
@@ -823,7 +880,10 @@ impl Lights {
         match &self.list[i] {
             LightKind::Point { spot: Some(s), .. } => s.pdf(w),
             LightKind::Point { spot: None, .. } => 1.0 / (4.0 * PI),
-            _ => w.dot(n).max(0.0) / PI,
+            _ => {
+                let cos = w.dot(n);
+                self.side_share(i, cos) * cos.abs() / PI
+            }
         }
     }
 
@@ -831,13 +891,22 @@ impl Lights {
     /// (`direction_density`): for a spot its falloff over its cone's uniform density, for a projector
     /// its 1/cos³ over its density, also as 1/cos³ (its rectangle's area within it); for every other
     /// light a constant, 1 (a surface's cosine over the cosine lobe, a point light's uniform over
-    /// uniform), as only its ratios between directions matter there; 0 where the light does not emit.
-    pub fn emission_over_density(&self, i: usize, w: Vec3) -> f32 {
+    /// uniform), as only its ratios between directions matter there, over the share of directions drawn
+    /// on `w`'s side of a surface's face (normal `n`, `side_share`); 0 where the light does not emit.
+    pub fn emission_over_density(&self, i: usize, n: Vec3, w: Vec3) -> f32 {
         match &self.list[i] {
             LightKind::Point { spot: Some(s), .. } => {
                 let pdf = s.pdf(w);
                 if pdf > 0.0 {
                     s.falloff(w) / pdf
+                } else {
+                    0.0
+                }
+            }
+            LightKind::Triangle { .. } | LightKind::Sphere { .. } => {
+                let share = self.side_share(i, w.dot(n));
+                if share > 0.0 {
+                    1.0 / share
                 } else {
                     0.0
                 }

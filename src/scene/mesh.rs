@@ -149,18 +149,6 @@ impl TriMesh {
         }
     }
 
-    /// Whether shading by the vertex normals is shading by the faces: every corner's normal lies along
-    /// its triangle's geometric normal (within 1e-3 rad; degenerate triangles aside), as on a flat mesh
-    /// or one without vertex normals. Affine maps keep it (normals turn as normals).
-    pub fn shaded_as_faces(&self) -> bool {
-        let Some(normals) = &self.normals else { return true };
-        (0..self.indices.len()).all(|k| {
-            let [a, b, c] = self.triangle(k);
-            let Some(g) = (b - a).cross(c - a).try_normalize() else { return true };
-            (self.indices[k].iter()).all(|&v| normals[v as usize].normalize_or_zero().dot(g) > 1.0 - 5e-7)
-        })
-    }
-
     /// Vertex normals as Mitsuba computes them for a mesh without any (Thürmer & Wüthrich 1998): each
     /// face's unit normal weighted by the face's angle at the vertex. Call it on the mesh as placed in
     /// the scene (angles change under a non-uniform scale), as Mitsuba does after `to_world`.

@@ -147,13 +147,21 @@ pub struct Shape {
     /// Index into `Scene::textures`: the radiance at each point, read at its texture coordinates
     /// (Mitsuba's textured `radiance`), times `emission`.
     pub emission_texture: Option<u32>,
-    /// A smooth mesh that emits only towards the front of its shading normal as well as of its faces
-    /// (`Scene::emits_towards`): Mitsuba's area emitter on a mesh with vertex normals, whose coarse
-    /// silhouettes are then dark where the interpolated normal turns away.
+    /// A smooth mesh that emits towards the front of its shading normal, on either side of its faces
+    /// (`Scene::emits_towards`, `Shape::emits_behind`): Mitsuba's area emitter on a mesh with vertex
+    /// normals, whose coarse silhouettes are then dark where the interpolated normal turns away, and
+    /// which lets light out behind a face where the interpolated normal leans past it.
     pub emit_by_shading_normal: bool,
 }
 
 impl Shape {
+    /// Whether the shape may emit behind its faces: a mesh with vertex normals that
+    /// `emit_by_shading_normal` emits wherever the direction lies in front of the interpolated normal,
+    /// whichever side of the face that is (Mitsuba's area emitter tests its shading frame alone).
+    pub fn emits_behind(&self) -> bool {
+        self.emit_by_shading_normal && matches!(&self.geometry, Geometry::Mesh(m) if m.normals.is_some())
+    }
+
     pub fn area(&self) -> f32 {
         match &self.geometry {
             Geometry::Mesh(m) => m.total_area(),
@@ -771,11 +779,13 @@ impl Scene {
     }
 
     fn leaf_bsdf(&self, m: &SurfaceMaterial, si: &SurfaceHit, wo: Vec3) -> Material {
-        // A one-sided surface is black seen from behind its face, and (as Mitsuba's one-sided BSDFs,
-        // which test the side in the shading frame) from behind its shading normal: where a smooth
-        // mesh's shading normal leans away from `wo`, a BSDF that only asks both directions to lie on
-        // one side of it would reflect light from below the shading normal.
-        if !m.two_sided && (wo.dot(si.ng) <= 0.0 || wo.dot(si.ns) <= 0.0) {
+        // A one-sided surface is black seen from behind its shading normal, whichever side of the face
+        // that is, as Mitsuba's one-sided BSDFs (they test the side in the shading frame alone). Where a
+        // smooth mesh's shading normal leans away from `wo`, a BSDF that only asks both directions to
+        // lie on one side of it would reflect light from below the shading normal; where it leans past
+        // the face towards `wo`, the surface is seen and lit in front of it, from behind the face. The
+        // test is the same for the camera's side and the light's, so every mode finds the same light.
+        if !m.two_sided && wo.dot(si.ns) <= 0.0 {
             return Material::Diffuse { reflectance: Rgb::ZERO };
         }
         if let (Material::Mapped(mut mapped), Some(map)) = (m.bsdf, m.normal_map) {
@@ -880,11 +890,13 @@ impl Scene {
         }
     }
 
-    /// Radiance the surface at `si` emits towards `wo` (the front of its geometric normal; and of its
-    /// shading normal for a shape that `emit_by_shading_normal`).
+    /// Radiance the surface at `si` emits towards `wo`: the front of its geometric normal; for a shape
+    /// that `emit_by_shading_normal`, the front of its shading normal, on either side of the face if it
+    /// `emits_behind`.
     pub fn emitted(&self, si: &SurfaceHit, wo: Vec3) -> crate::color::Rgb {
-        let e = self.shapes[si.shape as usize].emission;
-        if e != crate::color::Rgb::ZERO && wo.dot(si.ng) > 0.0 && self.emits_towards(si.shape, si.prim, si.p, wo) {
+        let s = &self.shapes[si.shape as usize];
+        let facing = wo.dot(si.ng) > 0.0 || s.emits_behind();
+        if s.emission != crate::color::Rgb::ZERO && facing && self.emits_towards(si.shape, si.prim, si.p, wo) {
             self.radiance_at(si.shape, || si.uv)
         } else {
             crate::color::Rgb::ZERO
@@ -894,7 +906,7 @@ impl Scene {
     /// Whether point `p` of primitive `prim` of emitter `shape` emits towards `w` as far as its shading
     /// normal says: always, but for a shape that `emit_by_shading_normal`, where `w` must lie in front
     /// of the vertex normals interpolated at `p` (as given in the mesh, not turned towards the face's).
-    /// The front of the face is the caller's test.
+    /// The side of the face is the caller's test (`Shape::emits_behind`).
     pub fn emits_towards(&self, shape: u32, prim: u32, p: Vec3, w: Vec3) -> bool {
         let s = &self.shapes[shape as usize];
         if !s.emit_by_shading_normal {

@@ -705,35 +705,20 @@ impl<'a> Cx<'a> {
                     return Err(n.error(format!("a `serialized` shape's file must end in .serialized, got `{file}`")));
                 }
                 let file = self.resolve(n, &file);
-                // The two checks below read the mesh file; it is loaded once, and only if one needs it
-                // (None where neither does, and where it does not load: each check then keeps its default).
-                let smooth_emitter_check = emission.is_some() && !face_normals;
+                // The check below reads the mesh file, only where it is needed (None where it is not, and
+                // where the file does not load: the check then keeps its default).
+                let smooth_emitter = emission.is_some() && !face_normals;
                 let mirror_check = mirrors && !face_normals;
-                let meshes =
-                    (smooth_emitter_check || mirror_check).then(|| self.load_file_meshes(&file, shape_index)).flatten();
+                let meshes = mirror_check.then(|| self.load_file_meshes(&file, shape_index)).flatten();
                 // Mitsuba keeps a mirrored mesh's winding, so its faces' normals turn inward, and so
                 // do the vertex normals it computes for a mesh without any: it renders that mesh
                 // inside out, as the mesh turned inside out before its transform (caustica's
                 // `flip_normals`) renders here. Vertex normals from the file stay outward (transformed
                 // as normals), the shading Mitsuba gives them too, only its media swapping sides.
                 inside_out = mirrors && (face_normals || !file_has_normals(meshes.as_deref()));
-                // Mitsuba's area emitter emits towards the front of each point's shading normal
-                // (`emit_by_shading_normal`, with the face's front, which is all a closed mesh seen from
-                // outside shows). Where the faces are turned inward (random scene 2455) the two differ:
-                // outside a closed mesh caustica's light is none and Mitsuba's is what leaks past the
-                // faces, in front of the shading normal and behind the face.
-                if smooth_emitter_check && flip_normals ^ inside_out && file_is_smooth_shaded(meshes.as_deref()) {
-                    self.warnings.push(format!(
-                        "{}: line {}: an area emitter on a smooth-shaded mesh whose faces are turned inward (by \
-                         `flip_normals` or a mirroring `to_world`, in both renderers): caustica emits where the \
-                         direction is in front of both the face and the shading normal, Mitsuba of the shading \
-                         normal alone, so outside a closed mesh caustica's light from it is none and Mitsuba's is \
-                         what leaks out past the faces (1.5% of what a coarse ball gives facing out); \
-                         `face_normals` true makes them agree",
-                        n.file.display(),
-                        n.line
-                    ));
-                }
+                // Mitsuba's area emitter emits towards the front of each point's shading normal, on
+                // either side of the face (`emit_by_shading_normal`; a mesh turned inward, random scenes
+                // 2455 and 2832, lets its light out past its faces where that normal leans outward).
                 ShapeSpec::Mesh {
                     file,
                     material: Some(material),
@@ -743,7 +728,7 @@ impl<'a> Cx<'a> {
                     flip_normals: flip_normals ^ inside_out,
                     shape_index,
                     flip_tex_coords,
-                    emit_by_shading_normal: smooth_emitter_check,
+                    emit_by_shading_normal: smooth_emitter,
                 }
             }
             "rectangle" => ShapeSpec::Quad {
@@ -1875,21 +1860,4 @@ pub fn named_ior(name: &str) -> Option<f32> {
 /// nothing.
 fn file_has_normals(meshes: Option<&[crate::scene::mesh::LoadedMesh]>) -> bool {
     meshes.is_none_or(|meshes| meshes.iter().all(|m| m.mesh.normals.is_some()))
-}
-
-/// Whether a mesh file's shading differs from its faces' somewhere (`TriMesh::shaded_as_faces`): by its
-/// own vertex normals, else by the smooth ones Mitsuba computes for it. An emitter on it is where the two
-/// renderers' emitting sides differ (`placed_shape`); on a flat mesh they do not. A file that did not
-/// load (None) counts as smooth.
-fn file_is_smooth_shaded(meshes: Option<&[crate::scene::mesh::LoadedMesh]>) -> bool {
-    meshes.is_none_or(|meshes| {
-        meshes.iter().any(|m| match &m.mesh.normals {
-            Some(_) => !m.mesh.shaded_as_faces(),
-            None => {
-                let mut smooth = m.mesh.clone();
-                smooth.compute_smooth_normals();
-                !smooth.shaded_as_faces()
-            }
-        })
-    })
 }
