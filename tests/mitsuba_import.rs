@@ -226,13 +226,13 @@ fn a_smooth_emitting_mesh_emits_as_mitsuba() {
     assert!(mean_off > 0.003 || block_off > 0.04, "whole faces should miss Mitsuba: {mean_off}, {block_off}");
 }
 
-/// An area emitter on a smooth-shaded mesh whose faces are turned inward (a mirror without the file's
-/// normals, or `flip_normals`) is where caustica still knowingly differs from Mitsuba: it emits in front
-/// of both the face and the shading normal, Mitsuba of the shading normal alone, so the light outside is
-/// then Mitsuba's leak alone (`docs/mitsuba-differences/`); the import says so once, naming the line.
-/// Facing out (since session 69, `a_smooth_emitting_mesh_emits_as_mitsuba`), with `face_normals`, on a
-/// rectangle or a sphere (whose shading normal is the geometric one) or on a flat mesh (the OBJ tile,
-/// whose smooth normals are its faces'), it says nothing.
+/// Every emitting mesh without `face_normals` emits by its shading normal (`emit_by_shading_normal`), on
+/// either side of its faces, as Mitsuba's area emitter: facing out, on a flat mesh (the OBJ tile), turned
+/// inward by a mirror without the file's normals or by `flip_normals` (random scenes 2455 and 2832, whose
+/// light outside is what leaks past the faces), and mirrored with the file's normals. None of them is
+/// warned of: until session 70 caustica emitted in front of the face as well and the import warned of a
+/// turned mesh, naming its line. With `face_normals`, without an emitter, or on a rectangle or a sphere
+/// (whose shading normal is the geometric one), the flag stays off.
 #[test]
 fn an_emitting_smooth_mesh_emits_by_its_shading_normal_unwarned() {
     let d = tmp("smooth-emitter");
