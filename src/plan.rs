@@ -73,10 +73,11 @@ fn may_be_lit(scene: &Scene, s: usize) -> bool {
         match light {
             LightKind::Triangle { shape, prim } => {
                 // A mesh that emits behind its faces lights both sides.
-                if scene.lights.side_share(i, -1.0) > 0.0 {
+                let s = &scene.shapes[*shape as usize];
+                if s.emits_behind() {
                     return true;
                 }
-                let Geometry::Mesh(m) = &scene.shapes[*shape as usize].geometry else { return true };
+                let Geometry::Mesh(m) = &s.geometry else { return true };
                 let [a, b, c] = m.triangle(*prim as usize);
                 let n = (b - a).cross(c - a);
                 corners.iter().any(|&q| (q - a).dot(n) > 0.0)

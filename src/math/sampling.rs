@@ -2,6 +2,17 @@
 use glam::Vec3;
 use std::f32::consts::PI;
 
+/// The largest f32 below 1, where a uniform number rescaled into [0, 1) stays.
+pub const ONE_BELOW: f32 = f32::from_bits(0x3f7f_ffff);
+
+/// A choice between two outcomes drawn with the uniform `u`, the first taken with probability `p`:
+/// whether it was, and `u` rescaled to [0, 1) within the part of [0, 1) that chose it, reusable as a
+/// fresh uniform number.
+pub fn split(u: f32, p: f32) -> (bool, f32) {
+    let (first, v) = if u < p { (true, u / p) } else { (false, (u - p) / (1.0 - p)) };
+    (first, v.min(ONE_BELOW))
+}
+
 /// Cosine-weighted hemisphere around +z; pdf = cos θ / π.
 pub fn cosine_hemisphere(u: [f32; 2]) -> Vec3 {
     let d = concentric_disk(u);

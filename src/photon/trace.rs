@@ -720,12 +720,10 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     let dist = dist2.sqrt();
     let w = d / dist;
     // A surface emits in front of its face (and behind it, for a mesh that `Shape::emits_behind`).
-    let cos_x = if lp.n == Vec3::ZERO { 1.0 } else { lp.n.dot(w) };
-    let side = if lp.n == Vec3::ZERO { 1.0 } else { lights.side_share(li, cos_x) };
-    if side <= 0.0 || !lights.emits(scene, li, lp.p, w) {
+    if !lights.emits(scene, li, lp.p, lp.n, w) {
         return None;
     }
-    let cos_x = cos_x.abs();
+    let cos_x = if lp.n == Vec3::ZERO { 1.0 } else { lp.n.dot(w).abs() };
     let cos_y = ny.dot(w).abs();
     let falloff = lights.falloff(li, w);
     if falloff <= 0.0 {

@@ -226,9 +226,6 @@ impl LightKind {
     }
 }
 
-/// The largest f32 below 1: where a draw rescaled into [0, 1) must stay.
-const ONE_MINUS: f32 = f32::from_bits(0x3f7f_ffff);
-
 /// The share of triangle `pi`'s emitted directions to draw behind its face, for a mesh that emits in
 /// front of its interpolated vertex normals on either side of the face (`Shape::emits_behind`): about
 /// the share of its light that leaves behind the face, (1 − cos θ)/2 for the vertex normal θ furthest
@@ -569,9 +566,9 @@ impl Lights {
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
                 let wi = d / dist;
-                // A mesh that emits behind its faces is sampled on both sides (`side_share`).
+                // A mesh that emits behind its faces is sampled on both sides (`emits`).
                 let cos_l = -wi.dot(lp.n);
-                if self.side_share(i, cos_l) <= 0.0 || !lp.pdf_area.is_finite() || !self.emits(scene, i, lp.p, -wi) {
+                if !lp.pdf_area.is_finite() || !self.emits(scene, i, lp.p, lp.n, -wi) {
                     return None;
                 }
                 let pdf = p_sel * lp.pdf_area * dist2 / cos_l.abs();
@@ -710,12 +707,17 @@ impl Lights {
         })
     }
 
-    /// Whether the point `p` that `sample_point` drew on light `i` emits towards `w` as far as its shading
-    /// normal says (`Scene::emits_towards`; the side of the face is the caller's test, `side_share`): a
-    /// mesh that `emit_by_shading_normal` emits only in front of its interpolated normal.
-    pub fn emits(&self, scene: &Scene, i: usize, p: Vec3, w: Vec3) -> bool {
+    /// Whether the point `p` (unit normal `n`) that `sample_point` drew on light `i` emits towards `w`: a
+    /// surface on the side of its face that it draws directions on (`side_share`: in front, and behind
+    /// too for a mesh that `Shape::emits_behind`), and as far as its shading normal says
+    /// (`Scene::emits_towards`: a mesh that `emit_by_shading_normal` emits only in front of its
+    /// interpolated normal); point lights and lights at infinity towards every direction.
+    pub fn emits(&self, scene: &Scene, i: usize, p: Vec3, n: Vec3, w: Vec3) -> bool {
         match self.list[i] {
-            LightKind::Triangle { shape, prim } => scene.emits_towards(shape, prim, p, w),
+            LightKind::Triangle { shape, prim } => {
+                self.side_share(i, n.dot(w)) > 0.0 && scene.emits_towards(shape, prim, p, w)
+            }
+            LightKind::Sphere { .. } => self.side_share(i, n.dot(w)) > 0.0,
             _ => true,
         }
     }
@@ -724,7 +726,7 @@ impl Lights {
     /// the face's front, and a caller that turns it (VCM's aim) asks this of the direction it keeps. A ray
     /// that does not counts as a photon shot with no power.
     pub fn leaves(&self, scene: &Scene, e: &EmittedRay) -> bool {
-        self.emits(scene, e.light, e.origin, e.ray.d)
+        self.emits(scene, e.light, e.origin, e.normal, e.ray.d)
     }
 
     /// Emits a photon: light chosen by power, position uniform on it, direction uniform (point; over its
@@ -793,14 +795,8 @@ impl Lights {
         } else {
             // The cosine lobe in front of the face, or (for a mesh that emits behind its faces, with
             // the triangle's share behind, the first draw reused) the one behind it.
-            let behind = self.side_share(i, -1.0);
-            let (u_dir, n) = if u_dir[0] < behind {
-                ([(u_dir[0] / behind).min(ONE_MINUS), u_dir[1]], -lp.n)
-            } else if behind > 0.0 {
-                ([((u_dir[0] - behind) / (1.0 - behind)).min(ONE_MINUS), u_dir[1]], lp.n)
-            } else {
-                (u_dir, lp.n)
-            };
+            let (behind, u0) = sampling::split(u_dir[0], self.side_share(i, -1.0));
+            let (u_dir, n) = ([u0, u_dir[1]], if behind { -lp.n } else { lp.n });
             let d = sampling::cosine_around(n, u_dir);
             let cos = d.dot(n);
             let share = self.side_share(i, d.dot(lp.n));

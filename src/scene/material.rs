@@ -257,8 +257,8 @@ impl Mapped {
             return Some(bs);
         }
         // A light path knows l (`wo`) and draws c: about either candidate normal, even odds.
-        let k = (uc >= 0.5) as usize;
-        let uc = if k == 0 { uc * 2.0 } else { (uc - 0.5) * 2.0 }.min(f32::from_bits(0x3f7f_ffff));
+        let (first, uc) = sampling::split(uc, 0.5);
+        let k = (!first) as usize;
         let about = self.candidates(ns)[k];
         let mut bs = nested.sample(wo, about, u, uc, mode)?;
         let c = bs.wi;

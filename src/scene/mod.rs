@@ -744,9 +744,13 @@ impl Scene {
                 if let Some(u) = u.take() {
                     x = u();
                 }
-                let (next, rescaled) = if x < w { (b.second, x / w) } else { (b.first, (x - w) / (1.0 - w)) };
-                x = rescaled.min(f32::from_bits(0x3f7f_ffff)); // below 1, as a drawn number is
-                next
+                let second;
+                (second, x) = crate::math::sampling::split(x, w);
+                if second {
+                    b.second
+                } else {
+                    b.first
+                }
             };
             m = &self.materials[next as usize];
             match m.blend {
