@@ -6,19 +6,13 @@
 # towards c reflects light from below the surface to above it. The first cases are of that kind.
 # Run with .peer-venv/bin/python (scripts/peer/env).
 import mitsuba as mi, numpy as np
-mi.set_variant('scalar_rgb')
+from normalmap_common import mapped_diffuse, tilted, unit
 rng = np.random.default_rng(11)
-def unit(v): return v/np.linalg.norm(v)
 want_zero, want_lit = 4, 3
 out = []
 while want_zero + want_lit > 0:
     tilt = np.radians(rng.uniform(95, 130)); az = rng.uniform(0, 2*np.pi)
-    n = np.array([np.sin(tilt)*np.cos(az), np.sin(tilt)*np.sin(az), np.cos(tilt)])
-    col = ((n+1)/2).astype(np.float32)
-    mi.Bitmap(np.tile(col,(2,2,1)).astype(np.float32)).write('/tmp/cnb.exr')
-    b = mi.load_dict({'type':'normalmap','normalmap':{'type':'bitmap','filename':'/tmp/cnb.exr','raw':True,'filter_type':'nearest'},
-       'bsdf':{'type':'diffuse','reflectance':{'type':'rgb','value':[1,1,1]}}})
-    si = mi.SurfaceInteraction3f(); si.p=[0,0,0]; si.n=[0,0,1]; si.sh_frame=mi.Frame3f([0,0,1]); si.uv=[0.1,0.1]; si.dp_du=[1,0,0]; si.dp_dv=[0,1,0]
+    b, si, col = mapped_diffuse(tilted(tilt, az), '/tmp/cnb.exr')
     n0 = unit(np.array(col, dtype=np.float64)*2-1)
     for _ in range(2000):
         c = unit(rng.normal(size=3)); c[2] = abs(c[2]); l = unit(rng.normal(size=3))

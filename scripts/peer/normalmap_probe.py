@@ -2,18 +2,13 @@
 # against Mitsuba's own eval on 300 random normals and directions; prints the worst difference.
 # Run with .peer-venv/bin/python (scripts/peer/env).
 import mitsuba as mi, numpy as np
-mi.set_variant('scalar_rgb')
+from normalmap_common import mapped_diffuse, tilted, unit
 rng = np.random.default_rng(1)
-def unit(v): return v/np.linalg.norm(v)
 worst = 0
 for trial in range(300):
     tilt = np.radians(rng.uniform(5, 70)); az = rng.uniform(0, 2*np.pi)
-    n = np.array([np.sin(tilt)*np.cos(az), np.sin(tilt)*np.sin(az), np.cos(tilt)])
-    c = ((n+1)/2).astype(np.float32)
-    mi.Bitmap(np.tile(c,(2,2,1)).astype(np.float32)).write('/tmp/cnr.exr')
-    b = mi.load_dict({'type':'normalmap','normalmap':{'type':'bitmap','filename':'/tmp/cnr.exr','raw':True,'filter_type':'nearest'},
-       'bsdf':{'type':'diffuse','reflectance':{'type':'rgb','value':[1,1,1]}}})
-    si = mi.SurfaceInteraction3f(); si.p=[0,0,0]; si.n=[0,0,1]; si.sh_frame=mi.Frame3f([0,0,1]); si.uv=[0.1,0.1]; si.dp_du=[1,0,0]; si.dp_dv=[0,1,0]
+    n = tilted(tilt, az)
+    b, si, _ = mapped_diffuse(n, '/tmp/cnr.exr')
     def rnd_up():
         v = rng.normal(size=3); v[2] = abs(v[2]); return unit(v)
     wi = rnd_up(); wo = rnd_up()
