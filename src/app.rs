@@ -283,7 +283,10 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
                     (false, true) => ", face colours",
                     (false, false) => "",
                 };
-                format!("mesh, {} triangles{colours}", m.indices.len())
+                // Triangles the load turned on their own to face their vertex normals (`face_vertex_normals`).
+                let alone = m.turned_alone.iter().filter(|t| **t).count();
+                let turned = if alone > 0 { format!(", {alone} turned to their normals") } else { String::new() };
+                format!("mesh, {} triangles{colours}{turned}", m.indices.len())
             }
             Geometry::Sphere { radius, inward: false, .. } => format!("sphere r={radius}"),
             Geometry::Sphere { radius, inward: true, .. } => format!("sphere r={radius}, normals inward"),

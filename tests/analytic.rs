@@ -546,44 +546,11 @@ fn tilted_square_emitter(face_up: bool) {
 fn a_one_sided_surface_seen_from_behind_its_shading_normal_is_black_in_every_mode() {
     let dir = std::env::temp_dir().join(format!("caustica-leaning-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let (s, c) = (40f32.to_radians().sin(), 40f32.to_radians().cos());
-    let mut ply = String::from(
-        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
-         property float nx\nproperty float ny\nproperty float nz\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n",
-    );
-    for (x, z) in [(-1, -1), (1, -1), (1, 1), (-1, 1)] {
-        ply += &format!("{x} 0 {z} {s} {c} 0\n");
-    }
-    // Wound to face up (+y).
-    ply += "3 0 2 1\n3 0 3 2\n";
-    std::fs::write(dir.join("leaning.ply"), ply).unwrap();
-    // side −1: camera and light at −x (behind the shading normal); +1: at +x (in front of it); `below`:
-    // under the face.
-    let mean_red = |side: f32, below: bool, mode: &str| {
-        let (x_cam, x_light) = (3.0 * side, 4.0 * side);
-        let (y_cam, y_light) = if below { (-1.0f32, -1.2f32) } else { (1.0, 0.2) };
-        // The light's edges wind it to face the square (towards −side · x).
-        let (eu, ev) = if side < 0.0 { ([0.0, 1.0, 0.0], [0.0, 0.0, 2.0]) } else { ([0.0, 0.0, 2.0], [0.0, 1.0, 0.0]) };
-        let text = format!(
-            "[camera]\norigin = [{x_cam:?}, {y_cam:?}, 0.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40\nresolution = [8, 8]\n\
-             [materials]\nwhite = {{ type = \"diffuse\", reflectance = [0.8, 0.8, 0.8], two_sided = false }}\n\
-             dark = {{ type = \"diffuse\", reflectance = [0.0, 0.0, 0.0] }}\n\
-             [[shapes]]\ntype = \"mesh\"\nfile = \"leaning.ply\"\nsmooth = true\nmaterial = \"white\"\n\
-             [[shapes]]\ntype = \"quad\"\ncorner = [{x_light:?}, {y_light:?}, -1.0]\nedge_u = {eu:?}\nedge_v = {ev:?}\n\
-             material = \"dark\"\nemission = [5.0, 5.0, 5.0]\n\
-             [render]\nspp = 64\nmax_depth = 6\n\
-             [render.photons]\nindirect = 20000\ncaustic = 0\ndirect = 20000\n\
-             [render.progressive]\npasses = 8\nphotons_per_pass = 20000\n"
-        );
-        let sets = [format!("render.mode=\"{mode}\"")];
-        let scene =
-            caustica::scene::load_scene_str(&text, "leaning.toml", &dir, &sets).unwrap_or_else(|e| panic!("{e}"));
-        let img = common::render_image(&scene);
-        img.pixels.iter().map(|p| p.x as f64).sum::<f64>() / img.pixels.len() as f64
-    };
+    // Wound to face up (+y), the normals leaning 40° from +y towards +x.
+    std::fs::write(dir.join("leaning.ply"), square_ply(1.0, "3 0 2 1\n3 0 3 2\n")).unwrap();
     for mode in ["path", "photon_map", "ppm", "sppm", "bdpt", "vcm"] {
-        let (behind, front, under) =
-            (mean_red(-1.0, false, mode), mean_red(1.0, false, mode), mean_red(1.0, true, mode));
+        let mean = |side, below| square_mean_red(&dir, "leaning.ply", side, below, mode);
+        let (behind, front, under) = (mean(-1.0, false), mean(1.0, false), mean(1.0, true));
         eprintln!(
             "{mode}: seen from behind the shading normal {behind:.6}, from its front {front:.6}, from below the \
              face in front of it {under:.6}"
@@ -594,6 +561,80 @@ fn a_one_sided_surface_seen_from_behind_its_shading_normal_is_black_in_every_mod
             (under / 0.02199 - 1.0).abs() < 0.1,
             "{mode}: seen from below its face, in front of its shading normal, it reads {under} (Mitsuba 0.02199)"
         );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A square mesh of side 2 at y = 0 in an ASCII PLY, its four vertex normals leaning 40° from `up` ·
+/// +y towards +x, its two triangles as `faces` give them.
+fn square_ply(up: f32, faces: &str) -> String {
+    let (s, c) = (40f32.to_radians().sin(), 40f32.to_radians().cos() * up);
+    let mut ply = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n",
+    );
+    for (x, z) in [(-1, -1), (1, -1), (1, 1), (-1, 1)] {
+        ply += &format!("{x} 0 {z} {s} {c} 0\n");
+    }
+    ply + faces
+}
+
+/// The mean red of an 8 × 8 render in `mode` of the one-sided white diffuse mesh `file` (in `dir`, a
+/// `square_ply`) under a small panel light, the camera and the light at −x (`side` −1) or +x (`side`
+/// +1), above the square or, `below`, under it.
+fn square_mean_red(dir: &std::path::Path, file: &str, side: f32, below: bool, mode: &str) -> f64 {
+    let (x_cam, x_light) = (3.0 * side, 4.0 * side);
+    let (y_cam, y_light) = if below { (-1.0f32, -1.2f32) } else { (1.0, 0.2) };
+    // The light's edges wind it to face the square (towards −side · x).
+    let (eu, ev) = if side < 0.0 { ([0.0, 1.0, 0.0], [0.0, 0.0, 2.0]) } else { ([0.0, 0.0, 2.0], [0.0, 1.0, 0.0]) };
+    let text = format!(
+        "[camera]\norigin = [{x_cam:?}, {y_cam:?}, 0.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40\nresolution = [8, 8]\n\
+         [materials]\nwhite = {{ type = \"diffuse\", reflectance = [0.8, 0.8, 0.8], two_sided = false }}\n\
+         dark = {{ type = \"diffuse\", reflectance = [0.0, 0.0, 0.0] }}\n\
+         [[shapes]]\ntype = \"mesh\"\nfile = \"{file}\"\nsmooth = true\nmaterial = \"white\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [{x_light:?}, {y_light:?}, -1.0]\nedge_u = {eu:?}\nedge_v = {ev:?}\n\
+         material = \"dark\"\nemission = [5.0, 5.0, 5.0]\n\
+         [render]\nspp = 64\nmax_depth = 6\n\
+         [render.photons]\nindirect = 20000\ncaustic = 0\ndirect = 20000\n\
+         [render.progressive]\npasses = 8\nphotons_per_pass = 20000\n"
+    );
+    let sets = [format!("render.mode=\"{mode}\"")];
+    let scene = caustica::scene::load_scene_str(&text, "square.toml", dir, &sets).unwrap_or_else(|e| panic!("{e}"));
+    let img = common::render_image(&scene);
+    img.pixels.iter().map(|p| p.x as f64).sum::<f64>() / img.pixels.len() as f64
+}
+
+/// A mesh whose vertex normals point against its winding, on every triangle or on one of two: its
+/// outside is where the normals point, as in Mitsuba, pbrt-v4 and the rest (a mesh exported with its
+/// normals turned inward, or with faces wound inconsistently under consistent normals). The square of
+/// the test above with its normals leaning 40° from −y, wound to face up, or one triangle up and one
+/// down, must render as the same square wound down, in every mode, from three views: below, in front of
+/// the normals (the mirror image of that test's lit view: Mitsuba 0.03520); above at +x, in front of the
+/// normals but behind the face (Mitsuba 0.02199); above at −x, behind the normals (black). caustica
+/// turned each shading normal to its face's side, so it read the square wound up black from below and
+/// lit from above at −x (seen failing), and the mixed one half lit from each.
+#[test]
+fn a_mesh_faces_where_its_vertex_normals_point_whatever_its_winding() {
+    let dir = std::env::temp_dir().join(format!("caustica-against-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("down.ply"), square_ply(-1.0, "3 0 1 2\n3 0 2 3\n")).unwrap();
+    std::fs::write(dir.join("up.ply"), square_ply(-1.0, "3 0 2 1\n3 0 3 2\n")).unwrap();
+    std::fs::write(dir.join("mixed.ply"), square_ply(-1.0, "3 0 2 1\n3 0 2 3\n")).unwrap();
+    // (side, below): in front of the normals from below; behind the face but in front of the normals
+    // from above (Mitsuba 0.02199, as the test above); behind the normals from above.
+    let views = [(1.0, true, 0.03520), (1.0, false, 0.02199), (-1.0, false, 0.0)];
+    for mode in ["path", "photon_map", "ppm", "sppm", "bdpt", "vcm"] {
+        for (side, below, mitsuba) in views {
+            let want = square_mean_red(&dir, "down.ply", side, below, mode);
+            let near = if mitsuba > 0.0 { (want / mitsuba - 1.0).abs() < 0.1 } else { want == 0.0 };
+            assert!(near, "{mode}: the square wound down, view ({side}, {below}), reads {want} (Mitsuba {mitsuba})");
+            for file in ["up.ply", "mixed.ply"] {
+                let got = square_mean_red(&dir, file, side, below, mode);
+                eprintln!("{mode}: {file}, view ({side}, {below}): {got:.6} (wound down {want:.6})");
+                let same = if want > 0.0 { (got / want - 1.0).abs() < 1e-3 } else { got == 0.0 };
+                assert!(same, "{mode}: {file}, view ({side}, {below}), reads {got}; wound down {want}");
+            }
+        }
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

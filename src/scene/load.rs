@@ -1298,6 +1298,7 @@ fn build_shape(
         if smooth && mesh.normals.is_none() {
             mesh.compute_smooth_normals();
         }
+        mesh.face_vertex_normals();
         let geometry = Geometry::Mesh(mesh);
         shapes.push(Shape { name: key.into(), geometry, material, emission, emission_texture, emit_by_shading_normal });
         Ok::<(), SceneError>(())

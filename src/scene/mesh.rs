@@ -30,6 +30,9 @@ pub struct TriMesh {
     /// still the file's corners' barycentrics, as Mitsuba's (which keeps the winding): `uv_at` and
     /// `dp_duv` read them back.
     pub turned: bool,
+    /// Triangles whose corners `face_vertex_normals` swapped on their own, each turned from the rest of
+    /// the mesh (`turned_at`); empty where it swapped none, or every one (then `turned` says so).
+    pub turned_alone: Vec<bool>,
 }
 
 impl TriMesh {
@@ -47,7 +50,7 @@ impl TriMesh {
                 let [ta, tb, tc] = [t[i0 as usize], t[i1 as usize], t[i2 as usize]];
                 glam::Vec2::from(ta) * (1.0 - u - v) + glam::Vec2::from(tb) * u + glam::Vec2::from(tc) * v
             }
-            None if self.turned => glam::Vec2::new(v, u),
+            None if self.turned_at(i) => glam::Vec2::new(v, u),
             None => glam::Vec2::new(u, v),
         }
     }
@@ -101,7 +104,7 @@ impl TriMesh {
                 return (((b - a) * dv2 - (c - a) * dv1) / det, ((c - a) * du1 - (b - a) * du2) / det);
             }
         }
-        if self.turned {
+        if self.turned_at(i) {
             (c - a, b - a)
         } else {
             (b - a, c - a)
@@ -136,6 +139,50 @@ impl TriMesh {
             }
             self.turned = !self.turned;
         }
+    }
+
+    /// Whether triangle `i`'s second and third corners are swapped from the file's (`turned`, and
+    /// `turned_alone`).
+    pub fn turned_at(&self, i: usize) -> bool {
+        self.turned != self.turned_alone.get(i).copied().unwrap_or(false)
+    }
+
+    /// Turns each triangle whose vertex normals point behind its face (their sum against the normal its
+    /// winding gives) to face where they point, and returns how many it turned. Mitsuba, pbrt-v4 and
+    /// the rest take a mesh's vertex normals for its outside: a one-sided surface is seen, glass is
+    /// entered and a smooth emitter emits in front of them, whichever way the file winds its triangles
+    /// (a mesh exported with its normals turned inward, or with some faces wound the other way). The
+    /// geometric normal, which the rest of the renderer keeps on the shading normal's side, then follows
+    /// them. Without vertex normals it turns nothing.
+    pub fn face_vertex_normals(&mut self) -> usize {
+        let Some(against) = self.against_vertex_normals() else { return 0 };
+        let count = against.iter().filter(|x| **x).count();
+        if count == 0 {
+            return 0;
+        }
+        for (t, _) in self.indices.iter_mut().zip(&against).filter(|(_, a)| **a) {
+            t.swap(1, 2);
+        }
+        if count == against.len() && self.turned_alone.is_empty() {
+            self.turned = !self.turned;
+        } else {
+            let before = std::mem::take(&mut self.turned_alone);
+            self.turned_alone =
+                against.iter().enumerate().map(|(i, a)| *a != before.get(i).copied().unwrap_or(false)).collect();
+        }
+        count
+    }
+
+    /// Per triangle, whether its vertex normals point behind its face (their sum against the normal its
+    /// winding gives); None without vertex normals.
+    pub fn against_vertex_normals(&self) -> Option<Vec<bool>> {
+        let ns = self.normals.as_ref()?;
+        let p = &self.positions;
+        let against = self.indices.iter().map(|t| {
+            let [a, b, c] = t.map(|i| i as usize);
+            (p[b] - p[a]).cross(p[c] - p[a]).dot(ns[a] + ns[b] + ns[c]) < 0.0
+        });
+        Some(against.collect())
     }
 
     /// Turns the surface inside out: every triangle's winding and every vertex normal reversed.
@@ -338,7 +385,16 @@ fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedM
         // An object with no faces (points, lines, an empty group) has nothing to render.
         if !indices.is_empty() {
             out.push(LoadedMesh {
-                mesh: TriMesh { positions, indices, normals, uvs, colors: None, face_colors: None, turned: false },
+                mesh: TriMesh {
+                    positions,
+                    indices,
+                    normals,
+                    uvs,
+                    colors: None,
+                    face_colors: None,
+                    turned: false,
+                    turned_alone: Vec::new(),
+                },
                 mtl_diffuse,
                 mtl_texture,
                 mtl_error: mtl_error.clone(),
@@ -531,7 +587,7 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
             out.extend(std::iter::repeat_n(k.decode(f.c), f.idx.len() - 2));
         }
     }
-    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors, turned: false })
+    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors, turned: false, turned_alone: Vec::new() })
 }
 
 /// How a PLY's colour properties encode a colour: floats as they are (linear), or integers up to
@@ -679,7 +735,7 @@ pub fn parse_serialized(bytes: &[u8], index: u32, want_normals: bool) -> Result<
         .map(|c| std::array::from_fn(|k| u32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
         .collect();
     let normals = normals.filter(|_| want_normals).map(|ns| ns.into_iter().map(|n| n.normalize_or_zero()).collect());
-    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors: None, turned: false })
+    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors: None, turned: false, turned_alone: Vec::new() })
 }
 
 /// The fewest bytes one binary record of `def` can take: its scalars, and the count of each list.
@@ -811,6 +867,7 @@ pub fn quad(corner: Vec3, eu: Vec3, ev: Vec3) -> TriMesh {
         face_colors: None,
         uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
         turned: false,
+        turned_alone: Vec::new(),
     }
 }
 
@@ -971,6 +1028,42 @@ mod tests {
                 assert!((p - back).length() < 1e-6, "{name}: {bary:?} read as {uv}");
             }
         }
+    }
+
+    /// `face_vertex_normals` turns the triangles whose vertex normals point behind them, each on its
+    /// own, and keeps their uv and tangents the file's corners' barycentrics, as a mirror does: here the
+    /// second of two copies of one triangle, its normals against its winding.
+    #[test]
+    fn facing_its_vertex_normals_turns_only_those_against_and_keeps_their_uv() {
+        let (a, b, c) = (Vec3::new(0.1, 0.2, 0.0), Vec3::new(1.3, 0.1, 0.2), Vec3::new(0.4, 0.9, -0.1));
+        let n = (b - a).cross(c - a).normalize();
+        let mut m = TriMesh {
+            positions: vec![a, b, c, a, b, c],
+            indices: vec![[0, 1, 2], [3, 4, 5]],
+            normals: Some(vec![n, n, n, -n, -n * 0.5 + Vec3::X * 0.1, -n]),
+            ..TriMesh::default()
+        };
+        assert_eq!(m.face_vertex_normals(), 1);
+        assert_eq!(m.indices, vec![[0, 1, 2], [3, 5, 4]]);
+        assert!(!m.turned_at(0) && m.turned_at(1));
+        let [p0, p1, p2] = m.triangle(1);
+        assert!((p1 - p0).cross(p2 - p0).dot(n) < 0.0, "the second triangle faces its normals");
+        assert_eq!(m.dp_duv(1), (b - a, c - a));
+        for bary in [[0.2f32, 0.3], [0.6, 0.1], [0.0, 1.0]] {
+            let p = p0 * (1.0 - bary[0] - bary[1]) + p1 * bary[0] + p2 * bary[1];
+            let uv = m.uv_at(1, bary);
+            let back = a * (1.0 - uv.x - uv.y) + b * uv.x + c * uv.y;
+            assert!((p - back).length() < 1e-6, "{bary:?} read as {uv}");
+        }
+        // Turning every triangle turns the mesh.
+        let mut all = TriMesh { normals: Some(vec![-n; 6]), ..m.clone() };
+        all.indices = vec![[0, 1, 2], [3, 4, 5]];
+        all.turned_alone.clear();
+        assert_eq!(all.face_vertex_normals(), 2);
+        assert!(all.turned && all.turned_alone.is_empty() && all.turned_at(0) && all.turned_at(1));
+        // Without vertex normals nothing turns.
+        let mut bare = TriMesh { normals: None, ..all.clone() };
+        assert_eq!(bare.face_vertex_normals(), 0);
     }
 
     /// One mesh of a `.serialized` file: header, then the zlib stream (version 3 has no name).

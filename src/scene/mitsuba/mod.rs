@@ -679,12 +679,10 @@ impl<'a> Cx<'a> {
             ep.float("sampling_weight")?;
             ep.finish("radiance, sampling_weight")?;
         }
-        let material = self.shape_material(n, &p, index, emission.is_some())?;
-        let unmediated = material.clone();
-        let material = self.shape_media(n, &p, index, material)?;
         // The shape's own to_world mirrors (an instance's does not turn its shapes in Mitsuba either).
         let mirrors = own.is_some_and(|m| glam::Mat3::from_mat4(m).determinant() < 0.0);
-        let has_media = material != unmediated;
+        let material = self.shape_material(n, &p, index, emission.is_some())?;
+        let material = self.shape_media(n, &p, index, material, mirrors)?;
         // Set where the import turns a mirrored mesh inside out as Mitsuba renders it (no warning then).
         let mut inside_out = false;
         let mut spec = match n.attr("type").unwrap_or("") {
@@ -771,7 +769,7 @@ impl<'a> Cx<'a> {
         };
         if mirrors && !inside_out {
             self.mirrored_bump(n, &mut spec);
-            self.mirror_warning(n, has_media);
+            self.mirror_warning(n);
         }
         p.finish(
             "to_world, filename, face_normals, flip_normals, flip_tex_coords (obj, ply), shape_index, center, radius, p0, p1, a bsdf or <ref>, an area emitter",
@@ -819,20 +817,15 @@ impl<'a> Cx<'a> {
 
     /// Warns of a shape whose own `to_world` mirrors where Mitsuba 3.9.1 turns the surface and caustica
     /// does not (caustica keeps a mirrored surface's normals transformed as normals; measured in README
-    /// "Not done"). A mesh whose file carries vertex normals keeps them outward in Mitsuba while its
-    /// faces' normals turn inward (the winding kept), which swaps its media (a `cube` is such a mesh);
-    /// a cylinder rebuilds its frame without the mirror. Rectangles and disks turn their normals as
-    /// caustica does; meshes Mitsuba renders inside out, and spheres, whose normals Mitsuba turns
-    /// inward, are turned here too (`placed_shape`).
-    fn mirror_warning(&mut self, n: &Node, has_media: bool) {
-        let what = match n.attr("type").unwrap_or("") {
-            "obj" | "ply" | "serialized" | "cube" if has_media => {
-                "Mitsuba keeps the triangles' winding, so its geometric normals turn inward (its shading normals \
-                 do not) and it swaps the interior and exterior media"
-            }
-            "cylinder" => "Mitsuba's cylinder rebuilds its frame without the mirror and shades differently",
-            _ => return,
-        };
+    /// "Not done"): a cylinder rebuilds its frame without the mirror. Rectangles and disks turn their
+    /// normals as caustica does; meshes Mitsuba renders inside out, and spheres, whose normals Mitsuba
+    /// turns inward, are turned here too (`placed_shape`); a mesh with vertex normals, or a cube, whose
+    /// faces Mitsuba turns inward has its media swapped (`media_turned`).
+    fn mirror_warning(&mut self, n: &Node) {
+        if n.attr("type") != Some("cylinder") {
+            return;
+        }
+        let what = "Mitsuba's cylinder rebuilds its frame without the mirror and shades differently";
         self.warnings.push(format!(
             "{}: line {}: a mirroring to_world (negative determinant): {what}; caustica mirrors the surface \
              and keeps its outside facing out, so the two images differ",
@@ -846,12 +839,17 @@ impl<'a> Cx<'a> {
     /// dielectric (bare or under a normal or bump map) are coloured glass (or the coloured liquid or glass
     /// round it), a copy of the material with its `absorption` and `outside_absorption` (σ = `sigma_t` ×
     /// `scale`); anything else is refused. Mitsuba's other integrators ignore media, and so does the import then, with a warning.
+    ///
+    /// Mitsuba gives a segment the medium by the side of the face's geometric normal, from its winding
+    /// (`target_medium`), where caustica's faces may be turned from the file's (`media_turned`): the
+    /// media then swap sides in the copy, named with `+turned`.
     fn shape_media(
         &mut self,
         n: &'a Node,
         p: &Props<'a>,
         index: usize,
         material: String,
+        mirrors: bool,
     ) -> Result<String, SceneError> {
         let media = p.children_where(|c| {
             matches!(c.tag.as_str(), "medium" | "ref") && matches!(c.attr("name"), Some("interior" | "exterior"))
@@ -889,9 +887,13 @@ impl<'a> Cx<'a> {
             };
             sides[side as usize] = Some((absorbing_medium(node)?, label));
         }
+        let turned = self.media_turned(n, p, mirrors)?;
+        let label = sides.iter().filter_map(|s| s.as_ref().map(|(_, l)| l.as_str())).collect::<Vec<_>>();
+        let suffix = label.join("+") + if turned { "+turned" } else { "" };
+        if turned {
+            sides.swap(0, 1);
+        }
         let [inside, outside] = sides;
-        let label = [&inside, &outside].iter().filter_map(|s| s.as_ref().map(|(_, l)| l.as_str())).collect::<Vec<_>>();
-        let suffix = label.join("+");
         let refuse = || {
             media[0].error(
                 "a medium on a shape whose BSDF is not a `dielectric` or `roughdielectric` (or a `normalmap` or \
@@ -919,6 +921,43 @@ impl<'a> Cx<'a> {
         let name = format!("{material}+{suffix}");
         self.file.materials.insert(name.clone(), spec.expect("a material, or refused above"));
         Ok(name)
+    }
+
+    /// Whether caustica's faces of shape `n` are all turned from the winding Mitsuba keeps, which sets
+    /// the side of its media (`shape_media`). A mirroring `to_world` turns a cube's faces and a mesh's
+    /// with vertex normals in its file here (their normals transformed as normals, the outside kept out)
+    /// while Mitsuba keeps their winding; the load turns each triangle whose vertex normals point behind
+    /// its face (`TriMesh::face_vertex_normals`), which Mitsuba keeps too. A mesh turned on some of its
+    /// triangles but not all has its media on the two sides of those in Mitsuba: warned of, naming the
+    /// line. A file that does not load says so when the scene loads.
+    fn media_turned(&mut self, n: &Node, p: &Props<'a>, mirrors: bool) -> Result<bool, SceneError> {
+        let kind = n.attr("type").unwrap_or("");
+        if kind == "cube" {
+            return Ok(mirrors);
+        }
+        if !matches!(kind, "obj" | "ply" | "serialized") || p.boolean("face_normals")?.unwrap_or(false) {
+            return Ok(false);
+        }
+        let Some(file) = p.string("filename")? else { return Ok(false) };
+        let shape_index = p.int("shape_index")?.and_then(|i| u32::try_from(i).ok());
+        let file = self.resolve(n, &file);
+        let Some(meshes) = self.load_file_meshes(&file, shape_index) else { return Ok(false) };
+        // Without vertex normals in the file a mirrored mesh is turned inside out as Mitsuba renders it.
+        let Some(against) = meshes.iter().map(|m| m.mesh.against_vertex_normals()).collect::<Option<Vec<_>>>() else {
+            return Ok(false);
+        };
+        let (count, total) =
+            (against.iter().flatten().filter(|a| **a).count(), against.iter().map(Vec::len).sum::<usize>());
+        if count > 0 && count < total {
+            self.warnings.push(format!(
+                "{}: line {}: the vertex normals of `{file}` point behind {count} of its {total} triangles: caustica \
+                 turns those to face their normals, as Mitsuba shades them, but Mitsuba gives the media by each \
+                 triangle's winding, so the media differ across those triangles",
+                n.file.display(),
+                n.line
+            ));
+        }
+        Ok(mirrors != (count == total && total > 0))
     }
 
     /// The material a shape names (nested `<bsdf>` or `<ref>`), or Mitsuba's default: one-sided diffuse
