@@ -10,7 +10,7 @@ roughconductor by named metal or eta/k, dielectric, thindielectric, roughdielect
 random subset of its weights, and blendbsdf, mask and twosided around those), lit by one or two of
 area rectangle, area sphere, point, spot, directional, constant and envmap (at most one of the last
 two). Random max_depth (2 to unlimited), hide_emitters, box, tent or Gaussian filter; 64 x 48 pixels.
-The files it names (ball.ply, colored-ball.ply, facets.ply, tile.obj, tile.mtl, label.png, sky.exr, height.png) are tests/mitsuba's; the
+The files it names (ball.ply, colored-ball.ply, facets.ply, inverted-ball.ply, mixed-ball.ply, tile.obj, tile.mtl, label.png, sky.exr, height.png) are tests/mitsuba's; the
 caller copies them beside OUT. --no-blend leaves out blendbsdf, mask and twosided (Mitsuba 3.9.1's
 own blends are biased where caustica's are not: see the README). --area-lights draws the lights from
 area rectangle, area sphere, constant and envmap only: no point, spot or distant light, whose light
@@ -821,6 +821,20 @@ if args.more:
 
     text = re.sub(r'<texture type="checkerboard" name="(?:reflectance|diffuse_reflectance|base_color)">(?:(?!</texture>).)*</texture>',
                   nested_square, text)
+    # Normals against the winding (session 71), from a twenty-sixth stream, last: three in five PLY
+    # balls left become inverted-ball.ply (every vertex normal pointing in) or, without media,
+    # mixed-ball.ply (every other face wound inward under outward normals): Mitsuba shades a mesh by its
+    # normals and gives its media by its winding, which differ across a mixed ball's faces.
+    I = random.Random(args.seed * 5381 + 19)
+
+    def against(m):
+        body = m.group(0)
+        if 'value="ball.ply"' not in body or I.random() >= 0.6:
+            return body
+        mesh = "inverted-ball.ply" if 'name="interior"' in body or I.random() < 0.5 else "mixed-ball.ply"
+        return body.replace('value="ball.ply"', f'value="{mesh}"', 1)
+
+    text = re.sub(r'<shape type="ply">(?:(?!</shape>).)*</shape>', against, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
