@@ -628,6 +628,51 @@ fn media_follow_the_winding_mitsuba_keeps() {
     let _ = std::fs::remove_dir_all(d);
 }
 
+/// What follows a file's `<scene>` element: Mitsuba's reader (pugixml) takes a document of several
+/// top-level elements and Mitsuba reads the first, ignoring well-formed elements, text and comments
+/// after it (Mitsuba 3.9.1's `load_string` on the panel scene followed by a second `<scene>` holding a
+/// cube, by `<foo/>`, by a bare shape, by text or by a comment and an element reads the panel alone),
+/// and refuses what is not well-formed (an unclosed `<scene>`, a stray `</scene>`). Such a file loads
+/// here as the panel scene alone, hash equal, with a warning naming the file and the line, and in an
+/// included file too; the malformed ones are refused, naming the file. Refused before ("unknown
+/// token"): seen failing.
+#[test]
+fn what_follows_the_scene_element_is_ignored_as_mitsuba_ignores_it() {
+    let d = tmp("after-scene");
+    let base = panel_with("", "");
+    let plain = load_scene_with(&write(&d, "plain.xml", &base), &[]).unwrap_or_else(|e| panic!("{e}"));
+    let read = [
+        "<scene version=\"3.0.0\"><shape type=\"cube\"/></scene>",
+        "<foo/>",
+        "<shape type=\"cube\"/>",
+        "junk text",
+        "<!-- c --><foo a=\"1\">x</foo>\n",
+    ];
+    // The line the ignored content starts on.
+    let line = base.lines().count() + 1;
+    for (k, after) in read.iter().enumerate() {
+        let path = write(&d, &format!("read{k}.xml"), &format!("{base}\n{after}"));
+        let s = load_scene_with(&path, &[]).unwrap_or_else(|e| panic!("{after}: {e}"));
+        assert_eq!(s.content_hash(), plain.content_hash(), "{after}");
+        let warnings = caustica::scene::mitsuba::convert(&path).unwrap().warnings;
+        let said: Vec<&String> = warnings.iter().filter(|w| w.contains("first top-level element")).collect();
+        assert_eq!(said.len(), 1, "{after}: {warnings:?}");
+        assert!(said[0].contains(&format!("read{k}.xml: line {line}:")), "{after}: {}", said[0]);
+    }
+    for (k, after) in ["<scene version=\"3.0.0\"><shape type=\"cube\"/>", "</scene>"].iter().enumerate() {
+        let path = write(&d, &format!("refused{k}.xml"), &format!("{base}\n{after}"));
+        let e = load_scene_with(&path, &[]).err().unwrap_or_else(|| panic!("{after}: read")).to_string();
+        assert!(e.contains(&format!("refused{k}.xml")) && e.contains("XML"), "{after}: {e}");
+    }
+    // An included file with a comment and an element after its scene.
+    write(&d, "part.xml", "<scene version=\"3.0.0\"><shape type=\"sphere\"/></scene>\n<!-- x --><extra/>");
+    let with_part = base.replacen("</scene>", "<include filename=\"part.xml\"/></scene>", 1);
+    let path = write(&d, "includes.xml", &with_part);
+    let warnings = caustica::scene::mitsuba::convert(&path).unwrap_or_else(|e| panic!("{e}")).warnings;
+    assert!(warnings.iter().any(|w| w.contains("part.xml: line 2:") && w.contains("ignored")), "{warnings:?}");
+    let _ = std::fs::remove_dir_all(d);
+}
+
 /// A `.spd` file resolves as Mitsuba's file resolver finds it: beside the file that names it (here an
 /// included file in a subfolder), else beside the scene. A flat 0.5 over 360–830 nm is 0.5 · (0.998985,
 /// 0.998874, 0.998802) as a reflectance (Mitsuba 3.9.1's figures for a flat 1).

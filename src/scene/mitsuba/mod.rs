@@ -66,10 +66,11 @@ fn rendering_integrator(n: &Node) -> &Node {
 pub fn convert(path: &Path) -> Result<Converted, SceneError> {
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     props::begin(&base);
-    let root = xml::read_scene(path)?;
+    let mut warnings = Vec::new();
+    let root = xml::read_scene(path, &mut warnings)?;
     let mut cx = Cx {
         base,
-        warnings: Vec::new(),
+        warnings,
         ids: HashMap::new(),
         file: empty_file(),
         done: HashMap::new(),

@@ -52,9 +52,10 @@ impl Node {
 }
 
 /// Reads `path`, which must hold a `<scene>`; returns it with includes spliced in and `$name`
-/// references replaced by `<default>` values (the first definition wins, as in Mitsuba).
-pub fn read_scene(path: &Path) -> Result<Node, SceneError> {
-    let mut root = read_file(path, 0, &mut 0)?;
+/// references replaced by `<default>` values (the first definition wins, as in Mitsuba). What the
+/// reader leaves out as Mitsuba does, it says in `warnings`.
+pub fn read_scene(path: &Path, warnings: &mut Vec<String>) -> Result<Node, SceneError> {
+    let mut root = read_file(path, 0, &mut 0, warnings)?;
     if root.attr("version").is_some_and(|v| v.starts_with("0.")) {
         snake_case_names(&mut root);
     }
@@ -189,12 +190,43 @@ fn lenient_markup(text: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
-fn read_file(path: &Path, depth: usize, includes: &mut usize) -> Result<Node, SceneError> {
+/// Where the first top-level element of `text` ends, when `err` (the parse of the whole) is about
+/// well-formed content after it: another element, text, comments. Mitsuba's reader (pugixml) takes a
+/// document of several top-level elements, and Mitsuba reads the first; strict XML refuses them. None
+/// when the error lies elsewhere, or what follows is not well-formed (which Mitsuba refuses too).
+fn first_element_end(text: &str, err: &roxmltree::Error) -> Option<usize> {
+    let roxmltree::Error::UnknownToken(pos) = err else { return None };
+    // The error's row and column (in characters), as a byte offset.
+    let line_start = match pos.row {
+        0 => return None,
+        1 => 0,
+        row => text.match_indices('\n').nth(row as usize - 2)?.0 + 1,
+    };
+    let col = pos.col.checked_sub(1)? as usize;
+    let at = line_start + text[line_start..].char_indices().nth(col).map_or(text.len() - line_start, |(i, _)| i);
+    let (head, tail) = text.split_at(at);
+    parse_xml(head).ok()?;
+    parse_xml(&format!("<after>{tail}</after>")).ok()?;
+    Some(at)
+}
+
+fn read_file(path: &Path, depth: usize, includes: &mut usize, warnings: &mut Vec<String>) -> Result<Node, SceneError> {
     let shown = path.display().to_string();
     let text = crate::scene::read_text(path).map_err(|msg| SceneError::Io { file: shown.clone(), msg })?;
     let declared = lenient_declaration(&text);
     let text = lenient_markup(&declared);
-    let doc = parse_xml(&text).map_err(|e| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") })?;
+    let parse_error = |e: roxmltree::Error| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") };
+    let doc = match parse_xml(&text) {
+        Ok(doc) => doc,
+        Err(e) => {
+            let end = first_element_end(&text, &e).ok_or_else(|| parse_error(e))?;
+            let line = text[..end].matches('\n').count() + 1;
+            warnings.push(format!(
+                "{shown}: line {line}: what follows the first top-level element is ignored, as Mitsuba ignores it"
+            ));
+            parse_xml(&text[..end]).map_err(parse_error)?
+        }
+    };
     let root = doc.root_element();
     let mut node = convert(&doc, root, path, 0)?;
     if node.tag != "scene" {
@@ -219,7 +251,7 @@ fn read_file(path: &Path, depth: usize, includes: &mut usize) -> Result<Node, Sc
             return Err(child.error(format!("more than {MAX_INCLUDES} includes in all")));
         }
         let name = child.attr("filename").ok_or_else(|| child.error("needs a `filename` attribute"))?;
-        let inner = read_file(&child.dir().join(name), depth + 1, includes)
+        let inner = read_file(&child.dir().join(name), depth + 1, includes, warnings)
             .map_err(|e| child.error(format!("while including {name}: {e}")))?;
         children.extend(inner.children);
     }
