@@ -1006,7 +1006,8 @@ fn apply_normal_maps(
             let msg = format!("`{material}` lets light through; its back cannot be its front's mirror image");
             return Err(cx.err(&format!("{key}.two_sided"), msg));
         }
-        let bsdf = Material::Mapped(Mapped { normal: Vec3::ZERO, mirror_back: *two_sided, nested });
+        let nested_two_sided = inner.two_sided;
+        let bsdf = Material::Mapped(Mapped { normal: Vec3::ZERO, mirror_back: *two_sided, nested, nested_two_sided });
         let two_sided = *two_sided || inner.two_sided;
         materials[i] = SurfaceMaterial { bsdf, two_sided, normal_map: Some(map), ..inner.clone() };
     }

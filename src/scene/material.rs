@@ -83,6 +83,9 @@ pub struct Mapped {
     pub normal: Vec3,
     pub mirror_back: bool,
     pub nested: Nested,
+    /// The nested BSDF is two-sided (Mitsuba's `normalmap` over a `twosided`): seen from behind the
+    /// normal it is taken about, it reflects as from its front (`seen`).
+    pub nested_two_sided: bool,
 }
 
 /// The BSDFs a normal map may sit over: every `Material` but a thin pane and another normal map, by
@@ -165,12 +168,13 @@ impl Mapped {
     }
 
     /// Whether the camera's side `c` lies in front of the normal `f` says the nested BSDF is taken about
-    /// (always for glass, which scatters from both sides). Mitsuba's other BSDFs are one-sided, so where
-    /// the map's normal points below the surface (a bump map's `to_back`) the reflection about it can
-    /// leave `c` behind it, and there nothing is reflected, where a BSDF that faced its normal to `c`
-    /// would reflect light from below the surface.
+    /// (always for glass, which scatters from both sides, and for a two-sided nested BSDF, which turns
+    /// `c` and the light to the front of that normal as Mitsuba's `twosided` does). Mitsuba's other
+    /// BSDFs are one-sided, so where the map's normal points below the surface (a bump map's `to_back`)
+    /// or the surface is seen from behind, `c` can lie behind it, and there nothing is reflected, where a
+    /// BSDF that faced its normal to `c` would reflect light from below the surface.
     fn seen(&self, f: &Frame2, c: Vec3) -> bool {
-        matches!(self.nested, Nested::Dielectric(..)) || c.dot(f.n) > 0.0
+        self.nested_two_sided || matches!(self.nested, Nested::Dielectric(..)) || c.dot(f.n) > 0.0
     }
 
     /// `nested` under this map (None where it cannot be nested: a thin pane or another map).
@@ -2035,13 +2039,91 @@ mod tests {
         ];
         for (two_sided, n, c, l, want) in cases {
             let nested = Nested::Diffuse(Rgb::ONE);
-            let m = Material::Mapped(Mapped { normal: Vec3::from(n).normalize(), mirror_back: two_sided, nested });
+            let m = Material::Mapped(Mapped {
+                normal: Vec3::from(n).normalize(),
+                mirror_back: two_sided,
+                nested,
+                nested_two_sided: false,
+            });
             let (c, l) = (Vec3::from(c), Vec3::from(l));
             let got = m.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
             assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
             // The adjoint is the same number with the roles of the directions said the other way.
             let adjoint = m.eval(l, c, Vec3::Z, TransportMode::Importance).x * l.z.abs();
             assert_eq!(adjoint, got);
+        }
+    }
+
+    /// Mitsuba 3.9.1's `normalmap` over a `twosided` white `diffuse` (the map outside), seen from below
+    /// the surface, light from anywhere (`scripts/peer/normalmap_nested_twosided_cases.py`): the nested
+    /// twosided turns both directions to the front of the normal it is taken about, so the surface
+    /// reflects from behind as from its front, and only light on the other side of that normal than the
+    /// camera is lost (the last two cases). Since session 70 caustica read it black from behind (the
+    /// nested BSDF taken as one-sided: random area-light scene 2605, a `flip_normals` cube under such a
+    /// map, black where Mitsuba shows it lit; seen failing).
+    #[test]
+    fn a_normal_map_over_a_two_sided_bsdf_reflects_on_both_sides() {
+        #[allow(clippy::type_complexity)]
+        let cases: [([f32; 3], [f32; 3], [f32; 3], f32); 7] = [
+            (
+                [0.2300624, -0.6037798, 0.7632308],
+                [-0.2008502, 0.3400144, -0.9187216],
+                [0.1135568, -0.5720439, -0.8123242],
+                7.8200176e-02,
+            ),
+            (
+                [0.04253566, -0.0002201795, 0.9990949],
+                [0.1720408, -0.7778855, -0.6043974],
+                [0.6760401, 0.0857219, -0.7318617],
+                2.2358970e-01,
+            ),
+            (
+                [-0.3354616, 0.01471531, 0.9419389],
+                [-0.5886163, -0.4564653, -0.6672109],
+                [0.6823846, -0.07779286, -0.7268422],
+                2.9013279e-01,
+            ),
+            (
+                [0.3826148, -0.4069896, 0.8294368],
+                [-0.03469764, -0.2787276, -0.9597432],
+                [-0.2220135, -0.6115489, -0.7594195],
+                1.4680237e-01,
+            ),
+            (
+                [-0.04122919, -0.1229665, 0.991554],
+                [0.02178812, -0.9929444, -0.1165621],
+                [-0.1655715, 0.6226977, -0.7647441],
+                2.1908616e-01,
+            ),
+            (
+                [0.3007267, -0.09557945, 0.9489089],
+                [-0.1940405, -0.4922738, -0.8485369],
+                [0.2203727, 0.9431098, 0.2489573],
+                0.0,
+            ),
+            (
+                [-0.5477702, 0.1266967, 0.8269799],
+                [-0.4093095, -0.04725151, -0.9111712],
+                [-0.9018384, 0.4293691, -0.04826653],
+                0.0,
+            ),
+        ];
+        for (n, c, l, want) in cases {
+            let nested = Nested::Diffuse(Rgb::ONE);
+            let m = Material::Mapped(Mapped {
+                normal: Vec3::from(n).normalize(),
+                mirror_back: false,
+                nested,
+                nested_two_sided: true,
+            });
+            let (c, l) = (Vec3::from(c), Vec3::from(l));
+            let got = m.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
+            assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
+            let adjoint = m.eval(l, c, Vec3::Z, TransportMode::Importance).x * l.z.abs();
+            assert_eq!(adjoint, got);
+            // Sampling from c finds l's side where it is lit.
+            let pdf = m.pdf(c, l, Vec3::Z, TransportMode::Radiance);
+            assert_eq!(pdf > 0.0, want > 0.0, "{n:?}, {c:?}, {l:?}: pdf {pdf}");
         }
     }
 
@@ -2105,7 +2187,12 @@ mod tests {
         for (n, c, l, want) in cases {
             let (c, l) = (Vec3::from(c), Vec3::from(l));
             let normal = Vec3::from(n).normalize();
-            let diffuse = Material::Mapped(Mapped { normal, mirror_back: false, nested: Nested::Diffuse(Rgb::ONE) });
+            let diffuse = Material::Mapped(Mapped {
+                normal,
+                mirror_back: false,
+                nested: Nested::Diffuse(Rgb::ONE),
+                nested_two_sided: false,
+            });
             let got = diffuse.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
             assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
             assert_eq!(diffuse.eval(l, c, Vec3::Z, TransportMode::Importance).x * l.z.abs(), got);
@@ -2113,7 +2200,7 @@ mod tests {
                 continue;
             }
             for nested in [Nested::Diffuse(Rgb::ONE), Nested::new(rough).unwrap(), Nested::new(plastic).unwrap()] {
-                let mapped = Mapped { normal, mirror_back: false, nested };
+                let mapped = Mapped { normal, mirror_back: false, nested, nested_two_sided: false };
                 let m = Material::Mapped(mapped);
                 assert_eq!(m.eval(c, l, Vec3::Z, TransportMode::Radiance), Rgb::ZERO, "{nested:?}");
                 assert_eq!(m.eval(l, c, Vec3::Z, TransportMode::Importance), Rgb::ZERO, "{nested:?}");
@@ -2146,7 +2233,12 @@ mod tests {
         for nested in pure {
             for (i, n0) in normals.iter().enumerate() {
                 for mirror_back in [false, true] {
-                    let m = Material::Mapped(Mapped { normal: n0.normalize(), mirror_back, nested });
+                    let m = Material::Mapped(Mapped {
+                        normal: n0.normalize(),
+                        mirror_back,
+                        nested,
+                        nested_two_sided: false,
+                    });
                     // From above, grazing, and (two-sided) from below.
                     for wo in [Vec3::new(0.3, -0.2, 0.93), Vec3::new(-0.9, 0.3, 0.2), Vec3::new(0.4, 0.5, -0.77)] {
                         let wo = wo.normalize();
@@ -2187,7 +2279,7 @@ mod tests {
         // reflections bring back to it, normal by normal.
         let mirror = Nested::new(Material::conductor(Fresnel::Constant(Rgb::ONE), 0.0, Microfacet::Ggx)).unwrap();
         for (i, n0) in normals.iter().enumerate() {
-            let mapped = Mapped { normal: n0.normalize(), mirror_back: false, nested: mirror };
+            let mapped = Mapped { normal: n0.normalize(), mirror_back: false, nested: mirror, nested_two_sided: false };
             let m = Material::Mapped(mapped);
             // Light from the normal's side (one normal reflects it to where the camera sees that normal)
             // and from straight above (both do, on either side of the facet).
@@ -2251,7 +2343,7 @@ mod tests {
         for normal in [-Vec3::Z, Vec3::X, Vec3::new(1e-7, 0.0, 1.0).normalize()] {
             for nested in pure.iter().chain(&delta) {
                 for mirror_back in [false, true] {
-                    let m = Material::Mapped(Mapped { normal, mirror_back, nested: *nested });
+                    let m = Material::Mapped(Mapped { normal, mirror_back, nested: *nested, nested_two_sided: false });
                     for _ in 0..2000 {
                         let (wo, wi) = (sampling::uniform_sphere(r.next_2d()), sampling::uniform_sphere(r.next_2d()));
                         for mode in [TransportMode::Radiance, TransportMode::Importance] {
@@ -2294,7 +2386,12 @@ mod tests {
         for nest in nested {
             for n0 in normals {
                 for mirror_back in [false, true] {
-                    let m = Material::Mapped(Mapped { normal: n0.normalize(), mirror_back, nested: nest });
+                    let m = Material::Mapped(Mapped {
+                        normal: n0.normalize(),
+                        mirror_back,
+                        nested: nest,
+                        nested_two_sided: false,
+                    });
                     assert!(m.holds_photons(), "{nest:?}");
                     for _ in 0..2000 {
                         let c = sampling::uniform_sphere(r.next_2d());
