@@ -635,7 +635,7 @@ fn media_follow_the_winding_mitsuba_keeps() {
 /// and refuses what is not well-formed (an unclosed `<scene>`, a stray `</scene>`). Such a file loads
 /// here as the panel scene alone, hash equal, with a warning naming the file and the line, and in an
 /// included file too; the malformed ones are refused, naming the file. Refused before ("unknown
-/// token"): seen failing.
+/// token"): seen failing. Text before the scene element, which Mitsuba ignores too, likewise.
 #[test]
 fn what_follows_the_scene_element_is_ignored_as_mitsuba_ignores_it() {
     let d = tmp("after-scene");
@@ -663,6 +663,19 @@ fn what_follows_the_scene_element_is_ignored_as_mitsuba_ignores_it() {
         let path = write(&d, &format!("refused{k}.xml"), &format!("{base}\n{after}"));
         let e = load_scene_with(&path, &[]).err().unwrap_or_else(|| panic!("{after}: read")).to_string();
         assert!(e.contains(&format!("refused{k}.xml")) && e.contains("XML"), "{after}: {e}");
+    }
+    // Text before the scene (after the declaration, between comments), which Mitsuba 3.9.1 ignores too
+    // (`load_string` of each reads the scene alone).
+    let before =
+        [("junk ", 1), ("<?xml version=\"1.0\"?>\njunk & more > ", 2), ("<!-- c -->some text\n<!-- d -->\n\n x ", 1)];
+    for (k, (head, line)) in before.iter().enumerate() {
+        let path = write(&d, &format!("before{k}.xml"), &format!("{head}{base}"));
+        let s = load_scene_with(&path, &[]).unwrap_or_else(|e| panic!("{head}: {e}"));
+        assert_eq!(s.content_hash(), plain.content_hash(), "{head}");
+        let warnings = caustica::scene::mitsuba::convert(&path).unwrap().warnings;
+        let said: Vec<&String> = warnings.iter().filter(|w| w.contains("text before the first element")).collect();
+        assert_eq!(said.len(), 1, "{head}: {warnings:?}");
+        assert!(said[0].contains(&format!("before{k}.xml: line {line}:")), "{head}: {}", said[0]);
     }
     // An included file with a comment and an element after its scene.
     write(&d, "part.xml", "<scene version=\"3.0.0\"><shape type=\"sphere\"/></scene>\n<!-- x --><extra/>");

@@ -93,6 +93,41 @@ fn lenient_declaration(text: &str) -> std::borrow::Cow<'_, str> {
     Cow::Owned(format!("{}{blank}{}", &text[..at], &text[at + end + 2..]))
 }
 
+/// Text before the first element (after the declaration, between comments), which XML forbids and
+/// Mitsuba's reader ignores: blanked to spaces, every line and column kept, with the line it starts on.
+/// None where there is none.
+fn lenient_prologue(text: &str) -> Option<(String, usize)> {
+    let mut blank = Vec::new();
+    let mut at = text.len() - text.strip_prefix('\u{feff}').unwrap_or(text).len();
+    loop {
+        at += text[at..].len() - text[at..].trim_start().len();
+        let rest = &text[at..];
+        let close = [("<?", "?>"), ("<!--", "-->")].iter().find(|(open, _)| rest.starts_with(open));
+        match close {
+            Some((open, close)) => match rest[open.len()..].find(close) {
+                Some(e) => at += open.len() + e + close.len(),
+                None => break,
+            },
+            None if rest.is_empty() || rest.starts_with('<') => break,
+            None => {
+                let end = rest.find('<').unwrap_or(rest.len());
+                blank.push(at..at + end);
+                at += end;
+            }
+        }
+    }
+    let line = text[..blank.first()?.start].matches('\n').count() + 1;
+    let mut out = String::with_capacity(text.len());
+    let mut from = 0;
+    for r in blank {
+        out.push_str(&text[from..r.start]);
+        out.extend(text[r.clone()].chars().map(|c| if c == '\n' { c } else { ' ' }));
+        from = r.end;
+    }
+    out.push_str(&text[from..]);
+    Some((out, line))
+}
+
 /// Markup as Mitsuba's reader (pugixml) takes it where strict XML refuses it, rewritten so that the
 /// strict parser reads it, lines kept (and, in comments, columns):
 /// - comments with `--` inside or ending `--->` (decorative `<!-- ---- lights ---- -->`, dashes in
@@ -214,7 +249,11 @@ fn read_file(path: &Path, depth: usize, includes: &mut usize, warnings: &mut Vec
     let shown = path.display().to_string();
     let text = crate::scene::read_text(path).map_err(|msg| SceneError::Io { file: shown.clone(), msg })?;
     let declared = lenient_declaration(&text);
-    let text = lenient_markup(&declared);
+    let prologue = lenient_prologue(&declared);
+    if let Some((_, line)) = &prologue {
+        warnings.push(format!("{shown}: line {line}: text before the first element is ignored, as Mitsuba ignores it"));
+    }
+    let text = lenient_markup(prologue.as_ref().map_or(&*declared, |(t, _)| t.as_str()));
     let parse_error = |e: roxmltree::Error| SceneError::Parse { file: shown.clone(), msg: format!("XML: {e}") };
     let doc = match parse_xml(&text) {
         Ok(doc) => doc,
