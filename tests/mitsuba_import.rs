@@ -24,6 +24,44 @@ fn dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mitsuba")
 }
 
+/// Writes `inverted-ball.ply` (every vertex normal negated) and `mixed-ball.ply` (every other face's
+/// winding reversed) beside `ball.ply` where they are missing, as `tests/mitsuba/make-inverted.py`
+/// writes them for the peer scripts (generated, git-ignored): the meshes of `inverted.xml`. Each is
+/// written under a temporary name and renamed, so tests running at once never read half a file.
+fn inverted_meshes() {
+    let text = std::fs::read_to_string(dir().join("ball.ply")).unwrap();
+    let lines: Vec<&str> = text.split('\n').collect();
+    let end = lines.iter().position(|l| *l == "end_header").unwrap();
+    let count: usize =
+        lines[..end].iter().find_map(|l| l.strip_prefix("element vertex ")).map(|n| n.trim().parse().unwrap()).unwrap();
+    let (head, vertices, faces) = (&lines[..=end], &lines[end + 1..end + 1 + count], &lines[end + 1 + count..]);
+    let negated = |l: &&str| {
+        let v: Vec<String> = l.split_whitespace().map(String::from).collect();
+        let n = v[3..6].iter().map(|x| format!("{}", -x.parse::<f64>().unwrap()));
+        v[..3].iter().cloned().chain(n).collect::<Vec<_>>().join(" ")
+    };
+    let rewound = |(k, l): (usize, &&str)| {
+        let mut f: Vec<&str> = l.split_whitespace().collect();
+        if k % 2 == 1 && f.len() == 4 {
+            f.swap(2, 3);
+        }
+        f.join(" ")
+    };
+    let own = |l: &&str| l.to_string();
+    let inverted = head.iter().map(own).chain(vertices.iter().map(negated)).chain(faces.iter().map(own));
+    let mixed = head.iter().chain(vertices).map(own).chain(faces.iter().enumerate().map(rewound));
+    let all: [(&str, Vec<String>); 2] =
+        [("inverted-ball.ply", inverted.collect()), ("mixed-ball.ply", mixed.collect())];
+    for (name, lines) in all {
+        let path = dir().join(name);
+        if !path.exists() {
+            let part = dir().join(format!("{name}.{}-{:?}.part", std::process::id(), std::thread::current().id()));
+            std::fs::write(&part, lines.join("\n")).unwrap();
+            std::fs::rename(&part, &path).unwrap();
+        }
+    }
+}
+
 /// `NAME.xml` with its first `from` replaced by `to`, written beside the original (so that its meshes and
 /// images resolve) under a name no other test uses, handed to `read` and removed after.
 fn beside<T>(name: &str, from: &str, to: &str, read: impl FnOnce(&Path) -> T) -> T {
@@ -320,6 +358,7 @@ fn mirrored_shapes_xml_match_mitsuba() {
 /// file) −15.0 / −4.3 / −11.3%, a block 7.4× (seen failing); every mode's mean with it.
 #[test]
 fn meshes_whose_normals_and_winding_disagree_match_mitsuba() {
+    inverted_meshes();
     matches_mitsuba("inverted", 1024, 0.003);
     every_mode_means_match_mitsuba("inverted");
 }
@@ -576,6 +615,7 @@ fn a_mirroring_transform_turns_a_mesh_as_mitsuba_does_or_is_warned_of() {
 /// Before session 71 the import warned of a mirror (media swapped) and read the rest unswapped.
 #[test]
 fn media_follow_the_winding_mitsuba_keeps() {
+    inverted_meshes();
     use caustica::scene::file::{MaterialSpec, ShapeSpec};
     let d = tmp("media-winding");
     let mesh = |file: &str, extra: &str| {
@@ -641,6 +681,16 @@ fn what_follows_the_scene_element_is_ignored_as_mitsuba_ignores_it() {
     let d = tmp("after-scene");
     let base = panel_with("", "");
     let plain = load_scene_with(&write(&d, "plain.xml", &base), &[]).unwrap_or_else(|e| panic!("{e}"));
+    // The file `name` holding `text` reads as the panel alone, warned of once by `said` at `line`.
+    let ignored = |name: &str, text: &str, said: &str, line: usize| {
+        let path = write(&d, name, text);
+        let s = load_scene_with(&path, &[]).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(s.content_hash(), plain.content_hash(), "{name}");
+        let warnings = caustica::scene::mitsuba::convert(&path).unwrap().warnings;
+        let found: Vec<&String> = warnings.iter().filter(|w| w.contains(said)).collect();
+        assert_eq!(found.len(), 1, "{name}: {warnings:?}");
+        assert!(found[0].contains(&format!("{name}: line {line}:")), "{name}: {}", found[0]);
+    };
     let read = [
         "<scene version=\"3.0.0\"><shape type=\"cube\"/></scene>",
         "<foo/>",
@@ -651,13 +701,7 @@ fn what_follows_the_scene_element_is_ignored_as_mitsuba_ignores_it() {
     // The line the ignored content starts on.
     let line = base.lines().count() + 1;
     for (k, after) in read.iter().enumerate() {
-        let path = write(&d, &format!("read{k}.xml"), &format!("{base}\n{after}"));
-        let s = load_scene_with(&path, &[]).unwrap_or_else(|e| panic!("{after}: {e}"));
-        assert_eq!(s.content_hash(), plain.content_hash(), "{after}");
-        let warnings = caustica::scene::mitsuba::convert(&path).unwrap().warnings;
-        let said: Vec<&String> = warnings.iter().filter(|w| w.contains("first top-level element")).collect();
-        assert_eq!(said.len(), 1, "{after}: {warnings:?}");
-        assert!(said[0].contains(&format!("read{k}.xml: line {line}:")), "{after}: {}", said[0]);
+        ignored(&format!("read{k}.xml"), &format!("{base}\n{after}"), "first top-level element", line);
     }
     for (k, after) in ["<scene version=\"3.0.0\"><shape type=\"cube\"/>", "</scene>"].iter().enumerate() {
         let path = write(&d, &format!("refused{k}.xml"), &format!("{base}\n{after}"));
@@ -669,13 +713,7 @@ fn what_follows_the_scene_element_is_ignored_as_mitsuba_ignores_it() {
     let before =
         [("junk ", 1), ("<?xml version=\"1.0\"?>\njunk & more > ", 2), ("<!-- c -->some text\n<!-- d -->\n\n x ", 1)];
     for (k, (head, line)) in before.iter().enumerate() {
-        let path = write(&d, &format!("before{k}.xml"), &format!("{head}{base}"));
-        let s = load_scene_with(&path, &[]).unwrap_or_else(|e| panic!("{head}: {e}"));
-        assert_eq!(s.content_hash(), plain.content_hash(), "{head}");
-        let warnings = caustica::scene::mitsuba::convert(&path).unwrap().warnings;
-        let said: Vec<&String> = warnings.iter().filter(|w| w.contains("text before the first element")).collect();
-        assert_eq!(said.len(), 1, "{head}: {warnings:?}");
-        assert!(said[0].contains(&format!("before{k}.xml: line {line}:")), "{head}: {}", said[0]);
+        ignored(&format!("before{k}.xml"), &format!("{head}{base}"), "text before the first element", *line);
     }
     // An included file with a comment and an element after its scene.
     write(&d, "part.xml", "<scene version=\"3.0.0\"><shape type=\"sphere\"/></scene>\n<!-- x --><extra/>");

@@ -7,7 +7,9 @@ mixed-ball.ply     every other face's winding reversed, the normals kept (faces 
                    under consistent normals, as some exporters and scans leave them).
 
 Mitsuba shades a mesh by its vertex normals, whichever way its faces are wound, and gives media by the
-winding. Run with any python3: python3 tests/mitsuba/make-inverted.py
+winding. Both files are git-ignored: scripts/mitsuba-refs and scripts/random-check run this script,
+and tests/mitsuba_import.rs writes the same files (`inverted_meshes`) where they are missing. Run with
+any python3: python3 tests/mitsuba/make-inverted.py
 """
 import os
 
