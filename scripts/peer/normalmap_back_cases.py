@@ -6,7 +6,7 @@
 # towards c reflects light from below the surface to above it. The first cases are of that kind.
 # Run with .peer-venv/bin/python (scripts/peer/env).
 import mitsuba as mi, numpy as np
-from normalmap_common import mapped_diffuse, tilted, unit
+from normalmap_common import case_line, mapped_diffuse, tilted, unit
 rng = np.random.default_rng(11)
 want_zero, want_lit = 4, 3
 out = []
@@ -28,6 +28,6 @@ while want_zero + want_lit > 0:
             want_lit -= 1
         else:
             continue
-        out.append(f"([{n0[0]:.7}, {n0[1]:.7}, {n0[2]:.7}], [{c[0]:.7}, {c[1]:.7}, {c[2]:.7}], [{l[0]:.7}, {l[1]:.7}, {l[2]:.7}], {got:.7e}),")
+        out.append(case_line(n0, c, l, got))
         break
 print('\n'.join(out))

@@ -31,3 +31,9 @@ def mapped_diffuse(n, path, two_sided=False, nested_two_sided=False):
     si.p = [0, 0, 0]; si.n = [0, 0, 1]; si.sh_frame = mi.Frame3f([0, 0, 1]); si.uv = [0.1, 0.1]
     si.dp_du = [1, 0, 0]; si.dp_dv = [0, 1, 0]
     return b, si, col
+
+
+def case_line(n0, c, l, got):
+    """One case as the Rust tests write it: (normal, c, l, Mitsuba's value)."""
+    return (f"([{n0[0]:.7}, {n0[1]:.7}, {n0[2]:.7}], [{c[0]:.7}, {c[1]:.7}, {c[2]:.7}], "
+            f"[{l[0]:.7}, {l[1]:.7}, {l[2]:.7}], {got:.7e}),")

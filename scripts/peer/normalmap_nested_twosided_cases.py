@@ -5,7 +5,7 @@
 # so the surface reflects from below as from above; a one-sided nested BSDF would be black there. The
 # first cases are lit ones. Run with .peer-venv/bin/python (scripts/peer/env).
 import mitsuba as mi, numpy as np
-from normalmap_common import mapped_diffuse, tilted, unit
+from normalmap_common import case_line, mapped_diffuse, tilted, unit
 rng = np.random.default_rng(5)
 want_lit, want_zero = 5, 2
 out = []
@@ -23,6 +23,6 @@ while want_zero + want_lit > 0:
             want_zero -= 1
         else:
             continue
-        out.append(f"([{n0[0]:.7}, {n0[1]:.7}, {n0[2]:.7}], [{c[0]:.7}, {c[1]:.7}, {c[2]:.7}], [{l[0]:.7}, {l[1]:.7}, {l[2]:.7}], {got:.7e}),")
+        out.append(case_line(n0, c, l, got))
         break
 print('\n'.join(out))

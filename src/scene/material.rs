@@ -2038,20 +2038,29 @@ mod tests {
             ),
         ];
         for (two_sided, n, c, l, want) in cases {
-            let nested = Nested::Diffuse(Rgb::ONE);
-            let m = Material::Mapped(Mapped {
-                normal: Vec3::from(n).normalize(),
-                mirror_back: two_sided,
-                nested,
-                nested_two_sided: false,
-            });
-            let (c, l) = (Vec3::from(c), Vec3::from(l));
-            let got = m.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
-            assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
-            // The adjoint is the same number with the roles of the directions said the other way.
-            let adjoint = m.eval(l, c, Vec3::Z, TransportMode::Importance).x * l.z.abs();
-            assert_eq!(adjoint, got);
+            mapped_white_diffuse_is_mitsubas(n, two_sided, false, c, l, want);
         }
+    }
+
+    /// A normal map of normal `n` over a white diffuse (`mirror_back`, `nested_two_sided`), on a surface
+    /// facing +z, seen from `c` and lit from `l`: f·|l·ns| is Mitsuba's `want`, and the adjoint the same
+    /// number with the roles of the directions said the other way. Returns the map.
+    fn mapped_white_diffuse_is_mitsubas(
+        n: [f32; 3],
+        mirror_back: bool,
+        nested_two_sided: bool,
+        c: [f32; 3],
+        l: [f32; 3],
+        want: f32,
+    ) -> Material {
+        let nested = Nested::Diffuse(Rgb::ONE);
+        let m = Material::Mapped(Mapped { normal: Vec3::from(n).normalize(), mirror_back, nested, nested_two_sided });
+        let (c, l) = (Vec3::from(c), Vec3::from(l));
+        let got = m.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
+        assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
+        let adjoint = m.eval(l, c, Vec3::Z, TransportMode::Importance).x * l.z.abs();
+        assert_eq!(adjoint, got);
+        m
     }
 
     /// Mitsuba 3.9.1's `normalmap` over a `twosided` white `diffuse` (the map outside), seen from below
@@ -2109,19 +2118,9 @@ mod tests {
             ),
         ];
         for (n, c, l, want) in cases {
-            let nested = Nested::Diffuse(Rgb::ONE);
-            let m = Material::Mapped(Mapped {
-                normal: Vec3::from(n).normalize(),
-                mirror_back: false,
-                nested,
-                nested_two_sided: true,
-            });
-            let (c, l) = (Vec3::from(c), Vec3::from(l));
-            let got = m.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
-            assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
-            let adjoint = m.eval(l, c, Vec3::Z, TransportMode::Importance).x * l.z.abs();
-            assert_eq!(adjoint, got);
+            let m = mapped_white_diffuse_is_mitsubas(n, false, true, c, l, want);
             // Sampling from c finds l's side where it is lit.
+            let (c, l) = (Vec3::from(c), Vec3::from(l));
             let pdf = m.pdf(c, l, Vec3::Z, TransportMode::Radiance);
             assert_eq!(pdf > 0.0, want > 0.0, "{n:?}, {c:?}, {l:?}: pdf {pdf}");
         }
