@@ -38,7 +38,10 @@ a third of the spots turned into projectors; an absorbing interior medium (colou
 volpath) in four in five closed shapes of smooth or rough glass; a mirroring scale (-1 along one axis)
 on a fourth of the rectangles, disks, cubes and meshes without media; flip_normals, a mirroring
 scale or both on half the spheres that neither emit nor hold a medium; a ball in diffuse colour, rough
-gold or clear glass at the centre of half the spheres, cubes and PLY balls with a medium.
+gold or clear glass at the centre of half the spheres, cubes and PLY balls with a medium; three in
+five PLY balls left with their vertex normals against their winding; and a fourth of the shapes
+that neither emit nor hold a medium placed by an instance of a shapegroup that turns, scales and
+sometimes mirrors them.
 --exporter writes the same scene as exporters and converters write it (from a stream of its own, each
 half the time): `name` labels on nested objects, booleans spelled "True" and "FALSE", references through
 <alias>, and a camera mirrored by <scale x="-1"/> (the image mirrored in both renderers).
@@ -835,6 +838,29 @@ if args.more:
         return body.replace('value="ball.ply"', f'value="{mesh}"', 1)
 
     text = re.sub(r'<shape type="ply">(?:(?!</shape>).)*</shape>', against, text)
+    # Instances (session 72), from a twenty-seventh stream, last: a fourth of the shapes that neither
+    # emit nor hold a medium (Mitsuba instances neither) go into a shapegroup placed once by an instance
+    # that turns it about the vertical axis, scales it (a sphere uniformly: Mitsuba's instance makes an
+    # ellipsoid of it, caustica's import refuses one) and, a third of the time, mirrors it across the
+    # plane x = 0. Mitsuba transforms the rays into the group; caustica copies the shapes into place.
+    K = random.Random(args.seed * 3917 + 29)
+    groups = iter(range(10**6))
+
+    def instanced(m):
+        body = m.group(0)
+        if "<emitter" in body or "<medium" in body or 'name="interior"' in body or K.random() >= 0.25:
+            return body
+        s = K.uniform(0.8, 1.2)
+        sx, sy, sz = (s, s, s) if m.group(1) == "sphere" else (K.uniform(0.7, 1.3), K.uniform(0.8, 1.2), K.uniform(0.7, 1.3))
+        if K.random() < 1 / 3:
+            sx = -sx
+        ident = f"instanced-{next(groups)}"
+        return (f'<shape type="shapegroup" id="{ident}">{body}</shape>'
+                f'<shape type="instance"><ref id="{ident}"/><transform name="to_world">'
+                f'<scale x="{f(sx)}" y="{f(sy)}" z="{f(sz)}"/><rotate y="1" angle="{f(K.uniform(-40, 40))}"/>'
+                f'</transform></shape>')
+
+    text = re.sub(r'<shape type="(\w+)">(?:(?!</shape>).)*</shape>', instanced, text)
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
