@@ -607,6 +607,12 @@ pub enum ShapeSpec {
         /// with normals (the import sets it): a coarse smooth mesh's silhouettes are then dark.
         #[serde(default, skip_serializing_if = "is_false")]
         emit_by_shading_normal: bool,
+        /// A second placement, after `transform` and after the smooth normals a mesh without any are
+        /// computed (as placed by `transform`): they follow it as normals. A Mitsuba `instance`'s
+        /// `to_world` (the import sets it): Mitsuba computes those normals in the shape group's space,
+        /// which an uneven scale makes differ from normals computed after the whole placement.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        instance_transform: Option<TransformSpec>,
     },
     /// Analytic sphere (exact hits; not tessellated).
     Sphere {

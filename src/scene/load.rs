@@ -1224,7 +1224,12 @@ fn texture_label(name: &str, t: &Texture) -> String {
 
 /// Transform to a matrix; refuses degenerate or non-finite ones.
 pub fn transform_matrix(cx_key: &str, t: &TransformSpec, shown: &str) -> Result<Mat4, SceneError> {
-    let err = |msg: String| SceneError::Invalid { file: shown.into(), key: format!("{cx_key}.transform"), msg };
+    transform_matrix_at(&format!("{cx_key}.transform"), t, shown)
+}
+
+/// `transform_matrix` for the transform at `key` (its whole name, errors naming it).
+fn transform_matrix_at(key: &str, t: &TransformSpec, shown: &str) -> Result<Mat4, SceneError> {
+    let err = |msg: String| SceneError::Invalid { file: shown.into(), key: key.into(), msg };
     let m = if let Some(rows) = t.matrix {
         if t.translate.is_some()
             || t.scale.is_some()
@@ -1283,11 +1288,12 @@ fn build_shape(
         }
     };
     // A mesh turned inside out if asked, then transformed, becomes the shape; smooth normals it lacks
-    // (`smooth` with none in the file) are computed as placed.
+    // (`smooth` with none in the file) are computed as placed, before an instance's placement (`after`),
+    // which they follow as normals.
     let push = |shapes: &mut Vec<Shape>,
                 mut mesh: TriMesh,
                 flip: bool,
-                transform: &TransformSpec,
+                (transform, after): (&TransformSpec, Option<&TransformSpec>),
                 material: u32,
                 (emission, emission_texture): (Rgb, Option<u32>),
                 smooth: bool,
@@ -1298,6 +1304,9 @@ fn build_shape(
         mesh.transform(&transform_matrix(key, transform, cx.shown)?);
         if smooth && mesh.normals.is_none() {
             mesh.compute_smooth_normals();
+        }
+        if let Some(after) = after {
+            mesh.place_as_instance(&transform_matrix_at(&format!("{key}.instance_transform"), after, cx.shown)?);
         }
         mesh.face_vertex_normals();
         let geometry = Geometry::Mesh(mesh);
@@ -1315,6 +1324,7 @@ fn build_shape(
             shape_index,
             flip_tex_coords,
             emit_by_shading_normal,
+            instance_transform,
         } => {
             if *emit_by_shading_normal && !(*smooth && e.is_some()) {
                 let msg = "is for an emitting mesh with smooth normals (`emission` and `smooth = true`)";
@@ -1348,7 +1358,8 @@ fn build_shape(
                     }
                 };
                 let emits = emission(e, out.textures)?;
-                push(out.shapes, lm.mesh, *flip_normals, transform, mat, emits, *smooth, *emit_by_shading_normal)?;
+                let placed = (transform, instance_transform.as_ref());
+                push(out.shapes, lm.mesh, *flip_normals, placed, mat, emits, *smooth, *emit_by_shading_normal)?;
             }
         }
         ShapeSpec::Sphere { center, radius, material, transform, emission: e, flip_normals } => {
@@ -1367,18 +1378,36 @@ fn build_shape(
         }
         ShapeSpec::Heightfield { material, transform, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, false, transform, lookup(material)?, (Rgb::ZERO, None), false, false)?;
+            push(out.shapes, mesh, false, (transform, None), lookup(material)?, (Rgb::ZERO, None), false, false)?;
         }
         ShapeSpec::Quad { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Disk { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Cylinder { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Box { material, transform, emission: e, flip_normals: flip, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, *flip, transform, lookup(material)?, emission(e, out.textures)?, false, false)?;
+            push(
+                out.shapes,
+                mesh,
+                *flip,
+                (transform, None),
+                lookup(material)?,
+                emission(e, out.textures)?,
+                false,
+                false,
+            )?;
         }
         ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(out.shapes, mesh, false, transform, lookup(material)?, emission(e, out.textures)?, false, false)?;
+            push(
+                out.shapes,
+                mesh,
+                false,
+                (transform, None),
+                lookup(material)?,
+                emission(e, out.textures)?,
+                false,
+                false,
+            )?;
         }
     }
     // Mesh colours are read off the hit mesh: it must have them, each within [0, 1] times the

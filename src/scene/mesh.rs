@@ -12,7 +12,8 @@ use std::path::Path;
 pub struct TriMesh {
     pub positions: Vec<Vec3>,
     pub indices: Vec<[u32; 3]>,
-    /// Per-vertex shading normals, when the file has them or `smooth = true`.
+    /// Per-vertex shading normals, when the file has them or `smooth = true`: unit length, but under an
+    /// instance's uneven scale (`place_as_instance`); read interpolated and then made unit.
     pub normals: Option<Vec<Vec3>>,
     /// Per-vertex texture coordinates (v = 0 at the top row of an image, as Mitsuba reads them; OBJ's
     /// bottom-up v is flipped on load), when the file has them; without them a hit's uv is its
@@ -122,15 +123,31 @@ impl TriMesh {
         (0..self.indices.len()).map(|i| self.area(i)).sum()
     }
 
-    /// Applies an affine transform to positions (and inverse-transpose to normals).
+    /// Applies an affine transform to positions (and inverse-transpose to normals, made unit length).
     pub fn transform(&mut self, m: &Mat4) {
+        self.transform_normals_unit(m, true);
+    }
+
+    /// Places the mesh as a Mitsuba `instance` does: `transform`, but the vertex normals transformed
+    /// without making them unit length again, so that those interpolated across a triangle (then made
+    /// unit) are the group's interpolated normals transformed as normals, which Mitsuba's instance
+    /// shades with. Under an uneven scale unit lengths would weigh the corners otherwise and move a
+    /// near-mirror's highlight.
+    pub fn place_as_instance(&mut self, m: &Mat4) {
+        self.transform_normals_unit(m, false);
+    }
+
+    fn transform_normals_unit(&mut self, m: &Mat4, unit: bool) {
         for p in &mut self.positions {
             *p = m.transform_point3(*p);
         }
         if let Some(ns) = &mut self.normals {
             let nm = m.inverse().transpose();
             for n in ns.iter_mut() {
-                *n = nm.transform_vector3(*n).normalize_or_zero();
+                *n = nm.transform_vector3(*n);
+                if unit {
+                    *n = n.normalize_or_zero();
+                }
             }
         }
         if m.determinant() < 0.0 {

@@ -718,16 +718,20 @@ impl<'a> Cx<'a> {
                 // Mitsuba's area emitter emits towards the front of each point's shading normal, on
                 // either side of the face (`emit_by_shading_normal`; a mesh turned inward, random scenes
                 // 2455 and 2832, lets its light out past its faces where that normal leans outward).
+                // Mitsuba computes a mesh's missing vertex normals in its shape group's space, and an
+                // instance transforms them as normals: placed by the shape's own to_world first, by the
+                // instance's after them.
                 ShapeSpec::Mesh {
                     file,
                     material: Some(material),
-                    transform,
+                    transform: transform_spec(own),
                     emission,
                     smooth: !face_normals,
                     flip_normals: flip_normals ^ inside_out,
                     shape_index,
                     flip_tex_coords,
                     emit_by_shading_normal: smooth_emitter,
+                    instance_transform: outer.map(|m| transform_spec(Some(m))),
                 }
             }
             "rectangle" => ShapeSpec::Quad {
