@@ -139,3 +139,106 @@ fn a_mirror_inside_coloured_glass_lies_in_its_medium_in_every_mode() {
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
     every_mode_reads(&text, None, SIGMA.map(|s| (-2.0 * s).exp()), "a mirror in the glass");
 }
+
+/// A mirror half inside coloured glass: the box of glass of the test above filled only for x < 0, the
+/// same mirror running out of it through its side at x = 0. A ray that meets the mirror inside the glass
+/// (x < 0) travels 1 − x down and 1 + x across in it, 2 in all: e^(−2σ). One that meets it outside
+/// (x > 0) reaches the mirror through air and the glass only on its way across, from x = 0 to x = −1:
+/// e^(−σ). A path carries its medium past a surface that bounds none (Mitsuba's volpath), so the
+/// mirror's two halves lie in different media; with one medium per shape (the one round most of it)
+/// one half read the other's (the first pixel 0.759 in red where 0.670 is due: seen failing). Every
+/// mode, the three columns of pixels on each side away from the line where the mirror leaves the glass
+/// (a sample that meets the mirror within a ray offset of the glass's face starts its next segment past
+/// that face, and one such sample in SPPM's four passes read a pixel there 1.1% high).
+#[test]
+fn a_mirror_half_inside_coloured_glass_lies_in_each_medium_in_every_mode() {
+    let [r, g, b] = SIGMA;
+    let text = format!(
+        "[camera]\nprojection = \"orthographic\"\nfov = 10\norigin = [0.0, 5.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\n\
+         up = [0.0, 0.0, -1.0]\nresolution = [8, 8]\n\
+         [materials]\nglass = {{ type = \"dielectric\", ior = 1.0, absorption = [{r}, {g}, {b}] }}\n\
+         mirror = {{ type = \"mirror\" }}\n\
+         [[shapes]]\ntype = \"box\"\nmin = [-1.0, 0.0, -1.0]\nmax = [0.0, 2.0, 1.0]\nmaterial = \"glass\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-0.6, 0.4, 0.6]\nedge_u = [1.2, 1.2, 0.0]\nedge_v = [0.0, 0.0, -1.2]\n\
+         material = \"mirror\"\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [-1.5, -2.0, -3.0]\nedge_u = [0.0, 6.0, 0.0]\nedge_v = [0.0, 0.0, 6.0]\n\
+         radiance = [1.0, 1.0, 1.0]\n\
+         [render]\nmax_depth = 6\n"
+    );
+    let inside = SIGMA.map(|s| (-2.0 * s).exp());
+    let outside = SIGMA.map(|s| (-s).exp());
+    for (mode, sets) in [
+        ("path", &["render.spp=4"][..]),
+        ("bdpt", &["render.progressive.passes=4"][..]),
+        ("vcm", &["render.progressive.passes=4"][..]),
+        ("sppm", &["render.progressive.passes=4"][..]),
+        ("ppm", &["render.progressive.passes=4"][..]),
+        ("photon_map", &["render.pm_spp=4", "render.photons.caustic=0"][..]),
+    ] {
+        let img = common::render_image(&common::scene_in_mode(&text, mode, sets));
+        for (i, p) in img.pixels.iter().enumerate().filter(|(i, _)| !(3..5).contains(&(i % 8))) {
+            let want = if i % 8 < 4 { inside } else { outside };
+            for k in 0..3 {
+                assert!(
+                    (p[k] / want[k] - 1.0).abs() < 2e-3,
+                    "{mode}: pixel {i} (column {}) channel {k}: {} where {} is due",
+                    i % 8,
+                    p[k],
+                    want[k]
+                );
+            }
+        }
+    }
+}
+
+/// A floor that runs out of a tank of coloured water (glass of index 1 whose inside absorbs σ) over
+/// more than half of it, under a point light above its dry part, beside a wall. Over the dry part every
+/// mode must agree with the path tracer. The wet part is lit through the water's surface, light that
+/// only merging finds (a point light's light through glass onto a surface seen through glass): there
+/// VCM and fixed PM must agree with SPPM. Camera paths carry their medium past the floor
+/// (`Scene::sigma_next`); light paths start in the medium round the light (`Scene::light_medium`: none
+/// here). Taken from the side of the light's first hit instead, light that reached the dry floor
+/// straight from the light started in the water round most of the floor.
+#[test]
+fn light_on_a_floor_partly_under_coloured_water_reads_the_same_in_every_mode() {
+    let text = "[camera]\norigin = [0.0, 2.2, 2.6]\ntarget = [0.0, 0.0, 0.0]\nfov = 45\nresolution = [32, 24]\n\
+         [materials]\nfloor = { type = \"diffuse\", reflectance = [0.7, 0.7, 0.7] }\n\
+         wall = { type = \"diffuse\", reflectance = [0.5, 0.6, 0.7] }\n\
+         water = { type = \"dielectric\", ior = 1.0, absorption = [0.5, 1.5, 3.0] }\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [0.0, 0.0, 2.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"floor\"\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-1.0, 0.0, -1.0]\nedge_u = [2.0, 0.0, 0.0]\nedge_v = [0.0, 1.5, 0.0]\nmaterial = \"wall\"\n\
+         [[shapes]]\ntype = \"box\"\nmin = [-1.2, -0.1, -0.9]\nmax = [0.3, 0.5, 1.2]\nmaterial = \"water\"\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.65, 1.2, 0.3]\npower = [40.0, 40.0, 40.0]\n\
+         [render]\nmax_depth = 6\n";
+    // Each channel's sum over the film's columns left (the wet part) and right of column 20.
+    let halves = |img: &Image| {
+        let mut m = [[0.0f64; 3]; 2];
+        for (i, p) in img.pixels.iter().enumerate() {
+            let side = ((i as u32 % img.width) >= 20) as usize;
+            for k in 0..3 {
+                m[side][k] += p[k] as f64;
+            }
+        }
+        m
+    };
+    let render = |mode: &str, sets: &[&str]| halves(&common::render_image(&common::scene_in_mode(text, mode, sets)));
+    let pt = render("path", &["render.spp=1024"]);
+    let sppm = render("sppm", &["render.progressive.passes=64"]);
+    for (mode, m) in [
+        ("bdpt", render("bdpt", &["render.progressive.passes=256"])),
+        ("vcm", render("vcm", &["render.progressive.passes=256"])),
+        ("sppm", sppm),
+        ("photon_map", render("photon_map", &["render.pm_spp=16"])),
+    ] {
+        for (side, label, reference, by) in [(1, "dry", pt, "PT"), (0, "wet", sppm, "SPPM")] {
+            if side == 0 && !matches!(mode, "vcm" | "photon_map") {
+                continue;
+            }
+            let ratio: Vec<f64> = (0..3).map(|k| m[side][k] / reference[side][k]).collect();
+            println!("{mode}, {label} part: {ratio:.4?} of {by}'s");
+            for (k, r) in ratio.iter().enumerate() {
+                assert!((r - 1.0).abs() < 0.02, "{mode}, {label} part: channel {k} {r:.4} of {by}'s");
+            }
+        }
+    }
+}

@@ -74,6 +74,8 @@ fn clone_scene(s: &Scene) -> Scene {
         load_seconds: 0.0,
         see_through: s.see_through.clone(),
         absorption: s.absorption.clone(),
+        boundary: s.boundary.clone(),
+        point_media: s.point_media.clone(),
         warnings: s.warnings.clone(),
     }
 }

@@ -48,11 +48,15 @@ pub fn estimate_direct(
     strategy: DirectStrategy,
 ) -> Rgb {
     let mat = scene.bsdf(si, wo, || rng.next_f32());
-    estimate_direct_with(scene, tracer, si, wo, &mat, rng, c, strategy)
+    // The medium the path arrived in, as the surface's side towards it says (a shape that bounds none
+    // has the medium round it on both sides).
+    let arrived = scene.sigma_leaving(si, wo);
+    estimate_direct_with(scene, tracer, si, wo, &mat, arrived, rng, c, strategy)
 }
 
 /// `estimate_direct` with a given BSDF in place of the surface's own (the radiance cache's unit-albedo
-/// Lambertian).
+/// Lambertian), the path having arrived at `si` through a medium of absorption `arrived`
+/// (`Scene::sigma_next`).
 #[allow(clippy::too_many_arguments)]
 pub fn estimate_direct_with(
     scene: &Scene,
@@ -60,6 +64,7 @@ pub fn estimate_direct_with(
     si: &SurfaceHit,
     wo: Vec3,
     mat: &Material,
+    arrived: Rgb,
     rng: &mut Rng,
     c: &mut Counters,
     strategy: DirectStrategy,
@@ -67,7 +72,7 @@ pub fn estimate_direct_with(
     let mis = strategy != DirectStrategy::LightOnly;
     let light = match sample_light(scene, si, wo, mat, rng, mis) {
         Some((ls, f)) => {
-            let tr = shadow(scene, tracer, si, &ls, c);
+            let tr = shadow(scene, tracer, si, arrived, &ls, c);
             if tr == Rgb::ZERO {
                 Rgb::ZERO
             } else {
@@ -98,7 +103,7 @@ pub fn estimate_direct_with(
     if le == Rgb::ZERO {
         return light;
     }
-    let sigma = scene.sigma_leaving(si, ray.d);
+    let sigma = scene.sigma_next(si, ray.d, arrived);
     let absorbed = scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| f.0.hit.t));
     light + bs.weight * tr * absorbed * (le * w)
 }
@@ -159,10 +164,18 @@ pub fn sample_light(
 /// Traces the shadow ray from `si` to the sampled light point (its rays counted in `c`): the light let
 /// through, `Rgb::ONE` when nothing lies between, the see-through surfaces' transmittance where only
 /// they do (`accel::transmittance`), zero when anything else does; times the absorption along it
-/// where it leaves `si` into coloured glass (a light inside it).
-pub fn shadow(scene: &Scene, tracer: &dyn Tracer, si: &SurfaceHit, ls: &LightSample, c: &mut Counters) -> Rgb {
+/// where it leaves `si` into coloured glass (a light inside it), or through the medium the path arrived
+/// in (`arrived`) where `si`'s shape bounds none (`Scene::sigma_next`).
+pub fn shadow(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    si: &SurfaceHit,
+    arrived: Rgb,
+    ls: &LightSample,
+    c: &mut Counters,
+) -> Rgb {
     c.rays += 1;
     let ray = si.spawn_to(ls.p);
     let tr = crate::accel::shadow(scene, tracer, &ray, ls.p, &mut c.rays);
-    tr * Scene::absorbed(scene.sigma_leaving(si, ray.d), ray.d.length())
+    tr * Scene::absorbed(scene.sigma_next(si, ray.d, arrived), ray.d.length())
 }

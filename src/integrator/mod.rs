@@ -33,6 +33,8 @@ pub struct ChainEnd {
     pub depth: u32,
     /// The BSDF there: on a blend, the material the chain picked (light gathered here uses it).
     pub mat: crate::scene::Material,
+    /// The absorption of the medium the chain arrived here in (`Scene::sigma_next`).
+    pub sigma: crate::color::Rgb,
 }
 
 impl ChainEnd {
@@ -387,7 +389,7 @@ pub enum ChainLight {
 /// mirror or glass that breaks the camera's line of sight also gathers the photons of delta lights
 /// that reached it past a mirror or glass (`GlossyGather`), counted as light seen on the way.
 ///
-/// `sigma`: the absorption of the medium `ray` starts in (`Scene::sigma_leaving`; zero for a camera
+/// `sigma`: the absorption of the medium `ray` starts in (`Scene::sigma_next`; zero for a camera
 /// ray).
 #[allow(clippy::too_many_arguments)]
 pub fn specular_chain(
@@ -509,7 +511,7 @@ fn chain_from(
             let share = mat.coat_share(wo, si.ns);
             let uc = if share > 0.0 { rng.next_f32() } else { 1.0 };
             if uc >= share {
-                return (emitted, Some(ChainEnd { si, wo, beta: beta / (1.0 - share), depth, mat }));
+                return (emitted, Some(ChainEnd { si, wo, beta: beta / (1.0 - share), depth, mat, sigma }));
             }
             match mat.coat_lobe() {
                 Some(coat) => {
@@ -521,7 +523,8 @@ fn chain_from(
         }
         if !mat.holds_photons() && count && !mat.is_delta() && depth < scene.render.max_depth {
             let mis = direct::DirectStrategy::Mis;
-            emitted += beta * emit_scale * direct::estimate_direct_with(scene, tracer, &si, wo, &mat, rng, c, mis);
+            emitted +=
+                beta * emit_scale * direct::estimate_direct_with(scene, tracer, &si, wo, &mat, sigma, rng, c, mis);
             if let Some(g) = glossy.filter(|_| !past_glossy && view != LineOfSight::CAMERA) {
                 let budget = scene.render.max_depth - depth;
                 emitted += beta * emit_scale * g.radiance(scene, tracer, &si, wo, &mat, budget, rng, c);
@@ -548,7 +551,7 @@ fn chain_from(
                 } else {
                     ChainLight::Count
                 };
-                let other_sigma = scene.sigma_leaving(&si, other_ray.d);
+                let other_sigma = scene.sigma_next(&si, other_ray.d, sigma);
                 emitted +=
                     chain_from(scene, tracer, other_ray, other_sigma, beta * share, rng, c, light, depth + 1, glossy).0;
             }
@@ -559,7 +562,7 @@ fn chain_from(
             break;
         }
         (specular, prev_pdf, prev_p) = (bs.delta, bs.pdf, si.p);
-        sigma = scene.sigma_leaving(&si, next.d);
+        sigma = scene.sigma_next(&si, next.d, sigma);
         ray = next;
     }
     (emitted, None)

@@ -30,7 +30,8 @@ impl PathTracer<'_> {
         let mut prev_pdf = 0.0f32;
         let mut prev_p = ray.o;
         let mut view = LineOfSight::CAMERA;
-        // Absorption of the medium the current segment runs through (`Scene::sigma_leaving`).
+        // Absorption of the medium the current segment runs through (`Scene::sigma_next`): none from
+        // the camera (Mitsuba's sensor without a medium), set where the path leaves a medium's boundary.
         let mut sigma = Rgb::ZERO;
         for depth in 0.. {
             c.rays += 1;
@@ -59,7 +60,7 @@ impl PathTracer<'_> {
             }
             let mat = picked.unwrap_or_else(|| scene.bsdf(&si, wo, || rng.next_f32()));
             if !mat.is_delta() {
-                l += beta * estimate_direct_with(scene, self.tracer, &si, wo, &mat, rng, c, DirectStrategy::Mis);
+                l += beta * estimate_direct_with(scene, self.tracer, &si, wo, &mat, sigma, rng, c, DirectStrategy::Mis);
             }
             let Some((bs, next)) = si.scatter(&mat, wo, rng, TransportMode::Radiance) else {
                 break;
@@ -70,7 +71,7 @@ impl PathTracer<'_> {
             specular = bs.delta;
             prev_pdf = bs.pdf;
             prev_p = si.p;
-            sigma = scene.sigma_leaving(&si, next.d);
+            sigma = scene.sigma_next(&si, next.d, sigma);
             ray = next;
             if depth + 1 >= self.rr_depth {
                 let Some(q) = russian_roulette(max_component(beta) / radiance_scale, rng.next_f32()) else {

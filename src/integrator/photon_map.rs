@@ -384,6 +384,8 @@ impl RadianceCache {
                     let unit = crate::scene::Material::Diffuse { reflectance: Rgb::ONE };
                     let mut rng = Rng::new(scene.render.seed, CACHE_STREAM, i as u64);
                     let mut c = Counters::default();
+                    // A photon's path carried no medium to its record: the side it faces says it.
+                    let arrived = scene.sigma_leaving(&si, wo);
                     let sum = (0..CACHE_DIRECT_SAMPLES).fold(Rgb::ZERO, |acc, _| {
                         acc + estimate_direct_with(
                             scene,
@@ -391,6 +393,7 @@ impl RadianceCache {
                             &si,
                             wo,
                             &unit,
+                            arrived,
                             &mut rng,
                             &mut c,
                             DirectStrategy::LightOnly,
@@ -549,24 +552,26 @@ impl<'a> PhotonMapper<'a> {
         } else {
             // Final-gather ends keep the light sample alone (a BSDF sample there is not worth its ray).
             let strategy = if in_gather { DirectStrategy::LightOnly } else { DirectStrategy::eye_pass(self.scene) };
-            estimate_direct_with(self.scene, self.tracer, si, wo, &mat.base_only(), rng, c, strategy)
+            estimate_direct_with(self.scene, self.tracer, si, wo, &mat.base_only(), end.sigma, rng, c, strategy)
         };
         let caustic = self.map_radiance(CAUSTIC, si, wo, lobe, budget, rng, c, &mut shared);
         if fg > 0 {
-            return direct + caustic + self.final_gather(si, wo, mat, rng, c, fg, budget);
+            return direct + caustic + self.final_gather(si, wo, mat, end.sigma, rng, c, fg, budget);
         }
         direct + caustic + self.map_radiance(INDIRECT, si, wo, lobe, budget, rng, c, &mut shared)
     }
 
     /// Indirect light by `n` rays sampled from the surface's BSDF (cosine about the shading normal, as
     /// direct light and the path tracer use it) that read the maps where they land, `budget` scattering
-    /// events left here (this one's included).
+    /// events left here (this one's included); the path arrived here through a medium of absorption
+    /// `arrived`.
     #[allow(clippy::too_many_arguments)]
     fn final_gather(
         &self,
         si: &SurfaceHit,
         wo: glam::Vec3,
         mat: &crate::scene::Material,
+        arrived: Rgb,
         rng: &mut Rng,
         c: &mut Counters,
         n: u32,
@@ -590,7 +595,7 @@ impl<'a> PhotonMapper<'a> {
                 continue;
             }
             // Emission seen by gather rays is direct light or a caustic, already counted: skip it.
-            sum += self.follow(ray, self.scene.sigma_leaving(si, ray.d), bs.weight, rng, c, false, 0, first);
+            sum += self.follow(ray, self.scene.sigma_next(si, ray.d, arrived), bs.weight, rng, c, false, 0, first);
         }
         sum / n as f32
     }

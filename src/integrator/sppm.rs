@@ -225,7 +225,7 @@ impl<'a> Sppm<'a> {
             }
             let strategy = DirectStrategy::eye_pass(scene);
             let base = e.mat.base_only();
-            l += e.beta * estimate_direct_with(scene, self.tracer, &e.si, e.wo, &base, rng, c, strategy);
+            l += e.beta * estimate_direct_with(scene, self.tracer, &e.si, e.wo, &base, e.sigma, rng, c, strategy);
         }
         (l, end)
     }

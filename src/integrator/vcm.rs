@@ -119,6 +119,8 @@ struct LightVertex {
     vm: f32,
     /// The light arrived through a delta BSDF (a caustic): merged at a camera's first hit by `Caustics`.
     after_delta: bool,
+    /// The absorption of the medium the light arrived in (`Scene::sigma_next`).
+    sigma: Rgb,
 }
 
 impl LightVertex {
@@ -765,15 +767,18 @@ impl Vcm<'_> {
         // Distance from the subpath's last vertex to `ray`'s origin: see-through surfaces crossed since
         // are no vertices (`Scene::crossing`).
         let (mut travelled, mut crossings) = (0.0f32, 0u32);
-        // Absorption of the medium the subpath's segment runs through (`Scene::sigma_leaving`); None on
-        // the light's first segment (`Scene::absorbed_on_light_path`).
-        let mut sigma = None;
+        // Absorption of the medium the subpath's segment runs through (`Scene::sigma_next`), from the
+        // light's own (`Scene::light_medium`); None where that is the first segment's end's to say
+        // (`Scene::absorbed_on_light_path`).
+        let mut sigma = scene.light_medium(e.light);
         loop {
             c.rays += 1;
             let Some(Interaction { hit, si, wo }) = interact(scene, self.tracer, &ray) else {
                 break;
             };
             sp.beta *= scene.absorbed_on_light_path(sigma, &ray, &si, hit.t);
+            // The medium the light arrived in (on its first segment the one this end's side says).
+            let arrived = sigma.unwrap_or_else(|| scene.sigma_leaving(&si, wo));
             let picked = scene.bsdf(&si, wo, || rng.next_f32());
             let crossing = scene.crossing(&si, wo, picked, || rng.next_f32());
             let mat = match crossing {
@@ -808,6 +813,7 @@ impl Vcm<'_> {
                 s_vm: here.s_vm,
                 vm,
                 after_delta: here.after_delta,
+                sigma: arrived,
             };
             if let crate::scene::Crossing::Through(t) = crossing {
                 // Let by: no vertex. The light that arrived is still there for a camera subpath whose own
@@ -850,7 +856,7 @@ impl Vcm<'_> {
             else {
                 break;
             };
-            sigma = Some(scene.sigma_leaving(&si, next.d));
+            sigma = Some(scene.sigma_next(&si, next.d, arrived));
             ray = next;
             sp.len += 1;
         }
@@ -1034,12 +1040,12 @@ impl Vcm<'_> {
             };
             if !mat.is_delta() {
                 if it.opts.connect || it.opts.strategy.is_some() {
-                    l += sp.beta * self.light_sample(&sp, &si, wo, &mat, vm, rng, c);
+                    l += sp.beta * self.light_sample(&sp, &si, wo, &mat, sigma, vm, rng, c);
                     for lv in &light.verts[lv_range.clone()] {
                         if lv.len + 1 + sp.len > it.max_len {
                             break;
                         }
-                        l += sp.beta * lv.beta * self.connect(&sp, &si, wo, &mat, vm, lv, c);
+                        l += sp.beta * lv.beta * self.connect(&sp, &si, wo, &mat, sigma, vm, lv, c);
                     }
                 }
                 if let Some(tree) = merge_tree {
@@ -1053,7 +1059,7 @@ impl Vcm<'_> {
             // `scatter` keeps the sample to itself; a thin pane's transmission is the one lobe that goes on
             // along the incoming direction.
             view = view.after(&mat, next.d.normalize().dot(-wo) > 1.0 - 1e-5);
-            sigma = scene.sigma_leaving(&si, next.d);
+            sigma = scene.sigma_next(&si, next.d, sigma);
             ray = next;
             sp.len += 1;
         }
@@ -1104,8 +1110,8 @@ impl Vcm<'_> {
         })
     }
 
-    /// Next-event estimation (s = 1) at a non-delta camera vertex [tech. rep. (44)-(45)]; `vm`: the
-    /// merge strategy there.
+    /// Next-event estimation (s = 1) at a non-delta camera vertex [tech. rep. (44)-(45)], reached through
+    /// a medium of absorption `arrived`; `vm`: the merge strategy there.
     #[allow(clippy::too_many_arguments)]
     fn light_sample(
         &self,
@@ -1113,6 +1119,7 @@ impl Vcm<'_> {
         si: &SurfaceHit,
         wo: Vec3,
         mat: &Material,
+        arrived: Rgb,
         vm: f32,
         rng: &mut Rng,
         c: &mut Counters,
@@ -1136,7 +1143,7 @@ impl Vcm<'_> {
         if w == 0.0 {
             return Rgb::ZERO;
         }
-        let tr = shadow(self.scene, self.tracer, si, &ls, c);
+        let tr = shadow(self.scene, self.tracer, si, arrived, &ls, c);
         if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
@@ -1144,7 +1151,8 @@ impl Vcm<'_> {
     }
 
     /// Connects a camera vertex to a light vertex (s ≥ 2, t ≥ 2) [tech. rep. (40)-(41)]; the result is
-    /// to be multiplied by both subpaths' throughputs; `vm`: the merge strategy at the camera vertex.
+    /// to be multiplied by both subpaths' throughputs; `arrived`: the medium the camera subpath reached
+    /// its vertex in; `vm`: the merge strategy at the camera vertex.
     #[allow(clippy::too_many_arguments)]
     fn connect(
         &self,
@@ -1152,6 +1160,7 @@ impl Vcm<'_> {
         si: &SurfaceHit,
         wo: Vec3,
         mat: &Material,
+        arrived: Rgb,
         vm: f32,
         lv: &LightVertex,
         c: &mut Counters,
@@ -1193,9 +1202,10 @@ impl Vcm<'_> {
         if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        // Inside coloured glass, by either end's side (both are surfaces).
-        let sigma = match self.scene.sigma_leaving(si, dir) {
-            s if s == Rgb::ZERO => self.scene.sigma_leaving(&lv.si, -dir),
+        // Inside coloured glass, by either end's medium (`Scene::sigma_next`: a boundary's side, or the
+        // medium each subpath carried there).
+        let sigma = match self.scene.sigma_next(si, dir, arrived) {
+            s if s == Rgb::ZERO => self.scene.sigma_next(&lv.si, -dir, lv.sigma),
             s => s,
         };
         f_cam * f_light * tr * Scene::absorbed(sigma, dist2.sqrt()) * (w / dist2)

@@ -463,6 +463,8 @@ struct Launch {
     aim: Option<(u32, f32)>,
     /// From a point, spot or distant light (a delta light: no camera path's BSDF sample finds it).
     delta: bool,
+    /// The light it left (index in `Lights::list`).
+    light: usize,
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -488,9 +490,10 @@ fn trace_one(
     // whose pick lets it by apart.
     let mut aim = l.aim;
     let mut crossings = 0u32;
-    // Absorption of the medium the photon flies through (`Scene::sigma_leaving`); None on the light's
-    // first segment (`Scene::absorbed_on_light_path`).
-    let mut sigma = None;
+    // Absorption of the medium the photon flies through (`Scene::sigma_next`), from the light's own
+    // (`Scene::light_medium`); None where that is the first segment's end's to say
+    // (`Scene::absorbed_on_light_path`).
+    let mut sigma = scene.light_medium(l.light);
     // Hit `depth` follows `depth` scattering events; gathering there adds one more.
     for depth in 0..s.max_depth {
         let (si, wo, mat) = loop {
@@ -542,6 +545,8 @@ fn trace_one(
             }
             ray = si.spawn(ray.d);
         };
+        // The medium the photon arrived in (on the light's first segment the one its end's side says).
+        let arrived = sigma.unwrap_or_else(|| scene.sigma_leaving(&si, wo));
         let last = depth + 1 >= s.max_depth;
         if delta_first && specular_bounces > 0 {
             let glossy = mat.unheld_glossy_lobe();
@@ -594,7 +599,7 @@ fn trace_one(
             phi *= bs.weight / p;
             diffuse_bounces += 1;
             delta_first = false;
-            sigma = Some(scene.sigma_leaving(&si, next.d));
+            sigma = Some(scene.sigma_next(&si, next.d, arrived));
             ray = next;
             continue;
         }
@@ -627,7 +632,7 @@ fn trace_one(
             phi *= bs.weight / q;
             diffuse_bounces += 1;
             delta_first = false;
-            sigma = Some(scene.sigma_leaving(&si, next.d));
+            sigma = Some(scene.sigma_next(&si, next.d, arrived));
             ray = next;
             continue;
         }
@@ -642,7 +647,7 @@ fn trace_one(
             };
             phi /= q;
         }
-        sigma = Some(scene.sigma_leaving(&si, next.d));
+        sigma = Some(scene.sigma_next(&si, next.d, arrived));
         ray = next;
     }
 }
@@ -687,7 +692,7 @@ fn launch_uniform(scene: &Scene, rng: &mut Rng) -> Option<Launch> {
         .lights
         .emit(scene, rng.next_f32(), rng.next_2d(), rng.next_2d())
         .filter(|e| scene.lights.leaves(scene, e))?;
-    Some(Launch { ray: e.ray, phi: e.phi, aim: None, delta: scene.lights.list[e.light].is_delta() })
+    Some(Launch { ray: e.ray, phi: e.phi, aim: None, delta: scene.lights.list[e.light].is_delta(), light: e.light })
 }
 
 /// Emission aimed at a point drawn on the specular targets (by `Targets`' density). The power is the
@@ -707,7 +712,7 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
         let far = lights.beyond_scene(y);
         let phi = s.li * (ny.dot(s.wi).abs() * inv_p / (s.pdf * p_sel));
         let delta = lights.list[li].is_delta();
-        return Some(Launch { ray: Ray::new(y + s.wi * far, -s.wi), phi, aim: Some((shape, far)), delta });
+        return Some(Launch { ray: Ray::new(y + s.wi * far, -s.wi), phi, aim: Some((shape, far)), delta, light: li });
     }
     let lp = lights.sample_point(scene, li, rng.next_2d())?;
     let (u_sel, u_tri, u) = (rng.next_f32(), (rng.next_u32(), rng.next_f32()), rng.next_2d());
@@ -732,7 +737,8 @@ fn launch_targeted(scene: &Scene, targets: &Targets, rng: &mut Rng) -> Option<La
     let phi = lp.le * lights.tint(li, w) * (falloff * cos_x * cos_y / dist2 * inv_p / (lp.pdf_area * p_sel));
     let o = if lp.n == Vec3::ZERO { lp.p } else { offset_ray_origin(lp.p, lp.n, w, lp.size) };
     let travelled = (o - lp.p).length();
-    Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)), delta: lights.list[li].is_delta() })
+    let delta = lights.list[li].is_delta();
+    Some(Launch { ray: Ray::new(o, w), phi, aim: Some((shape, dist - travelled)), delta, light: li })
 }
 
 /// What a batch of photons left: each map's photons, the glossy caustics' splats, where the batch

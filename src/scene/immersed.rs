@@ -1,21 +1,22 @@
-//! The medium round a shape that bounds none. A shape whose material absorbs on a side (coloured glass,
-//! a coloured liquid: `SurfaceMaterial::absorption`, `absorption_outside`) is a boundary between media;
-//! every other shape is not, and a path that scatters on it stays in the medium it was in. That is
-//! Mitsuba's rule too (its volumetric path tracer changes a path's medium only where it crosses a
-//! shape with media), so a diffuse ball inside coloured glass, a light in coloured water or a clear
-//! glass ball in it all lie in that medium, on both of their sides. A segment's medium being set where
-//! it starts (`Scene::sigma_leaving`), such a shape gets the medium round it as both of its sides'.
+//! The medium round a shape that bounds none, and round a point light. A shape whose material absorbs on
+//! a side (coloured glass, a coloured liquid: `SurfaceMaterial::absorption`, `absorption_outside`) is a
+//! boundary between media; every other shape is not, and a path that scatters on it stays in the
+//! medium it was in (`Scene::sigma_next`, since session 72: each path carries its medium, as Mitsuba's
+//! volumetric path tracer does, changing it only where it crosses a shape with media). So a diffuse
+//! ball inside coloured glass, a light in coloured water or a clear glass ball in it all lie in that
+//! medium, and a floor that runs through a tank of it lies in it only where it is under the water.
 //!
-//! Which medium that is, is found once at load: from points spread over the shape by area, rays in six
-//! fixed directions meet the boundaries (and nothing else); the first one met says the medium (its
+//! What a path cannot carry is where light starts: a light's own medium (`Scene::light_medium`). That
+//! is found once at load: from points spread over the shape by area (a point light's position), rays in
+//! six fixed directions meet the boundaries (and nothing else); the first one met says the medium (its
 //! inside's if met from behind, its outside's if met in front; none if no boundary is met). Each point
 //! takes its rays' majority, the shape its points' majority (16 points). A shape whose bounds touch no
-//! boundary's bounds lies in none without a ray. A shape whose points disagree lies partly in a medium: it gets
-//! its points' majority, and the loader warns, naming it (one medium per shape is all a segment's
-//! start can say). A boundary is looked at the same way, past itself: where the medium it claims on
-//! its outer side is not the one round it, the medium is open (nothing encloses it) and the loader
-//! warns, Mitsuba following a path in it further than caustica does. So it does for a near clipping
-//! plane inside a medium (`near_plane_in_medium`), where Mitsuba's camera paths carry no medium.
+//! boundary's bounds lies in none without a ray. An emitting shape whose points disagree lies partly in
+//! a medium: its light starts in its points' majority, and the loader warns, naming it. A boundary is
+//! looked at the same way, past itself: where the medium it claims on its outer side is not the one
+//! round it, the medium is open (nothing encloses it), light that starts in it has no one medium, and
+//! the loader warns. So it does for a near clipping plane inside a medium (`near_plane_in_medium`),
+//! where camera paths start in none (Mitsuba's sensor's) but light in the medium is absorbed.
 use crate::color::Rgb;
 use crate::math::{offset_ray_origin, ray_meets_box, sphere_root, triangle_hit, Frame, Ray};
 use crate::scene::{Geometry, Scene};
@@ -61,10 +62,7 @@ const LEAF: usize = 4;
 impl Boundaries {
     fn new(scene: &Scene) -> Boundaries {
         let (mut boxes, mut tris, mut spheres) = (Vec::new(), Vec::new(), Vec::new());
-        for (i, sides) in scene.absorption.iter().enumerate() {
-            if *sides == [Rgb::ZERO; 2] {
-                continue;
-            }
+        for (i, _) in scene.boundary.iter().enumerate().filter(|(_, b)| **b) {
             boxes.push((i, scene.shapes[i].geometry.bounds()));
             match &scene.shapes[i].geometry {
                 Geometry::Mesh(m) => tris.extend((0..m.indices.len()).map(|k| (m.triangle(k), i as u32))),
@@ -163,6 +161,18 @@ fn medium_of_rays(scene: &Scene, boundaries: &Boundaries, rays: &[Ray; 6], skip:
     majority(&rays.map(|ray| medium_along(scene, boundaries, &ray, skip))).0
 }
 
+/// The absorption σ of the medium round each of `points` (a point light's position), as a point on a
+/// shape is looked at (rays in six directions, their majority); zero where no boundary is met. Empty
+/// when the scene has no boundary.
+pub fn media_at(scene: &Scene, points: &[Vec3]) -> Vec<Rgb> {
+    if scene.absorption.is_empty() {
+        return Vec::new();
+    }
+    let boundaries = Boundaries::new(scene);
+    let dirs = directions();
+    (points.iter()).map(|&p| medium_of_rays(scene, &boundaries, &dirs.map(|d| Ray::new(p, d)), u32::MAX)).collect()
+}
+
 /// The most common of `votes` (the first among equals) and how many cast it.
 fn majority(votes: &[Rgb]) -> (Rgb, usize) {
     let mut best = (Rgb::ZERO, 0);
@@ -176,11 +186,10 @@ fn majority(votes: &[Rgb]) -> (Rgb, usize) {
 }
 
 /// Per shape, the absorption σ of the medium round it when it bounds none (zero where none is, and for
-/// every boundary), and the warnings: a shape that lies partly in a medium, and a boundary whose medium
-/// on its outer side is not the one round it (a sphere with `flip_normals` whose inside medium is then
-/// all the space outside it, an exterior medium that nothing encloses): Mitsuba carries a path that
-/// leaves it into that medium past every other surface, caustica to the next one. Empty when the scene
-/// has no boundary (`Scene::absorption` empty).
+/// every boundary), and the warnings: an emitting shape that lies partly in a medium, and a boundary
+/// whose medium on its outer side is not the one round it (a sphere with `flip_normals` whose inside
+/// medium is then all the space outside it, an exterior medium that nothing encloses), where light that
+/// starts out has no one medium. Empty when the scene has no boundary (`Scene::absorption` empty).
 pub fn surrounding_media(scene: &Scene) -> (Vec<Rgb>, Vec<String>) {
     if scene.absorption.is_empty() {
         return (Vec::new(), Vec::new());
@@ -216,12 +225,14 @@ pub fn surrounding_media(scene: &Scene) -> (Vec<Rgb>, Vec<String>) {
         let name = &scene.shapes[i].name;
         let sides = scene.absorption[i];
         if sides == [Rgb::ZERO; 2] {
-            if disagree > 0 {
+            // Paths carry their medium past it (`Scene::sigma_next`); only the light an emitting shape
+            // sends out starts in the one medium round it.
+            if disagree > 0 && scene.shapes[i].emission != Rgb::ZERO {
                 warnings.push(format!(
-                    "{name} lies partly inside a medium that absorbs (of {looked} points spread over it, \
-                     {disagree} {} in another medium than the rest): caustica gives a shape that bounds no \
-                     medium one medium round it, here σ {:?}, where Mitsuba follows each path's own; split the \
-                     shape where it crosses the medium's boundary",
+                    "{name} emits and lies partly inside a medium that absorbs (of {looked} points spread over \
+                     it, {disagree} {} in another medium than the rest): the light it sends out starts in the \
+                     medium round most of it, here σ {:?}, in the photon and bidirectional modes, where a path \
+                     that reaches it carries its own; split the shape where it crosses the medium's boundary",
                     if disagree == 1 { "lies" } else { "lie" },
                     sigma.to_array()
                 ));
@@ -234,9 +245,10 @@ pub fn surrounding_media(scene: &Scene) -> (Vec<Rgb>, Vec<String>) {
             if sides[outer] != sigma {
                 warnings.push(format!(
                     "{name} bounds a medium on its outer side (σ {:?}{}) that is not the medium round it \
-                     (σ {:?}): Mitsuba carries a path that leaves the shape there in that medium past every \
-                     other surface until it crosses a boundary again, caustica only to the next surface, so \
-                     the two differ; enclose the medium in a shape of its own",
+                     (σ {:?}): a path that leaves the shape there carries that medium past every other \
+                     surface until it crosses a boundary again, as in Mitsuba, but light that starts out there \
+                     (a light, and in caustica's photon and bidirectional modes a photon) has no one medium, \
+                     so those modes may differ from the path tracer; enclose the medium in a shape of its own",
                     sides[outer].to_array(),
                     if outer == 0 { ", its inside: its normals face inward" } else { "" },
                     sigma.to_array()
@@ -253,11 +265,11 @@ const NEAR_GRID: u32 = 8;
 
 /// The warning for a near clipping plane that starts camera rays inside a medium that absorbs (found
 /// at an 8 × 8 grid of film points, where the pinhole's ray through each meets the plane, as a shape's
-/// points are). The camera's segment crosses it unabsorbed in both renderers (`Scene::absorbed_to`),
-/// but Mitsuba then carries the sensor's medium (none) along the path until it crosses a boundary,
-/// where caustica gives whatever scatters inside the medium (a shape in it, the boundary's inside)
-/// that medium: random scene 2406 of `--more --area-lights`, a diffuse ball in absorbing rough glass
-/// cut by the plane, read 0.917 / 0.862 / 1.019 of Mitsuba's means.
+/// points are). Camera paths start in none and carry it until they cross a boundary, in both renderers
+/// (since session 72 in caustica; before, whatever scattered inside the medium, a shape in it or the
+/// boundary's inside, gave the path that medium: random scene 2406 of `--more --area-lights`, a diffuse
+/// ball in absorbing rough glass cut by the plane, read 0.917 / 0.862 / 1.019 of Mitsuba's means). The
+/// light of the medium's own lights and photons is absorbed in it, so the modes differ there.
 fn near_plane_in_medium(scene: &Scene, boundaries: &Boundaries, dirs: &[Vec3; 6]) -> Option<String> {
     let cam = &scene.camera;
     if cam.clip[0] <= 0.0 {
@@ -276,10 +288,10 @@ fn near_plane_in_medium(scene: &Scene, boundaries: &Boundaries, dirs: &[Vec3; 6]
     (!inside.is_empty()).then(|| {
         format!(
             "the camera's near clipping plane lies inside a medium that absorbs (σ {:?}, at {} of {} points \
-             of the plane the film sees): camera rays cross it unabsorbed to their first hit, as in Mitsuba, \
-             but light that scatters inside it (off a shape in the medium, or back off its boundary) is \
-             absorbed from there on in caustica, where Mitsuba carries the sensor's medium (none) along \
-             the path until it crosses the boundary; the two differ there. Move the plane out of the medium",
+             of the plane the film sees): camera paths start in the sensor's medium (none) and carry it \
+             until they cross the medium's boundary, as in Mitsuba, while light from the medium's own \
+             lights and photons is absorbed in it: caustica's photon and bidirectional modes differ from \
+             its path tracer there. Move the plane out of the medium",
             sigma.to_array(),
             inside.len(),
             NEAR_GRID * NEAR_GRID

@@ -261,10 +261,13 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         load_seconds: 0.0,
         see_through: Vec::new(),
         absorption: Vec::new(),
+        boundary: Vec::new(),
+        point_media: Vec::new(),
         warnings: Vec::new(),
     };
     scene.see_through = scene.see_through_shapes();
     scene.absorption = scene.absorbing_shapes();
+    scene.boundary = scene.absorption.iter().map(|sides| *sides != [Rgb::ZERO; 2]).collect();
     // A shape that bounds no medium lies in the one round it, on both of its sides (`immersed`).
     let (round, warnings) = crate::scene::immersed::surrounding_media(&scene);
     for (sides, sigma) in scene.absorption.iter_mut().zip(round) {
@@ -274,6 +277,16 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     }
     scene.warnings = warnings;
     scene.lights = Lights::build(&scene, &points, &distant, env);
+    if !scene.absorption.is_empty() {
+        let at: Vec<Vec3> = (scene.lights.list.iter())
+            .map(|l| match l {
+                crate::scene::light::LightKind::Point { position, .. } => *position,
+                _ => Vec3::splat(f32::NAN),
+            })
+            .collect();
+        let media = crate::scene::immersed::media_at(&scene, &at);
+        scene.point_media = media.into_iter().zip(&at).map(|(m, p)| if p.is_nan() { Rgb::ZERO } else { m }).collect();
+    }
     let keys: Vec<String> = env_key.into_iter().chain(distant_keys).chain(point_keys).collect();
     let env_file = file.lights.iter().find_map(|l| match l {
         LightSpec::Envmap { file, .. } => Some(file.as_str()),

@@ -205,6 +205,12 @@ pub struct Scene {
     /// (`SurfaceMaterial::absorption`, `absorption_outside`); empty when no shape's sides absorb, so
     /// that scenes without coloured glass pay one test per segment.
     pub absorption: Vec<[Rgb; 2]>,
+    /// Per shape (beside a non-empty `absorption`), whether it bounds a medium: its material absorbs on
+    /// a side. A path changes its medium only where it leaves such a shape (`Scene::sigma_next`).
+    pub boundary: Vec<bool>,
+    /// Per light (beside a non-empty `absorption`), the absorption of the medium round a point, spot or
+    /// projector light's position (`immersed::media_at`); zero for the rest.
+    pub point_media: Vec<Rgb>,
     /// What the loader found worth saying about the scene (a shape partly in a medium), each naming
     /// the shape; printed once at load.
     pub warnings: Vec<String>,
@@ -494,6 +500,46 @@ impl Scene {
             inside
         } else {
             outside
+        }
+    }
+
+    /// The absorption along a segment that leaves `si` in direction `w`, the path having arrived there
+    /// through a medium of absorption `arrived`: where `si`'s shape bounds a medium, the side `w` points
+    /// to (`sigma_leaving`); elsewhere the path keeps the medium it was in. Mitsuba's volpath carries a
+    /// path's medium so, past every surface that is not a medium transition: a floor running through a
+    /// tank of coloured water is in the water where it is under it and in air elsewhere, and a path
+    /// from a camera whose near clipping plane lies inside a medium stays in none (the sensor's) until
+    /// it crosses a boundary.
+    #[inline(always)]
+    pub fn sigma_next(&self, si: &SurfaceHit, w: Vec3, arrived: Rgb) -> Rgb {
+        if self.absorption.is_empty() {
+            return Rgb::ZERO;
+        }
+        if self.boundary[si.shape as usize] {
+            self.sigma_leaving(si, w)
+        } else {
+            arrived
+        }
+    }
+
+    /// The medium the paths of light `light` (an index in `lights.list`) start in where the scene knows
+    /// it: none for the sky and distant lights (outside every shape, as Mitsuba's), the medium round a
+    /// point light's position (`point_media`) or round an emitting shape that bounds none. None for an
+    /// emitting boundary: its first segment takes the medium its end's side says
+    /// (`absorbed_on_light_path`). Not that side for the rest: a light's first hit may be a shape partly
+    /// in a medium, whose sides say only the medium round most of it.
+    pub fn light_medium(&self, light: usize) -> Option<Rgb> {
+        use crate::scene::light::LightKind;
+        if self.absorption.is_empty() {
+            return Some(Rgb::ZERO);
+        }
+        match self.lights.list[light] {
+            LightKind::Env | LightKind::Distant { .. } => Some(Rgb::ZERO),
+            LightKind::Point { .. } => Some(self.point_media[light]),
+            LightKind::Triangle { shape, .. } | LightKind::Sphere { shape } if !self.boundary[shape as usize] => {
+                Some(self.absorption[shape as usize][0])
+            }
+            _ => None,
         }
     }
 

@@ -25,6 +25,8 @@ pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
         load_seconds: 0.0,
         see_through: Vec::new(),
         absorption: Vec::new(),
+        boundary: Vec::new(),
+        point_media: Vec::new(),
         warnings: Vec::new(),
     }
 }
