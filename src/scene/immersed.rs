@@ -161,16 +161,10 @@ fn medium_of_rays(scene: &Scene, boundaries: &Boundaries, rays: &[Ray; 6], skip:
     majority(&rays.map(|ray| medium_along(scene, boundaries, &ray, skip))).0
 }
 
-/// The absorption σ of the medium round each of `points` (a point light's position), as a point on a
-/// shape is looked at (rays in six directions, their majority); zero where no boundary is met. Empty
-/// when the scene has no boundary.
-pub fn media_at(scene: &Scene, points: &[Vec3]) -> Vec<Rgb> {
-    if scene.absorption.is_empty() {
-        return Vec::new();
-    }
-    let boundaries = Boundaries::new(scene);
-    let dirs = directions();
-    (points.iter()).map(|&p| medium_of_rays(scene, &boundaries, &dirs.map(|d| Ray::new(p, d)), u32::MAX)).collect()
+/// The medium round point `p` that lies on no shape (a point light's position, a point of the near
+/// clipping plane): `medium_of_rays` from `p` itself.
+fn medium_at(scene: &Scene, boundaries: &Boundaries, dirs: &[Vec3; 6], p: Vec3) -> Rgb {
+    medium_of_rays(scene, boundaries, &dirs.map(|d| Ray::new(p, d)), u32::MAX)
 }
 
 /// The most common of `votes` (the first among equals) and how many cast it.
@@ -186,16 +180,17 @@ fn majority(votes: &[Rgb]) -> (Rgb, usize) {
 }
 
 /// Per shape, the absorption σ of the medium round it when it bounds none (zero where none is, and for
-/// every boundary), and the warnings: an emitting shape that lies partly in a medium, and a boundary
+/// every boundary); per point light (its position in `lamps`), the medium round it; and the warnings: an emitting shape that lies partly in a medium, and a boundary
 /// whose medium on its outer side is not the one round it (a sphere with `flip_normals` whose inside
 /// medium is then all the space outside it, an exterior medium that nothing encloses), where light that
 /// starts out has no one medium. Empty when the scene has no boundary (`Scene::absorption` empty).
-pub fn surrounding_media(scene: &Scene) -> (Vec<Rgb>, Vec<String>) {
+pub fn surrounding_media(scene: &Scene, lamps: &[Vec3]) -> (Vec<Rgb>, Vec<Rgb>, Vec<String>) {
     if scene.absorption.is_empty() {
-        return (Vec::new(), Vec::new());
+        return (Vec::new(), Vec::new(), Vec::new());
     }
     let boundaries = Boundaries::new(scene);
     let dirs = directions();
+    let lamp_media = lamps.iter().map(|&p| medium_at(scene, &boundaries, &dirs, p)).collect();
     let slack = Vec3::splat(scene.diagonal() * 1e-6);
     // (σ round the shape, points that disagree, points looked from), past the shape itself.
     let found: Vec<(Rgb, usize, usize)> = (0..scene.shapes.len())
@@ -257,7 +252,7 @@ pub fn surrounding_media(scene: &Scene) -> (Vec<Rgb>, Vec<String>) {
         }
     }
     warnings.extend(near_plane_in_medium(scene, &boundaries, &dirs));
-    (round, warnings)
+    (round, lamp_media, warnings)
 }
 
 /// Film points per side of the grid at which `near_plane_in_medium` looks at the near clipping plane.
@@ -280,7 +275,7 @@ fn near_plane_in_medium(scene: &Scene, boundaries: &Boundaries, dirs: &[Vec3; 6]
             let at = |i: u32, size: u32| (i as f32 + 0.5) / NEAR_GRID as f32 * size as f32;
             let ray = cam.ray(at(k % NEAR_GRID, cam.width), at(k / NEAR_GRID, cam.height));
             let p = ray.at(ray.tmin);
-            let sigma = medium_of_rays(scene, boundaries, &dirs.map(|d| Ray::new(p, d)), u32::MAX);
+            let sigma = medium_at(scene, boundaries, dirs, p);
             Some(sigma).filter(|sigma| *sigma != Rgb::ZERO)
         })
         .collect();

@@ -258,7 +258,7 @@ pub struct Lights {
     /// Centre and radius of the scene's bounding sphere (where light from infinity enters).
     pub sphere: (Vec3, f32),
     /// Index range [start, end) of the point and spot lights in `list` (`build` lists them together).
-    points: (usize, usize),
+    pub(crate) points: (usize, usize),
     /// The textures spots project (`Spot::texture`), copied from the scene's.
     spot_textures: Vec<crate::scene::Texture>,
     /// For each light, the share of its emitted directions drawn behind its face (`side_share`): 0 but

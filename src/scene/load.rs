@@ -269,24 +269,16 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     scene.absorption = scene.absorbing_shapes();
     scene.boundary = scene.absorption.iter().map(|sides| *sides != [Rgb::ZERO; 2]).collect();
     // A shape that bounds no medium lies in the one round it, on both of its sides (`immersed`).
-    let (round, warnings) = crate::scene::immersed::surrounding_media(&scene);
+    let lamps: Vec<Vec3> = points.iter().map(|p| p.position).collect();
+    let (round, point_media, warnings) = crate::scene::immersed::surrounding_media(&scene, &lamps);
     for (sides, sigma) in scene.absorption.iter_mut().zip(round) {
         if sigma != Rgb::ZERO {
             *sides = [sigma; 2];
         }
     }
+    scene.point_media = point_media;
     scene.warnings = warnings;
     scene.lights = Lights::build(&scene, &points, &distant, env);
-    if !scene.absorption.is_empty() {
-        let at: Vec<Vec3> = (scene.lights.list.iter())
-            .map(|l| match l {
-                crate::scene::light::LightKind::Point { position, .. } => *position,
-                _ => Vec3::splat(f32::NAN),
-            })
-            .collect();
-        let media = crate::scene::immersed::media_at(&scene, &at);
-        scene.point_media = media.into_iter().zip(&at).map(|(m, p)| if p.is_nan() { Rgb::ZERO } else { m }).collect();
-    }
     let keys: Vec<String> = env_key.into_iter().chain(distant_keys).chain(point_keys).collect();
     let env_file = file.lights.iter().find_map(|l| match l {
         LightSpec::Envmap { file, .. } => Some(file.as_str()),
@@ -1398,29 +1390,13 @@ fn build_shape(
         | ShapeSpec::Cylinder { material, transform, emission: e, flip_normals: flip, .. }
         | ShapeSpec::Box { material, transform, emission: e, flip_normals: flip, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(
-                out.shapes,
-                mesh,
-                *flip,
-                (transform, None),
-                lookup(material)?,
-                emission(e, out.textures)?,
-                false,
-                false,
-            )?;
+            let (mat, emits) = (lookup(material)?, emission(e, out.textures)?);
+            push(out.shapes, mesh, *flip, (transform, None), mat, emits, false, false)?;
         }
         ShapeSpec::Lathe { material, transform, emission: e, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
-            push(
-                out.shapes,
-                mesh,
-                false,
-                (transform, None),
-                lookup(material)?,
-                emission(e, out.textures)?,
-                false,
-                false,
-            )?;
+            let (mat, emits) = (lookup(material)?, emission(e, out.textures)?);
+            push(out.shapes, mesh, false, (transform, None), mat, emits, false, false)?;
         }
     }
     // Mesh colours are read off the hit mesh: it must have them, each within [0, 1] times the

@@ -208,8 +208,8 @@ pub struct Scene {
     /// Per shape (beside a non-empty `absorption`), whether it bounds a medium: its material absorbs on
     /// a side. A path changes its medium only where it leaves such a shape (`Scene::sigma_next`).
     pub boundary: Vec<bool>,
-    /// Per light (beside a non-empty `absorption`), the absorption of the medium round a point, spot or
-    /// projector light's position (`immersed::media_at`); zero for the rest.
+    /// Per point, spot or projector light (beside a non-empty `absorption`), in the order `Lights::build`
+    /// lists them, the absorption of the medium round its position (`immersed::surrounding_media`).
     pub point_media: Vec<Rgb>,
     /// What the loader found worth saying about the scene (a shape partly in a medium), each naming
     /// the shape; printed once at load.
@@ -535,7 +535,7 @@ impl Scene {
         }
         match self.lights.list[light] {
             LightKind::Env | LightKind::Distant { .. } => Some(Rgb::ZERO),
-            LightKind::Point { .. } => Some(self.point_media[light]),
+            LightKind::Point { .. } => Some(self.point_media[light - self.lights.points.0]),
             LightKind::Triangle { shape, .. } | LightKind::Sphere { shape } if !self.boundary[shape as usize] => {
                 Some(self.absorption[shape as usize][0])
             }
