@@ -538,9 +538,6 @@ fn a_mirroring_transform_turns_a_mesh_as_mitsuba_does_or_is_warned_of() {
     let flip = r#"<boolean name="flip_normals" value="true"/>"#;
     let glass = r#"<bsdf type="dielectric"/>"#;
     let medium = r#"<medium type="homogeneous" name="interior"><rgb name="sigma_t" value="0.5"/><float name="albedo" value="0"/></medium>"#;
-    let group = |inner: String, outer: &str| {
-        format!(r#"<shape type="shapegroup" id="g">{inner}</shape><shape type="instance"><ref id="g"/>{outer}</shape>"#)
-    };
     // (integrator, shapes, warning wanted ("" for none), the last mesh's flip_normals)
     let cases: Vec<(&str, String, &str, Option<bool>)> = vec![
         ("path", mesh("ball.ply", &format!("{flat}{mirror}")), "", Some(true)),
@@ -584,8 +581,8 @@ fn a_mirroring_transform_turns_a_mesh_as_mitsuba_does_or_is_warned_of() {
             "",
             None,
         ),
-        ("path", group(mesh("ball.ply", flat), mirror), "", Some(false)),
-        ("path", group(mesh("ball.ply", &format!("{flat}{mirror}")), ""), "", Some(true)),
+        ("path", in_instance(&mesh("ball.ply", flat), mirror), "", Some(false)),
+        ("path", in_instance(&mesh("ball.ply", &format!("{flat}{mirror}")), ""), "", Some(true)),
     ];
     for (k, (integrator, shape, want, flipped)) in cases.iter().enumerate() {
         let (xml, at) = case_scene(&d, k, Some(integrator), shape);
@@ -1135,10 +1132,7 @@ fn an_instance_transforms_its_meshs_normals_as_normals() {
         * Mat4::from_scale(Vec3::new(0.6, 1.7, 1.15));
     let normals = Mat3::from_mat4(m).inverse().transpose();
     for file in ["facets.ply", "ball.ply"] {
-        let group = format!(
-            r#"<shape type="shapegroup" id="g">{}</shape><shape type="instance"><ref id="g"/>{outer}</shape>"#,
-            inner(file)
-        );
+        let group = in_instance(&inner(file), outer);
         let mesh_of = |k: usize, body: &str| {
             let (xml, _) = case_scene(&d, k, None, &format!(r#"{body}<emitter type="constant"/>"#));
             let scene = load_scene_with(&xml, &[]).unwrap();
@@ -1840,6 +1834,12 @@ fn panel_with(from: &str, to: &str) -> String {
 /// Case `k` of a test: a scene of `integrator` (none: Mitsuba's default) holding `sensor_at_z2(8)` and
 /// then `body`, written in `d` as `caseK.xml`. Returns its path and where `body` starts, as a warning
 /// names it ("caseK.xml: line L").
+/// `inner` (shapes) in a shapegroup `g`, placed once by an instance whose `to_world` element is `outer`
+/// ("" for none).
+fn in_instance(inner: &str, outer: &str) -> String {
+    format!(r#"<shape type="shapegroup" id="g">{inner}</shape><shape type="instance"><ref id="g"/>{outer}</shape>"#)
+}
+
 fn case_scene(d: &Path, k: usize, integrator: Option<&str>, body: &str) -> (PathBuf, String) {
     let sensor = sensor_at_z2(8);
     let head = integrator.map_or(String::new(), |i| format!("<integrator type=\"{i}\"/>\n"));
