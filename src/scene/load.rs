@@ -1012,7 +1012,13 @@ fn apply_normal_maps(
             return Err(cx.err(&format!("{key}.two_sided"), msg));
         }
         let nested_two_sided = inner.two_sided;
-        let bsdf = Material::Mapped(Mapped { normal: Vec3::ZERO, mirror_back: *two_sided, nested, nested_two_sided });
+        let bsdf = Material::Mapped(Mapped {
+            normal: Vec3::ZERO,
+            mirror_back: *two_sided,
+            nested,
+            nested_two_sided,
+            bump_tangents: None,
+        });
         let two_sided = *two_sided || inner.two_sided;
         materials[i] = SurfaceMaterial { bsdf, two_sided, normal_map: Some(map), ..inner.clone() };
     }

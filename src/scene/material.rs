@@ -86,6 +86,13 @@ pub struct Mapped {
     /// The nested BSDF is two-sided (Mitsuba's `normalmap` over a `twosided`): seen from behind the
     /// normal it is taken about, it reflects as from its front (`seen`).
     pub nested_two_sided: bool,
+    /// A bump map's tangents (world axes) for the two normals the nested BSDF can be taken about
+    /// (`candidates`: the map's, and its reflection about the shading normal), as Mitsuba 3.9.1's
+    /// `bumpmap` builds each from the normal it ends up with (`scene::bump_tangent`); an anisotropic
+    /// nested BSDF follows the one of the normal it is taken about. None under a normal map, whose
+    /// nested BSDF keeps the shading tangent (made orthogonal to either normal, as Mitsuba's
+    /// `normalmap` does), and in a scene's material before a hit fills it in.
+    pub bump_tangents: Option<[Vec3; 2]>,
 }
 
 /// The BSDFs a normal map may sit over: every `Material` but a thin pane and another normal map, by
@@ -142,6 +149,9 @@ struct Frame2 {
     n: Vec3,
     ns: Vec3,
     which: usize,
+    /// A bump map's tangent for `n` (`Mapped::bump_tangents`), mirrored with it behind a `mirror_back`
+    /// surface.
+    tangent: Option<Vec3>,
 }
 
 impl Mapped {
@@ -164,7 +174,35 @@ impl Mapped {
         let n = if flip { ns_c * (2.0 * n0.dot(ns_c)) - n0 } else { n0 };
         // Behind a mirrored surface the unflipped normal is the line of the front's flipped one.
         let back = self.mirror_back && c.dot(ns) < 0.0;
-        Frame2 { n: n.normalize_or_zero(), ns: ns_c, which: (flip != back) as usize }
+        // Behind a mirrored surface Mitsuba builds the front's frame for the mirrored directions: the
+        // tangent of the normal it flipped to or kept, mirrored.
+        let tangent = self.bump_tangents.map(|t| {
+            let t = t[flip as usize];
+            if back {
+                t - ns * (2.0 * t.dot(ns))
+            } else {
+                t
+            }
+        });
+        Frame2 { n: n.normalize_or_zero(), ns: ns_c, which: (flip != back) as usize, tangent }
+    }
+
+    /// The nested BSDF as taken about `f.n`: with a bump map's tangent for that normal.
+    fn nested_in(&self, f: &Frame2) -> Material {
+        self.nested_with(f.tangent)
+    }
+
+    /// The nested BSDF as taken about candidate `k` (`candidates`), with a bump map's tangent for it.
+    fn nested_about(&self, k: usize) -> Material {
+        self.nested_with(self.bump_tangents.map(|t| t[k]))
+    }
+
+    fn nested_with(&self, tangent: Option<Vec3>) -> Material {
+        let nested = self.nested.material();
+        match tangent {
+            Some(t) => nested.with_tangent(t),
+            None => nested,
+        }
     }
 
     /// Whether the camera's side `c` lies in front of the normal `f` says the nested BSDF is taken about
@@ -224,34 +262,32 @@ impl Mapped {
         if k == 0.0 || f.n == Vec3::ZERO || !self.seen(&f, c) {
             return Rgb::ZERO;
         }
-        self.nested.material().eval(wo, wi, f.n, mode) * k
+        self.nested_in(&f).eval(wo, wi, f.n, mode) * k
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3, ns: Vec3, mode: TransportMode) -> f32 {
-        let nested = self.nested.material();
         match mode {
             TransportMode::Radiance => {
                 let f = self.frame(wo, ns);
                 if wi.dot(f.n) * wi.dot(f.ns) <= 0.0 || !self.seen(&f, wo) {
                     return 0.0;
                 }
-                nested.pdf(wo, wi, f.n, mode)
+                self.nested_in(&f).pdf(wo, wi, f.n, mode)
             }
             TransportMode::Importance => {
                 let [a, b] = self.candidates(ns);
-                0.5 * (nested.pdf(wo, wi, a, mode) + nested.pdf(wo, wi, b, mode))
+                0.5 * (self.nested_about(0).pdf(wo, wi, a, mode) + self.nested_about(1).pdf(wo, wi, b, mode))
             }
         }
     }
 
     fn sample(&self, wo: Vec3, ns: Vec3, u: [f32; 2], uc: f32, mode: TransportMode) -> Option<BsdfSample> {
-        let nested = self.nested.material();
         if mode == TransportMode::Radiance {
             let f = self.frame(wo, ns);
             if !self.seen(&f, wo) {
                 return None;
             }
-            let mut bs = nested.sample(wo, f.n, u, uc, mode)?;
+            let mut bs = self.nested_in(&f).sample(wo, f.n, u, uc, mode)?;
             let g = Self::factor(f.n, bs.wi, f.ns);
             if g == 0.0 {
                 return None;
@@ -264,7 +300,7 @@ impl Mapped {
         let (first, uc) = sampling::split(uc, 0.5);
         let k = (!first) as usize;
         let about = self.candidates(ns)[k];
-        let mut bs = nested.sample(wo, about, u, uc, mode)?;
+        let mut bs = self.nested_about(k).sample(wo, about, u, uc, mode)?;
         let c = bs.wi;
         if bs.delta {
             let f = self.frame(c, ns);
@@ -2054,7 +2090,13 @@ mod tests {
         want: f32,
     ) -> Material {
         let nested = Nested::Diffuse(Rgb::ONE);
-        let m = Material::Mapped(Mapped { normal: Vec3::from(n).normalize(), mirror_back, nested, nested_two_sided });
+        let m = Material::Mapped(Mapped {
+            normal: Vec3::from(n).normalize(),
+            mirror_back,
+            nested,
+            nested_two_sided,
+            bump_tangents: None,
+        });
         let (c, l) = (Vec3::from(c), Vec3::from(l));
         let got = m.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
         assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
@@ -2191,6 +2233,7 @@ mod tests {
                 mirror_back: false,
                 nested: Nested::Diffuse(Rgb::ONE),
                 nested_two_sided: false,
+                bump_tangents: None,
             });
             let got = diffuse.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
             assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
@@ -2199,7 +2242,8 @@ mod tests {
                 continue;
             }
             for nested in [Nested::Diffuse(Rgb::ONE), Nested::new(rough).unwrap(), Nested::new(plastic).unwrap()] {
-                let mapped = Mapped { normal, mirror_back: false, nested, nested_two_sided: false };
+                let mapped =
+                    Mapped { normal, mirror_back: false, nested, nested_two_sided: false, bump_tangents: None };
                 let m = Material::Mapped(mapped);
                 assert_eq!(m.eval(c, l, Vec3::Z, TransportMode::Radiance), Rgb::ZERO, "{nested:?}");
                 assert_eq!(m.eval(l, c, Vec3::Z, TransportMode::Importance), Rgb::ZERO, "{nested:?}");
@@ -2237,6 +2281,7 @@ mod tests {
                         mirror_back,
                         nested,
                         nested_two_sided: false,
+                        bump_tangents: None,
                     });
                     // From above, grazing, and (two-sided) from below.
                     for wo in [Vec3::new(0.3, -0.2, 0.93), Vec3::new(-0.9, 0.3, 0.2), Vec3::new(0.4, 0.5, -0.77)] {
@@ -2278,7 +2323,13 @@ mod tests {
         // reflections bring back to it, normal by normal.
         let mirror = Nested::new(Material::conductor(Fresnel::Constant(Rgb::ONE), 0.0, Microfacet::Ggx)).unwrap();
         for (i, n0) in normals.iter().enumerate() {
-            let mapped = Mapped { normal: n0.normalize(), mirror_back: false, nested: mirror, nested_two_sided: false };
+            let mapped = Mapped {
+                normal: n0.normalize(),
+                mirror_back: false,
+                nested: mirror,
+                nested_two_sided: false,
+                bump_tangents: None,
+            };
             let m = Material::Mapped(mapped);
             // Light from the normal's side (one normal reflects it to where the camera sees that normal)
             // and from straight above (both do, on either side of the facet).
@@ -2342,7 +2393,13 @@ mod tests {
         for normal in [-Vec3::Z, Vec3::X, Vec3::new(1e-7, 0.0, 1.0).normalize()] {
             for nested in pure.iter().chain(&delta) {
                 for mirror_back in [false, true] {
-                    let m = Material::Mapped(Mapped { normal, mirror_back, nested: *nested, nested_two_sided: false });
+                    let m = Material::Mapped(Mapped {
+                        normal,
+                        mirror_back,
+                        nested: *nested,
+                        nested_two_sided: false,
+                        bump_tangents: None,
+                    });
                     for _ in 0..2000 {
                         let (wo, wi) = (sampling::uniform_sphere(r.next_2d()), sampling::uniform_sphere(r.next_2d()));
                         for mode in [TransportMode::Radiance, TransportMode::Importance] {
@@ -2390,6 +2447,7 @@ mod tests {
                         mirror_back,
                         nested: nest,
                         nested_two_sided: false,
+                        bump_tangents: None,
                     });
                     assert!(m.holds_photons(), "{nest:?}");
                     for _ in 0..2000 {
