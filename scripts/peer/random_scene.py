@@ -1,7 +1,7 @@
 """A random Mitsuba 3 XML scene made of what caustica's import reads, for scripts/random-check (caustica's
 path tracer against Mitsuba's on scenes nobody chose).
 
-    python3 scripts/peer/random_scene.py SEED OUT.xml [--no-blend] [--area-lights] [--more] [--exporter]
+    python3 scripts/peer/random_scene.py SEED OUT.xml [--no-blend] [--area-lights] [--more] [--exporter] [--scale S]
 
 The same SEED gives the same scene. A floor (and half the time a back wall) under one to four objects
 (sphere, cube, cylinder, disk, rectangle, the PLY ball, the OBJ tile) with random transforms, each of a
@@ -45,11 +45,13 @@ sometimes mirrors them.
 --exporter writes the same scene as exporters and converters write it (from a stream of its own, each
 half the time): `name` labels on nested objects, booleans spelled "True" and "FALSE", references through
 <alias>, and a camera mirrored by <scale x="-1"/> (the image mirrored in both renderers).
+--scale S writes the same scene scaled by S about the origin (`scale_scene`), whose image is the same.
 """
 import argparse
 import os
 import random
 import re
+import xml.etree.ElementTree as ET
 
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("seed", type=int)
@@ -59,6 +61,8 @@ ap.add_argument("--area-lights", action="store_true", help="no point, spot or di
 ap.add_argument("--more", action="store_true", help="emitting meshes, bitmap textures, thin lens, more filters")
 ap.add_argument("--exporter", action="store_true",
                 help="the same scene written as other tools write it (labels, True, aliases, a mirrored camera)")
+ap.add_argument("--scale", type=float, default=1.0,
+                help="the whole scene scaled by this factor about the origin, so that its image stays the same")
 args = ap.parse_args()
 R = random.Random(args.seed)
 # The extras' own stream: the scene without them stays the one the seed gives.
@@ -224,6 +228,88 @@ def emitter():
         return f'<emitter type="constant"><rgb name="radiance" value="{rgb(0.1, 0.8)}"/></emitter>'
     return (f'<emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="{f(R.uniform(0.3, 2))}"/>'
             f'<transform name="to_world"><rotate y="1" angle="{f(R.uniform(0, 360))}"/></transform></emitter>')
+
+
+def scale_scene(text, s, spd_dir):
+    """The scene scaled by s about the origin: every length times s (shapes and instances, the camera,
+    point, spot and projector positions, clipping planes, a thin lens's aperture and focus, a bump map's
+    height), point, spot and projector intensities times s^2 and media's absorption over s, so that the
+    image is the same."""
+    root = ET.fromstring(text)
+
+    def g(x):
+        return f"{x:.7g}"
+
+    def times(value, k):
+        return ", ".join(g(float(v) * k) for v in value.split(","))
+
+    def to_world(node):
+        t = node.find('transform[@name="to_world"]')
+        if t is None:
+            t = ET.SubElement(node, "transform", {"name": "to_world"})
+        return t
+
+    def lookat(node):
+        for la in to_world(node).iter("lookat"):
+            la.set("origin", times(la.get("origin"), s))
+            la.set("target", times(la.get("target"), s))
+
+    def scale_prop(node, name, k, default=1.0):
+        p = node.find(f'float[@name="{name}"]')
+        if p is None:
+            p = ET.SubElement(node, "float", {"name": name, "value": g(default)})
+        p.set("value", g(float(p.get("value")) * k))
+
+    def intensity(node, name):
+        p = node.find(f'*[@name="{name}"]')
+        k = s * s
+        if p is None:
+            ET.SubElement(node, "float", {"name": name, "value": g(k)})
+        elif p.get("filename"):
+            src = os.path.join(spd_dir, p.get("filename"))
+            dst = p.get("filename").replace(".spd", f"-x{g(k)}.spd")
+            with open(src) as fh, open(os.path.join(spd_dir, dst), "w") as out:
+                for line in fh:
+                    w = line.split()
+                    out.write(line if line.startswith("#") or len(w) != 2 else f"{w[0]} {float(w[1]) * k!r}\n")
+            p.set("filename", dst)
+        elif ":" in p.get("value"):
+            p.set("value", ", ".join(f"{w.split(':')[0].strip()}:{float(w.split(':')[1]) * k!r}"
+                                     for w in p.get("value").split(",")))
+        else:
+            p.set("value", times(p.get("value"), k))
+
+    for node in root:
+        if node.tag == "shape" and node.get("type") != "shapegroup":
+            ET.SubElement(to_world(node), "scale", {"value": g(s)})
+        elif node.tag == "sensor":
+            lookat(node)
+            for sc in to_world(node).findall("scale"):  # an orthographic film's size
+                for axis in ("x", "y", "value"):
+                    if sc.get(axis) is not None:
+                        sc.set(axis, g(float(sc.get(axis)) * s))
+            scale_prop(node, "near_clip", s, 0.01)
+            scale_prop(node, "far_clip", s, 10000.0)
+            for name in ("aperture_radius", "focus_distance"):
+                if node.find(f'float[@name="{name}"]') is not None:
+                    scale_prop(node, name, s)
+        elif node.tag == "emitter" and node.get("type") == "point":
+            pos = node.find('point[@name="position"]')
+            for axis in ("x", "y", "z"):
+                pos.set(axis, g(float(pos.get(axis, "0")) * s))
+            intensity(node, "intensity")
+        elif node.tag == "emitter" and node.get("type") == "spot":
+            lookat(node)
+            intensity(node, "intensity")
+        elif node.tag == "emitter" and node.get("type") == "projector":
+            lookat(node)
+            scale_prop(node, "scale", s * s)
+    for medium in root.iter("medium"):
+        scale_prop(medium, "scale", 1 / s)
+    for bump in root.iter("bsdf"):
+        if bump.get("type") == "bumpmap":
+            scale_prop(bump, "scale", s)
+    return ET.tostring(root, encoding="unicode")
 
 
 RAW = '<boolean name="raw" value="true"/>'
@@ -874,6 +960,8 @@ if args.more:
 # transmittance, as no bounce, as caustica does: the reference for such scenes.
 if 'type="mask"' in text or 'type="thindielectric"' in text:
     text = text.replace('<integrator type="path">', '<integrator type="volpath">', 1)
+if args.scale != 1.0:
+    text = scale_scene(text, args.scale, os.path.dirname(os.path.abspath(args.out)))
 if args.exporter:
     # The same scene as exporters and converters write it, from a stream of its own, each change half
     # the time: a `name` label on every nested object (Blender's add-on; Mitsuba gathers nested objects

@@ -1238,6 +1238,17 @@ pub fn transform_matrix(cx_key: &str, t: &TransformSpec, shown: &str) -> Result<
     transform_matrix_at(&format!("{cx_key}.transform"), t, shown)
 }
 
+/// Whether `m`'s linear part flattens space: its determinant below 1e-12 of the product of its columns'
+/// lengths (what a zero scale gives, or columns along one another). Relative, so that a scene keeps
+/// loading at any size: an absolute bound refused every transform of a scene scaled to 1e-5 (a floor
+/// of side 8e-5 has determinant 6.4e-14) while Mitsuba reads it.
+pub(crate) fn degenerate(m: &Mat4) -> bool {
+    let (a, b, c) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+    let volume = a.length() * b.length() * c.length();
+    let d = m.determinant().abs();
+    d.is_nan() || d <= 1e-12 * volume
+}
+
 /// `transform_matrix` for the transform at `key` (its whole name, errors naming it).
 fn transform_matrix_at(key: &str, t: &TransformSpec, shown: &str) -> Result<Mat4, SceneError> {
     let err = |msg: String| SceneError::Invalid { file: shown.into(), key: key.into(), msg };
@@ -1264,7 +1275,7 @@ fn transform_matrix_at(key: &str, t: &TransformSpec, shown: &str) -> Result<Mat4
             * Mat4::from_scale(s)
     };
     let det = m.determinant();
-    if !det.is_finite() || det.abs() < 1e-12 || !m.is_finite() {
+    if !det.is_finite() || !m.is_finite() || degenerate(&m) {
         return Err(err(format!("is degenerate (determinant {det})")));
     }
     Ok(m)

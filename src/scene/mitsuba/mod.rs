@@ -286,9 +286,14 @@ impl<'a> Cx<'a> {
     /// `y` (its local axes, unit vectors). Mitsuba's film runs along −x, its local left: where `x`
     /// is not `y × z` (`to_world` mirrors: a negative scale, as converted scenes often put before
     /// `lookat`) the image is mirrored left to right, as Mitsuba renders it.
+    ///
+    /// The target is put along `z` as far from `origin` as `origin` is from the world's centre (at least
+    /// 1): a unit step from an origin at 1.5e6 rounds to the floats there (0.125 apart) and turned the
+    /// view by degrees, where Mitsuba, which keeps the matrix, renders the same image at any size.
     fn place_camera(&mut self, origin: Vec3, x: Vec3, y: Vec3, z: Vec3) {
         let cam = &mut self.file.camera;
-        (cam.origin, cam.target, cam.up) = (origin.to_array(), (origin + z).to_array(), y.to_array());
+        let reach = origin.abs().max_element().max(1.0);
+        (cam.origin, cam.target, cam.up) = (origin.to_array(), (origin + z * reach).to_array(), y.to_array());
         cam.mirror = x.dot(y.cross(z)) < 0.0;
     }
 

@@ -253,7 +253,7 @@ impl<'a> Props<'a> {
         for op in &n.children {
             m = op_matrix(op)? * m;
         }
-        if !m.is_finite() || m.determinant().abs() < 1e-20 {
+        if !m.is_finite() || crate::scene::load::degenerate(&m) {
             return Err(n.error("is degenerate (zero scale or not finite)"));
         }
         Ok(Some(m))
