@@ -1017,7 +1017,7 @@ fn apply_normal_maps(
             mirror_back: *two_sided,
             nested,
             nested_two_sided,
-            bump_tangents: None,
+            flipped_tangent: None,
         });
         let two_sided = *two_sided || inner.two_sided;
         materials[i] = SurfaceMaterial { bsdf, two_sided, normal_map: Some(map), ..inner.clone() };

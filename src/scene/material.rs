@@ -86,13 +86,13 @@ pub struct Mapped {
     /// The nested BSDF is two-sided (Mitsuba's `normalmap` over a `twosided`): seen from behind the
     /// normal it is taken about, it reflects as from its front (`seen`).
     pub nested_two_sided: bool,
-    /// A bump map's tangents (world axes) for the two normals the nested BSDF can be taken about
-    /// (`candidates`: the map's, and its reflection about the shading normal), as Mitsuba 3.9.1's
-    /// `bumpmap` builds each from the normal it ends up with (`scene::bump_tangent`); an anisotropic
-    /// nested BSDF follows the one of the normal it is taken about. None under a normal map, whose
-    /// nested BSDF keeps the shading tangent (made orthogonal to either normal, as Mitsuba's
-    /// `normalmap` does), and in a scene's material before a hit fills it in.
-    pub bump_tangents: Option<[Vec3; 2]>,
+    /// A bump map's tangent (world axes) for the map's normal reflected about the shading normal, the
+    /// second of the two the nested BSDF can be taken about (`candidates`); the nested BSDF's own
+    /// tangent is the first's. Mitsuba 3.9.1's `bumpmap` builds each from the normal it ends up with
+    /// (`scene::bump_tangent`), and an anisotropic nested BSDF follows the one of the normal it is taken
+    /// about. None under a normal map, whose nested BSDF keeps the shading tangent (made orthogonal to
+    /// either normal, as Mitsuba's `normalmap` does), and in a scene's material before a hit fills it in.
+    pub flipped_tangent: Option<Vec3>,
 }
 
 /// The BSDFs a normal map may sit over: every `Material` but a thin pane and another normal map, by
@@ -125,6 +125,15 @@ impl Nested {
         })
     }
 
+    /// The tangent an anisotropic nested BSDF follows (zero for the others).
+    fn tangent(&self) -> Vec3 {
+        match self {
+            Nested::Conductor(.., tangent, _) | Nested::Dielectric(.., tangent, _) => *tangent,
+            Nested::Principled(p) => p.tangent,
+            Nested::Diffuse(_) | Nested::Plastic(..) => Vec3::ZERO,
+        }
+    }
+
     pub fn material(self) -> Material {
         match self {
             Nested::Diffuse(reflectance) => Material::Diffuse { reflectance },
@@ -149,7 +158,7 @@ struct Frame2 {
     n: Vec3,
     ns: Vec3,
     which: usize,
-    /// A bump map's tangent for `n` (`Mapped::bump_tangents`), mirrored with it behind a `mirror_back`
+    /// A bump map's tangent for `n` (`Mapped::flipped_tangent`), mirrored with it behind a `mirror_back`
     /// surface.
     tangent: Option<Vec3>,
 }
@@ -176,8 +185,8 @@ impl Mapped {
         let back = self.mirror_back && c.dot(ns) < 0.0;
         // Behind a mirrored surface Mitsuba builds the front's frame for the mirrored directions: the
         // tangent of the normal it flipped to or kept, mirrored.
-        let tangent = self.bump_tangents.map(|t| {
-            let t = t[flip as usize];
+        let tangent = self.flipped_tangent.map(|flipped| {
+            let t = if flip { flipped } else { self.nested.tangent() };
             if back {
                 t - ns * (2.0 * t.dot(ns))
             } else {
@@ -194,7 +203,7 @@ impl Mapped {
 
     /// The nested BSDF as taken about candidate `k` (`candidates`), with a bump map's tangent for it.
     fn nested_about(&self, k: usize) -> Material {
-        self.nested_with(self.bump_tangents.map(|t| t[k]))
+        self.nested_with(self.flipped_tangent.filter(|_| k == 1))
     }
 
     fn nested_with(&self, tangent: Option<Vec3>) -> Material {
@@ -2109,7 +2118,7 @@ mod tests {
             mirror_back,
             nested,
             nested_two_sided,
-            bump_tangents: None,
+            flipped_tangent: None,
         });
         let (c, l) = (Vec3::from(c), Vec3::from(l));
         let got = m.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
@@ -2247,7 +2256,7 @@ mod tests {
                 mirror_back: false,
                 nested: Nested::Diffuse(Rgb::ONE),
                 nested_two_sided: false,
-                bump_tangents: None,
+                flipped_tangent: None,
             });
             let got = diffuse.eval(c, l, Vec3::Z, TransportMode::Radiance).x * l.z.abs();
             assert!((got - want).abs() < 2e-5 + 1e-4 * want, "{n:?}, {c:?}, {l:?}: {got} vs Mitsuba's {want}");
@@ -2257,7 +2266,7 @@ mod tests {
             }
             for nested in [Nested::Diffuse(Rgb::ONE), Nested::new(rough).unwrap(), Nested::new(plastic).unwrap()] {
                 let mapped =
-                    Mapped { normal, mirror_back: false, nested, nested_two_sided: false, bump_tangents: None };
+                    Mapped { normal, mirror_back: false, nested, nested_two_sided: false, flipped_tangent: None };
                 let m = Material::Mapped(mapped);
                 assert_eq!(m.eval(c, l, Vec3::Z, TransportMode::Radiance), Rgb::ZERO, "{nested:?}");
                 assert_eq!(m.eval(l, c, Vec3::Z, TransportMode::Importance), Rgb::ZERO, "{nested:?}");
@@ -2297,7 +2306,7 @@ mod tests {
                         mirror_back,
                         nested,
                         nested_two_sided: false,
-                        bump_tangents: None,
+                        flipped_tangent: None,
                     });
                     // From above, grazing, and (two-sided) from below.
                     for wo in [Vec3::new(0.3, -0.2, 0.93), Vec3::new(-0.9, 0.3, 0.2), Vec3::new(0.4, 0.5, -0.77)] {
@@ -2344,7 +2353,7 @@ mod tests {
                 mirror_back: false,
                 nested: mirror,
                 nested_two_sided: false,
-                bump_tangents: None,
+                flipped_tangent: None,
             };
             let m = Material::Mapped(mapped);
             // Light from the normal's side (one normal reflects it to where the camera sees that normal)
@@ -2414,7 +2423,7 @@ mod tests {
                         mirror_back,
                         nested: *nested,
                         nested_two_sided: false,
-                        bump_tangents: None,
+                        flipped_tangent: None,
                     });
                     for _ in 0..2000 {
                         let (wo, wi) = (sampling::uniform_sphere(r.next_2d()), sampling::uniform_sphere(r.next_2d()));
@@ -2463,7 +2472,7 @@ mod tests {
                         mirror_back,
                         nested: nest,
                         nested_two_sided: false,
-                        bump_tangents: None,
+                        flipped_tangent: None,
                     });
                     assert!(m.holds_photons(), "{nest:?}");
                     for _ in 0..2000 {
@@ -2503,20 +2512,11 @@ mod tests {
     fn sampling_cases() -> ([Nested; 5], [Nested; 2]) {
         let coat = RoughCoat::get(0.2, Microfacet::Ggx, 1.5);
         let principled = Principled {
-            base: Rgb::new(0.6, 0.3, 0.2),
             roughness: 0.15,
             metallic: 0.7,
-            spec_trans: 0.0,
             eta: 1.5,
-            spec_tint: 0.0,
-            sheen: 0.0,
             sheen_tint: 0.5,
-            flatness: 0.0,
-            clearcoat: 0.0,
-            clearcoat_gloss: 0.0,
-            anisotropic: 0.0,
-            tangent: Vec3::ZERO,
-            two_sided: false,
+            ..Principled::new(Rgb::new(0.6, 0.3, 0.2))
         };
         (
             [

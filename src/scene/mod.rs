@@ -303,8 +303,9 @@ pub fn bump_tangent(ns: Vec3, s: Vec3, dp_du: Vec3, n: Vec3) -> Vec3 {
 
 /// A bump-mapped material at a hit: `mapped` with the bent normal (`bump_frame`; `ng` the side it is
 /// turned to) and, for an anisotropic nested BSDF, the tangents of the two normals it can be taken
-/// about (`Mapped::bump_tangents`): Mitsuba builds the tangent after it has flipped the normal to the
-/// camera's side (`flip_invalid_normals`), from the flipped normal.
+/// about (the nested BSDF's own for the bent normal, `Mapped::flipped_tangent` for its reflection):
+/// Mitsuba builds the tangent after it has flipped the normal to the camera's side
+/// (`flip_invalid_normals`), from the flipped normal.
 pub fn bump_mapped(
     mut mapped: material::Mapped,
     ng: Vec3,
@@ -320,7 +321,7 @@ pub fn bump_mapped(
         return bsdf;
     }
     let flipped = ns * (2.0 * mapped.normal.dot(ns)) - mapped.normal;
-    mapped.bump_tangents = Some([tangent, bump_tangent(ns, s, dp_du, flipped.normalize_or_zero())]);
+    mapped.flipped_tangent = Some(bump_tangent(ns, s, dp_du, flipped.normalize_or_zero()));
     Material::Mapped(mapped).with_tangent(tangent)
 }
 
@@ -1185,7 +1186,7 @@ mod tests {
             mirror_back: false,
             nested: Nested::new(nested).unwrap(),
             nested_two_sided: false,
-            bump_tangents: None,
+            flipped_tangent: None,
         };
         for (ns, dp_du, dp_dv, g, c, l, want) in cases {
             let (ns, dp_du, c, l) = (Vec3::from(ns), Vec3::from(dp_du), Vec3::from(c), Vec3::from(l));
