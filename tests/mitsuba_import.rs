@@ -216,6 +216,58 @@ fn aov_and_moment_render_their_first_nested_integrator() {
     }
 }
 
+/// Mitsuba's `direct` integrator takes `emitter_samples` and `bsdf_samples` (each `shading_samples`,
+/// default 1, when not given). Where one is 0 its image lacks what only the other finds: without BSDF
+/// samples the light that smooth surfaces reflect or let through (`mixed.xml`'s glass ball: caustica read
+/// 1.089 of Mitsuba's mean on a throw-away scene of glass, plastic and a thin pane), without emitter
+/// samples the point and directional lights (1.22). caustica's direct light takes both and renders
+/// that light, so the import warns, naming the line, where the scene has such surfaces or lights (the
+/// diffuse Cornell box has neither: no warning), and the scene is the one `direct` gives by default.
+/// Mitsuba's refusals are refused: `shading_samples` beside either count, both 0, a negative count.
+/// No warning and no refusal before (the counts were read and dropped): seen failing.
+#[test]
+fn a_direct_integrator_without_one_kind_of_sample_is_warned_of_or_refused() {
+    let direct = |samples: &str| format!("<integrator type=\"direct\">{samples}</integrator>");
+    let int = |name: &str, v: i64| format!("<integer name=\"{name}\" value=\"{v}\"/>");
+    for (name, from) in [
+        ("mixed", "<integrator type=\"path\"><integer name=\"max_depth\" value=\"8\"/></integrator>"),
+        ("cornell", "<integrator type=\"path\">\n        <integer name=\"max_depth\" value=\"8\"/>\n    </integrator>"),
+    ] {
+        let plain = beside(name, from, &direct(""), |p| load_scene_with(p, &[]).unwrap_or_else(|e| panic!("{e}")));
+        let cases = [
+            (int("bsdf_samples", 0), "takes no BSDF samples"),
+            (int("emitter_samples", 0), "takes no emitter samples"),
+            (int("emitter_samples", 3) + &int("bsdf_samples", 0), "takes no BSDF samples"),
+            (int("shading_samples", 4), ""),
+            (int("emitter_samples", 2), ""),
+        ];
+        for (samples, said) in cases {
+            let (scene, warnings) = beside(name, from, &direct(&samples), |p| {
+                let s = load_scene_with(p, &[]).unwrap_or_else(|e| panic!("{name} {samples}: {e}"));
+                (s, caustica::scene::mitsuba::convert(p).unwrap().warnings)
+            });
+            assert_eq!(scene.content_hash(), plain.content_hash(), "{name} {samples}");
+            let found: Vec<&String> = warnings.iter().filter(|w| w.contains("`direct` integrator")).collect();
+            if said.is_empty() || name == "cornell" {
+                assert!(found.is_empty(), "{name} {samples}: {warnings:?}");
+            } else {
+                assert_eq!(found.len(), 1, "{name} {samples}: {warnings:?}");
+                assert!(found[0].contains(said) && found[0].contains(": line 9:"), "{name} {samples}: {}", found[0]);
+            }
+        }
+        for (samples, said) in [
+            (int("shading_samples", 0), "both 0"),
+            (int("emitter_samples", 0) + &int("bsdf_samples", 0), "both 0"),
+            (int("shading_samples", 2) + &int("bsdf_samples", 1), "not both"),
+            (int("emitter_samples", -1), "not negative"),
+        ] {
+            let err = beside(name, from, &direct(&samples), |p| load_scene_with(p, &[]).err());
+            let err = err.unwrap_or_else(|| panic!("{name} {samples}: read")).to_string();
+            assert!(err.contains(said) && err.contains("line"), "{name} {samples}: {err}");
+        }
+    }
+}
+
 /// Spectra (`spectra.xml`): pairs, `.spd` files and constants on reflectances, a light, a point
 /// light, a conductor's eta and k, a checkerboard's colours, a saturated green and a `d65` sky.
 #[test]

@@ -78,6 +78,7 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
         textures: Vec::new(),
         in_sides: false,
         legacy: root.attr("version").is_some_and(|v| v.starts_with("0.")),
+        direct_without: None,
         media: root.children.iter().any(|c| {
             c.tag == "integrator"
                 && matches!(rendering_integrator(c).attr("type"), Some("volpath" | "volpathmis" | "prbvolpath"))
@@ -126,6 +127,9 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
     // A particle tracer or 0.6's bidirectional path tracer renders as caustica's BDPT: one pass a sample.
     if cx.file.render.mode == Mode::Bdpt {
         cx.file.render.progressive.passes = cx.file.render.spp;
+    }
+    if let Some(w) = cx.direct_without_warning() {
+        cx.warnings.push(w);
     }
     cx.warnings.extend(props::take_notes());
     Ok(Converted { file: cx.file, warnings: cx.warnings })
@@ -214,9 +218,90 @@ struct Cx<'a> {
     /// A Mitsuba 0.5/0.6 file (`<scene version="0.x">`): its own settings are read too (`ldrfilm`,
     /// `strictNormals`, a conductor's `extEta`, MIP-mapped texture filters).
     legacy: bool,
+    /// A `direct` integrator that takes no samples of one of its two kinds: which kind (the emitters'
+    /// or the BSDFs'), and where it says so (warned of once the scene's lights and materials are read).
+    direct_without: Option<(&'static str, String)>,
 }
 
 impl<'a> Cx<'a> {
+    /// The `direct` integrator's sample counts, as Mitsuba 3 reads them: `shading_samples` (default 1)
+    /// sets both `emitter_samples` and `bsdf_samples`, and may not be given beside either; none is
+    /// negative, and not both are 0. caustica's direct light takes both kinds of samples, weighed by
+    /// MIS: how many of each changes only the noise, except where one kind is 0. Mitsuba then misses
+    /// what only the other finds (without BSDF samples, light reflected or let through by smooth
+    /// surfaces: mirrors, glass, a plastic's coat, a null surface; without emitter samples, point,
+    /// spot, projector and directional lights), which caustica renders; the import warns of it where the
+    /// scene has such surfaces or lights (`direct_without_warning`).
+    fn direct_samples(&mut self, n: &Node, p: &Props) -> Result<(), SceneError> {
+        let count = |name: &str, v: Option<i64>| match v {
+            Some(c) if c < 0 => Err(n.error(format!("`{name}` is {c}: a count of samples, not negative"))),
+            _ => Ok(v),
+        };
+        let shading = count("shading_samples", p.int("shading_samples")?)?;
+        let emitter = count("emitter_samples", p.int("emitter_samples")?)?;
+        let bsdf = count("bsdf_samples", p.int("bsdf_samples")?)?;
+        if shading.is_some() && (emitter.is_some() || bsdf.is_some()) {
+            return Err(n.error(
+                "`shading_samples` sets both `emitter_samples` and `bsdf_samples`: give it or them, not both \
+                 (Mitsuba refuses both)",
+            ));
+        }
+        let (emitter, bsdf) = (emitter.or(shading).unwrap_or(1), bsdf.or(shading).unwrap_or(1));
+        let at = format!("{}: line {}", n.file.display(), n.line);
+        self.direct_without = match (emitter, bsdf) {
+            (0, 0) => {
+                return Err(n.error(
+                    "`emitter_samples` and `bsdf_samples` are both 0: no sample finds any light (Mitsuba \
+                     refuses it)",
+                ))
+            }
+            (0, _) => Some(("emitter", at)),
+            (_, 0) => Some(("BSDF", at)),
+            _ => None,
+        };
+        Ok(())
+    }
+
+    /// The warning for a `direct` integrator without emitter or BSDF samples (`direct_samples`), where
+    /// the scene has what Mitsuba's image then lacks.
+    fn direct_without_warning(&self) -> Option<String> {
+        let (kind, at) = self.direct_without.as_ref()?;
+        let smooth = |w: &Weight| *w == Weight::Value(0.0);
+        let missed = if *kind == "emitter" {
+            self.file.lights.iter().any(|l| {
+                matches!(
+                    l,
+                    LightSpec::Point { .. }
+                        | LightSpec::Spot { .. }
+                        | LightSpec::Projector { .. }
+                        | LightSpec::Distant { .. }
+                )
+            })
+        } else {
+            self.file.materials.values().any(|m| match m {
+                MaterialSpec::Mirror { roughness, .. }
+                | MaterialSpec::Conductor { roughness, .. }
+                | MaterialSpec::Dielectric { roughness, .. } => smooth(roughness),
+                MaterialSpec::Plastic { roughness, .. } => *roughness == 0.0,
+                MaterialSpec::ThinDielectric { .. } | MaterialSpec::Null => true,
+                _ => false,
+            })
+        };
+        let lacks = if *kind == "emitter" {
+            "the light of the scene's point, spot, projector and directional emitters, which only emitter \
+             samples find"
+        } else {
+            "the light its smooth mirrors, glass, plastic coats or null surfaces reflect or let through, \
+             which only BSDF samples find"
+        };
+        missed.then(|| {
+            format!(
+                "{at}: the `direct` integrator takes no {kind} samples: Mitsuba's image then lacks {lacks}; \
+                 caustica renders it (its direct light takes both kinds of samples, weighed by MIS)"
+            )
+        })
+    }
+
     fn lookup(&self, n: &Node, id: &str) -> Result<&'a Node, SceneError> {
         self.ids.get(id).copied().ok_or_else(|| n.error(format!("refers to id `{id}`, which no top-level element has")))
     }
@@ -554,9 +639,7 @@ impl<'a> Cx<'a> {
                 r.max_depth = 1;
                 r.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
                 if kind == "direct" {
-                    p.int("emitter_samples")?;
-                    p.int("bsdf_samples")?;
-                    p.int("shading_samples")?;
+                    self.direct_samples(n, &p)?;
                 } else {
                     // Mitsuba's projective direct integrator reads these and keeps its depth of 2.
                     p.int("max_depth")?;
