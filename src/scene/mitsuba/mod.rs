@@ -79,6 +79,9 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
         in_sides: false,
         legacy: root.attr("version").is_some_and(|v| v.starts_with("0.")),
         direct_without: None,
+        // Mitsuba renders a scene that names no integrator with `path`.
+        opaque_see_through: (!root.children.iter().any(|c| c.tag == "integrator"))
+            .then(|| ("path".to_string(), format!("{}: line {}", root.file.display(), root.line), false)),
         media: root.children.iter().any(|c| {
             c.tag == "integrator"
                 && matches!(rendering_integrator(c).attr("type"), Some("volpath" | "volpathmis" | "prbvolpath"))
@@ -129,6 +132,9 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
         cx.file.render.progressive.passes = cx.file.render.spp;
     }
     if let Some(w) = cx.direct_without_warning() {
+        cx.warnings.push(w);
+    }
+    if let Some(w) = cx.see_through_warning() {
         cx.warnings.push(w);
     }
     cx.warnings.extend(props::take_notes());
@@ -221,6 +227,10 @@ struct Cx<'a> {
     /// A `direct` integrator that takes no samples of one of its two kinds: which kind (the emitters'
     /// or the BSDFs'), and where it says so (warned of once the scene's lights and materials are read).
     direct_without: Option<(&'static str, String)>,
+    /// An integrator of Mitsuba's that stops shadow rays at see-through surfaces (`path`, `direct` and
+    /// their path replay kin): its kind and where it is named, or the `<scene>` element where it names
+    /// none (Mitsuba's default is `path`) (`see_through_warning`).
+    opaque_see_through: Option<(String, String, bool)>,
 }
 
 impl<'a> Cx<'a> {
@@ -298,6 +308,53 @@ impl<'a> Cx<'a> {
             format!(
                 "{at}: the `direct` integrator takes no {kind} samples: Mitsuba's image then lacks {lacks}; \
                  caustica renders it (its direct light takes both kinds of samples, weighed by MIS)"
+            )
+        })
+    }
+
+    /// caustica lets light straight through a `null` surface, a mask's holes and a thin pane, by their
+    /// transmittance and without counting a bounce, in every mode, as Mitsuba's `volpath` does
+    /// (README "See-through surfaces"). Mitsuba's `path` (and its path replay kin) stops shadow rays
+    /// there and counts a crossing as a bounce: area lights and the sky still reach past them by BSDF
+    /// samples (an unbiased image, noisier), but point, spot, projector and directional light does not
+    /// (under a thin pane lit by a point light Mitsuba's `path` read 1/1.32 of its `volpath`'s mean,
+    /// black in the pane's shadow). Mitsuba's `direct` stops there for every light (a pane under an
+    /// area light: caustica's `direct` read 1.45 of its mean, and 1.0000 of its `volpath` at depth 2).
+    /// Where the scene has such a surface (and, under `path`, such a light), the import warns.
+    fn see_through_warning(&self) -> Option<String> {
+        let (kind, at, named) = self.opaque_see_through.as_ref()?;
+        let has = |f: fn(&MaterialSpec) -> bool| self.file.materials.values().any(f);
+        let mut which = Vec::new();
+        if has(|m| matches!(m, MaterialSpec::Null)) {
+            which.push("null surfaces or a mask's holes");
+        }
+        if has(|m| matches!(m, MaterialSpec::ThinDielectric { .. })) {
+            which.push("thin panes (`thindielectric`)");
+        }
+        let lost = if kind.starts_with("direct") {
+            "every light's shadow rays stop at them and what is seen through them is black but for emitters"
+        } else if self.file.lights.iter().any(|l| {
+            matches!(
+                l,
+                LightSpec::Point { .. }
+                    | LightSpec::Spot { .. }
+                    | LightSpec::Projector { .. }
+                    | LightSpec::Distant { .. }
+            )
+        }) {
+            "the light of its point, spot, projector and directional emitters does not pass them (area lights \
+             and the sky pass by BSDF samples alone), and crossing one counts as a bounce"
+        } else {
+            return None;
+        };
+        let depth = if kind.starts_with("direct") { " with `max_depth` 2" } else { "" };
+        let named = if *named { "" } else { " (its integrator where the scene names none)" };
+        (!which.is_empty()).then(|| {
+            format!(
+                "{at}: the scene has {}, which caustica lets light straight through by their transmittance, \
+                 without counting a bounce, as Mitsuba's `volpath` does; under Mitsuba's `{kind}`{named} {lost}, so \
+                 its image is darker behind them (Mitsuba's `volpath`{depth} renders what caustica renders)",
+                which.join(" and "),
             )
         })
     }
@@ -587,6 +644,11 @@ impl<'a> Cx<'a> {
                 first.line
             ));
             return self.integrator(first);
+        }
+        if let Some(kind @ ("path" | "prb" | "prb_basic" | "prb_projective" | "direct" | "direct_projective")) =
+            n.attr("type")
+        {
+            self.opaque_see_through = Some((kind.to_string(), format!("{}: line {}", n.file.display(), n.line), true));
         }
         let p = Props::new(n);
         let r = &mut self.file.render;
