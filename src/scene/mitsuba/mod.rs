@@ -1522,7 +1522,12 @@ impl<'a> Cx<'a> {
             }
             (Some(m), None, None) => {
                 let (e, k) = crate::scene::material::complex_ior(m).ok_or_else(|| {
-                    b.error(format!("conductor material `{m}` is not in caustica's table (Ag, Al, Au, Be, Cr, Cu, Hg, Ir, K, Li, Mo, Na, Nb, Ni, Rh, Ta, TiN, V, W, none)"))
+                    b.error(format!(
+                        "conductor material `{m}` is not one Mitsuba names (a-C, Ag, Al, AlAs, AlSb, Au, Be, Cr, CsI, \
+                         Cu, Cu2O, CuO, d-C, Hg, HgTe, Ir, K, Li, MgO, Mo, Na_palik, Nb, Ni_palik, Rh, Se, Se-e, SiC, \
+                         SnTe, Ta, Te, Te-e, ThF4, TiC, TiN, TiO2, TiO2-e, V_palik, VC, VN, W, none; most also with \
+                         `_palik`; names are case-sensitive)"
+                    ))
                 })?;
                 (e.to_array(), k.to_array())
             }
