@@ -1385,18 +1385,34 @@ fn build_shape(
             }
         }
         ShapeSpec::Sphere { center, radius, material, transform, emission: e, flip_normals } => {
-            let geometry = sphere_geometry(cx, key, *center, *radius, transform, *flip_normals)?;
-            let (emission, emission_texture) = emission(e, out.textures)?;
-            let material = lookup(material)?;
-            let emit_by_shading_normal = false;
-            out.shapes.push(Shape {
-                name: key.into(),
-                geometry,
-                material,
-                emission,
-                emission_texture,
-                emit_by_shading_normal,
-            });
+            cx.positive(&format!("{key}.radius"), *radius)?;
+            if is_similarity(&transform_matrix(key, transform, cx.shown)?) {
+                let geometry = sphere_geometry(cx, key, *center, *radius, transform, *flip_normals)?;
+                let (emission, emission_texture) = emission(e, out.textures)?;
+                let material = lookup(material)?;
+                let emit_by_shading_normal = false;
+                out.shapes.push(Shape {
+                    name: key.into(),
+                    geometry,
+                    material,
+                    emission,
+                    emission_texture,
+                    emit_by_shading_normal,
+                });
+            } else if e.is_some() {
+                let msg = "an emitting sphere accepts only uniform scale, rotation and translation (only one that \
+                           does not emit may be stretched into an ellipsoid, which is tessellated)";
+                return Err(cx.err(&format!("{key}.transform"), msg));
+            } else {
+                // An uneven scale or a shear makes an ellipsoid (Mitsuba's sphere placed by an instance
+                // that scales unevenly): tessellated finely, its normals exact at the vertices.
+                let mut mesh = mesh::uv_sphere(ELLIPSOID_ROWS, 2 * ELLIPSOID_ROWS);
+                mesh.transform(
+                    &(Mat4::from_translation(Vec3::from_array(*center)) * Mat4::from_scale(Vec3::splat(*radius))),
+                );
+                let mat = lookup(material)?;
+                push(out.shapes, mesh, *flip_normals, (transform, None), mat, (Rgb::ZERO, None), true, false)?;
+            }
         }
         ShapeSpec::Heightfield { material, transform, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
@@ -1520,6 +1536,22 @@ fn mtl_texture_material(
     Ok(out.materials.len() as u32 - 1)
 }
 
+/// Rows of polar angle of a sphere stretched into an ellipsoid (`mesh::uv_sphere`, twice as many columns):
+/// its silhouette within 7.6e-5 of its longest radius of the true one.
+const ELLIPSOID_ROWS: u32 = 128;
+
+/// Whether `m` only rotates (or reflects), translates and scales uniformly, to 1e-4: a sphere stays a
+/// sphere under it.
+pub fn is_similarity(m: &Mat4) -> bool {
+    let (sx, sy, sz) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+    let s = sx.length();
+    (sy.length() - s).abs() < 1e-4 * s
+        && (sz.length() - s).abs() < 1e-4 * s
+        && sx.dot(sy).abs() < 1e-4 * s * s
+        && sx.dot(sz).abs() < 1e-4 * s * s
+        && sy.dot(sz).abs() < 1e-4 * s * s
+}
+
 /// An analytic sphere after its transform, which may only rotate, translate and scale uniformly (a
 /// reflection too: the sphere stays a sphere, its normals facing as `inward` says).
 fn sphere_geometry(
@@ -1534,12 +1566,7 @@ fn sphere_geometry(
     let m = transform_matrix(key, t, cx.shown)?;
     let (sx, sy, sz) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
     let s = sx.length();
-    let similar = (sy.length() - s).abs() < 1e-4 * s
-        && (sz.length() - s).abs() < 1e-4 * s
-        && sx.dot(sy).abs() < 1e-4 * s * s
-        && sx.dot(sz).abs() < 1e-4 * s * s
-        && sy.dot(sz).abs() < 1e-4 * s * s;
-    if !similar {
+    if !is_similarity(&m) {
         return Err(
             cx.err(&format!("{key}.transform"), "a sphere accepts only uniform scale, rotation and translation")
         );

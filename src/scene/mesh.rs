@@ -937,6 +937,48 @@ pub fn cylinder(segments: u32) -> TriMesh {
     m
 }
 
+/// Mitsuba's `sphere` in its own axes as a mesh: the unit sphere about the origin with `columns` steps of
+/// longitude and `rows` of polar angle, its exact outward normals at the vertices (smooth shading) and
+/// Mitsuba's texture coordinates (u the longitude from +x towards +y over 2π, v the polar angle from
+/// +z over π). The seam's vertices are there twice, at u = 0 and u = 1; the triangles that collapse at
+/// the poles are left out. For a sphere an uneven transform turns into an ellipsoid.
+pub fn uv_sphere(rows: u32, columns: u32) -> TriMesh {
+    let mut m = TriMesh { uvs: Some(Vec::new()), normals: Some(Vec::new()), ..TriMesh::default() };
+    for i in 0..=rows {
+        let v = i as f32 / rows as f32;
+        let (sin_t, cos_t) = (std::f32::consts::PI * v).sin_cos();
+        // Exactly on the poles, whatever the rounding of sin(π).
+        let (sin_t, cos_t) = match i {
+            0 => (0.0, 1.0),
+            _ if i == rows => (0.0, -1.0),
+            _ => (sin_t, cos_t),
+        };
+        for j in 0..=columns {
+            let u = j as f32 / columns as f32;
+            let (sin_p, cos_p) = (std::f32::consts::TAU * (j % columns) as f32 / columns as f32).sin_cos();
+            let q = Vec3::new(sin_t * cos_p, sin_t * sin_p, cos_t);
+            m.positions.push(q);
+            m.normals.as_mut().unwrap().push(q);
+            m.uvs.as_mut().unwrap().push([u, v]);
+        }
+    }
+    let idx = |i: u32, j: u32| i * (columns + 1) + j;
+    for i in 0..rows {
+        for j in 0..columns {
+            // a, b: this row's corners (longitude growing from a to b); c, d: the next row's, further
+            // from +z. (c − a) × (b − a) points out.
+            let (a, b, c, d) = (idx(i, j), idx(i, j + 1), idx(i + 1, j), idx(i + 1, j + 1));
+            for t in [[a, c, b], [b, c, d]] {
+                let [p, q, r] = t.map(|k| m.positions[k as usize]);
+                if (q - p).cross(r - p).length_squared() > 0.0 {
+                    m.indices.push(t);
+                }
+            }
+        }
+    }
+    m
+}
+
 /// Surface of revolution about the y axis; profile points [r, y] bottom to top give outward normals.
 /// Triangles that collapse on the axis (r = 0) are left out.
 pub fn lathe(profile: &[[f32; 2]], segments: u32) -> TriMesh {

@@ -905,6 +905,17 @@ impl<'a> Cx<'a> {
                 flip_normals,
             },
             "sphere" => {
+                // Mitsuba warns of a sphere whose own to_world scales unevenly and renders a sphere
+                // (of one of its scales), not the ellipsoid it describes; placed by an instance that
+                // scales unevenly it renders the ellipsoid, as caustica does.
+                if own.is_some_and(|m| !crate::scene::load::is_similarity(&m)) {
+                    return Err(n.error(
+                        "a sphere's own to_world scales it unevenly or shears it: Mitsuba renders a sphere there \
+                         (it warns that to_world should not scale unevenly), not the ellipsoid it describes; \
+                         place it by an instance of a shapegroup that scales it (an ellipsoid in both \
+                         renderers), or scale it uniformly",
+                    ));
+                }
                 let center = p.point("center")?.unwrap_or([0.0; 3]);
                 let radius = p.float("radius")?.unwrap_or(1.0);
                 // Mitsuba turns a sphere's normals inward under its own mirroring to_world, as
