@@ -1386,8 +1386,9 @@ fn build_shape(
         }
         ShapeSpec::Sphere { center, radius, material, transform, emission: e, flip_normals } => {
             cx.positive(&format!("{key}.radius"), *radius)?;
-            if is_similarity(&transform_matrix(key, transform, cx.shown)?) {
-                let geometry = sphere_geometry(cx, key, *center, *radius, transform, *flip_normals)?;
+            let m = transform_matrix(key, transform, cx.shown)?;
+            if is_similarity(&m) {
+                let geometry = sphere_geometry(*center, *radius, &m, *flip_normals);
                 let (emission, emission_texture) = emission(e, out.textures)?;
                 let material = lookup(material)?;
                 let emit_by_shading_normal = false;
@@ -1552,29 +1553,15 @@ pub fn is_similarity(m: &Mat4) -> bool {
         && sy.dot(sz).abs() < 1e-4 * s * s
 }
 
-/// An analytic sphere after its transform, which may only rotate, translate and scale uniformly (a
-/// reflection too: the sphere stays a sphere, its normals facing as `inward` says).
-fn sphere_geometry(
-    cx: &Ctx,
-    key: &str,
-    center: V3,
-    radius: f32,
-    t: &TransformSpec,
-    inward: bool,
-) -> Result<Geometry, SceneError> {
-    cx.positive(&format!("{key}.radius"), radius)?;
-    let m = transform_matrix(key, t, cx.shown)?;
+/// An analytic sphere after its transform `m`, which only rotates (or reflects: the sphere stays a
+/// sphere, its normals facing as `inward` says), translates and scales uniformly (`is_similarity`).
+fn sphere_geometry(center: V3, radius: f32, m: &Mat4, inward: bool) -> Geometry {
     let (sx, sy, sz) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
     let s = sx.length();
-    if !is_similarity(&m) {
-        return Err(
-            cx.err(&format!("{key}.transform"), "a sphere accepts only uniform scale, rotation and translation")
-        );
-    }
     // The sphere's own axes, for its texture coordinates: to_world's rotation (or reflection) undone.
     let turn = glam::Mat3::from_cols(sx / s, sy / s, sz / s);
     let frame = (!turn.abs_diff_eq(glam::Mat3::IDENTITY, 1e-6)).then(|| turn.transpose());
-    Ok(Geometry::Sphere { center: m.transform_point3(Vec3::from_array(center)), radius: radius * s, frame, inward })
+    Geometry::Sphere { center: m.transform_point3(Vec3::from_array(center)), radius: radius * s, frame, inward }
 }
 
 /// The triangle mesh of a generated shape (quad, disk, lathe, cylinder, height field, box), its parameters

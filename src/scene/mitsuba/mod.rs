@@ -272,21 +272,26 @@ impl<'a> Cx<'a> {
         Ok(())
     }
 
+    /// Whether the scene has a point, spot, projector or directional light, which no BSDF sample finds.
+    fn has_delta_light(&self) -> bool {
+        self.file.lights.iter().any(|l| {
+            matches!(
+                l,
+                LightSpec::Point { .. }
+                    | LightSpec::Spot { .. }
+                    | LightSpec::Projector { .. }
+                    | LightSpec::Distant { .. }
+            )
+        })
+    }
+
     /// The warning for a `direct` integrator without emitter or BSDF samples (`direct_samples`), where
     /// the scene has what Mitsuba's image then lacks.
     fn direct_without_warning(&self) -> Option<String> {
         let (kind, at) = self.direct_without.as_ref()?;
         let smooth = |w: &Weight| *w == Weight::Value(0.0);
         let missed = if *kind == "emitter" {
-            self.file.lights.iter().any(|l| {
-                matches!(
-                    l,
-                    LightSpec::Point { .. }
-                        | LightSpec::Spot { .. }
-                        | LightSpec::Projector { .. }
-                        | LightSpec::Distant { .. }
-                )
-            })
+            self.has_delta_light()
         } else {
             self.file.materials.values().any(|m| match m {
                 MaterialSpec::Mirror { roughness, .. }
@@ -333,15 +338,7 @@ impl<'a> Cx<'a> {
         }
         let lost = if kind.starts_with("direct") {
             "every light's shadow rays stop at them and what is seen through them is black but for emitters"
-        } else if self.file.lights.iter().any(|l| {
-            matches!(
-                l,
-                LightSpec::Point { .. }
-                    | LightSpec::Spot { .. }
-                    | LightSpec::Projector { .. }
-                    | LightSpec::Distant { .. }
-            )
-        }) {
+        } else if self.has_delta_light() {
             "the light of its point, spot, projector and directional emitters does not pass them (area lights \
              and the sky pass by BSDF samples alone), and crossing one counts as a bounce"
         } else {
