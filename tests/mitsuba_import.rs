@@ -272,7 +272,8 @@ fn a_direct_integrator_without_one_kind_of_sample_is_warned_of_or_refused() {
 /// `volpath` does ("See-through surfaces"). Mitsuba's `path` (also its default, and its path replay kin)
 /// stops shadow rays there, so point, spot and directional light does not pass them (a thin pane under
 /// a point light: its `path` read 1/1.32 of its `volpath`'s mean, black in the pane's shadow), and its
-/// `direct` stops there for every light (a pane under an area light: 1/1.45). The import warns, naming
+/// `direct` stops there for every light (a pane under an area light: 1/1.45), and its `ptracer`'s links to
+/// the camera stop there (what is seen through the pane 1/5.9). The import warns, naming
 /// the integrator's line (the `<scene>`'s where none is named), where the scene has such a surface and,
 /// under `path`, such a light; not under `volpath`, not without a see-through surface, and not under
 /// `path` with area lights alone, whose image is Mitsuba's (unbiased, by BSDF samples). No warning
@@ -287,7 +288,7 @@ fn see_through_surfaces_under_mitsubas_path_or_direct_are_warned_of() {
     let point = r#"<emitter type="point"><point name="position" x="0" y="0" z="1.5"/><rgb name="intensity" value="1"/></emitter>"#;
     let sun = r#"<emitter type="directional"><vector name="direction" x="0" y="0" z="-1"/><rgb name="irradiance" value="1"/></emitter>"#;
     let area = r#"<shape type="rectangle"><transform name="to_world"><scale value="0.2"/><rotate x="1" angle="180"/><translate z="1.5"/></transform><emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>"#;
-    let cases: [(Option<&str>, String, Option<&str>); 11] = [
+    let cases: [(Option<&str>, String, Option<&str>); 13] = [
         (Some("path"), format!("{floor}{pane}{point}"), Some("thin panes")),
         (None, format!("{floor}{pane}{point}"), Some("thin panes")),
         (Some("prb"), format!("{floor}{null}{sun}"), Some("null surfaces")),
@@ -295,6 +296,8 @@ fn see_through_surfaces_under_mitsubas_path_or_direct_are_warned_of() {
         (Some("direct"), format!("{floor}{pane}{area}"), Some("every light's shadow rays")),
         (Some("direct_projective"), format!("{floor}{null}{area}"), Some("every light's shadow rays")),
         (Some("path"), format!("{floor}{pane}{area}"), None),
+        (Some("ptracer"), format!("{floor}{pane}{area}"), Some("what is seen through them is black")),
+        (Some("ptracer"), format!("{floor}{area}{point}"), None),
         (Some("volpath"), format!("{floor}{pane}{null}{point}"), None),
         (Some("prbvolpath"), format!("{floor}{mask}{point}"), None),
         (Some("path"), format!("{floor}{point}{sun}"), None),

@@ -227,8 +227,8 @@ struct Cx<'a> {
     /// A `direct` integrator that takes no samples of one of its two kinds: which kind (the emitters'
     /// or the BSDFs'), and where it says so (warned of once the scene's lights and materials are read).
     direct_without: Option<(&'static str, String)>,
-    /// An integrator of Mitsuba's that stops shadow rays at see-through surfaces (`path`, `direct` and
-    /// their path replay kin): its kind and where it is named, or the `<scene>` element where it names
+    /// An integrator of Mitsuba's that stops shadow rays at see-through surfaces (`path`, `direct`,
+    /// their path replay kin, `ptracer`): its kind and where it is named, or the `<scene>` element where it names
     /// none (Mitsuba's default is `path`) (`see_through_warning`).
     opaque_see_through: Option<(String, String, bool)>,
 }
@@ -325,7 +325,10 @@ impl<'a> Cx<'a> {
     /// (under a thin pane lit by a point light Mitsuba's `path` read 1/1.32 of its `volpath`'s mean,
     /// black in the pane's shadow). Mitsuba's `direct` stops there for every light (a pane under an
     /// area light: caustica's `direct` read 1.45 of its mean, and 1.0000 of its `volpath` at depth 2).
-    /// Where the scene has such a surface (and, under `path`, such a light), the import warns.
+    /// Mitsuba's `ptracer` links its light paths to the camera by rays that stop there too, so what is
+    /// seen through them is black (the same pane: its `volpath` read 1.07 of its `ptracer`'s mean, blocks
+    /// seen through the pane 5.9). Where the scene has such a surface (and, under `path`, such a light),
+    /// the import warns.
     fn see_through_warning(&self) -> Option<String> {
         let (kind, at, named) = self.opaque_see_through.as_ref()?;
         let has = |f: fn(&MaterialSpec) -> bool| self.file.materials.values().any(f);
@@ -338,6 +341,8 @@ impl<'a> Cx<'a> {
         }
         let lost = if kind.starts_with("direct") {
             "every light's shadow rays stop at them and what is seen through them is black but for emitters"
+        } else if kind == "ptracer" {
+            "its light paths' links to the camera stop at them, so what is seen through them is black"
         } else if self.has_delta_light() {
             "the light of its point, spot, projector and directional emitters does not pass them (area lights \
              and the sky pass by BSDF samples alone), and crossing one counts as a bounce"
@@ -642,8 +647,9 @@ impl<'a> Cx<'a> {
             ));
             return self.integrator(first);
         }
-        if let Some(kind @ ("path" | "prb" | "prb_basic" | "prb_projective" | "direct" | "direct_projective")) =
-            n.attr("type")
+        if let Some(
+            kind @ ("path" | "prb" | "prb_basic" | "prb_projective" | "direct" | "direct_projective" | "ptracer"),
+        ) = n.attr("type")
         {
             self.opaque_see_through = Some((kind.to_string(), format!("{}: line {}", n.file.display(), n.line), true));
         }
