@@ -962,11 +962,17 @@ pub fn uv_sphere(rows: u32, columns: u32) -> TriMesh {
             m.uvs.as_mut().unwrap().push([u, v]);
         }
     }
-    let idx = |i: u32, j: u32| i * (columns + 1) + j;
+    // Longitude grows along a row, the polar angle (away from +z) down the rows: the quads face out.
+    grid_quads(&mut m, rows as usize, columns, |i, j| i as u32 * (columns + 1) + j);
+    m
+}
+
+/// Two triangles for each quad of a grid of `rows` × `columns` cells whose corner (i, j) is vertex
+/// `idx(i, j)` (i up to `rows`, j up to `columns`), wound (i, j), (i + 1, j), (i, j + 1) and (i, j + 1),
+/// (i + 1, j), (i + 1, j + 1); the triangles that collapse (a pole, a point on an axis) are left out.
+fn grid_quads(m: &mut TriMesh, rows: usize, columns: u32, idx: impl Fn(usize, u32) -> u32) {
     for i in 0..rows {
         for j in 0..columns {
-            // a, b: this row's corners (longitude growing from a to b); c, d: the next row's, further
-            // from +z. (c − a) × (b − a) points out.
             let (a, b, c, d) = (idx(i, j), idx(i, j + 1), idx(i + 1, j), idx(i + 1, j + 1));
             for t in [[a, c, b], [b, c, d]] {
                 let [p, q, r] = t.map(|k| m.positions[k as usize]);
@@ -976,7 +982,6 @@ pub fn uv_sphere(rows: u32, columns: u32) -> TriMesh {
             }
         }
     }
-    m
 }
 
 /// Surface of revolution about the y axis; profile points [r, y] bottom to top give outward normals.
@@ -989,18 +994,7 @@ pub fn lathe(profile: &[[f32; 2]], segments: u32) -> TriMesh {
             m.positions.push(Vec3::new(r * phi.cos(), y, r * phi.sin()));
         }
     }
-    let idx = |i: usize, j: u32| (i as u32) * segments + (j % segments);
-    for i in 0..profile.len().saturating_sub(1) {
-        for j in 0..segments {
-            let (a, b, c, d) = (idx(i, j), idx(i, j + 1), idx(i + 1, j), idx(i + 1, j + 1));
-            for t in [[a, c, b], [b, c, d]] {
-                let [p, q, r] = t.map(|k| m.positions[k as usize]);
-                if (q - p).cross(r - p).length_squared() > 0.0 {
-                    m.indices.push(t);
-                }
-            }
-        }
-    }
+    grid_quads(&mut m, profile.len().saturating_sub(1), segments, |i, j| (i as u32) * segments + (j % segments));
     m
 }
 
