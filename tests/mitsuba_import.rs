@@ -3149,3 +3149,101 @@ fn what_is_not_read_is_refused_naming_the_line() {
     }
     let _ = std::fs::remove_dir_all(d);
 }
+
+/// Mitsuba 3's `merge` shape joins the meshes in it that share a BSDF, media and emitter into one mesh,
+/// which renders as its parts did, and passes everything else in it (spheres, instances, emitters) to
+/// the scene as it is. So a scene with its shapes and lights in merges (nested, inside a shapegroup,
+/// around an instance, empty) is the scene without them: equal scene hashes. A BSDF in a merge applies to
+/// none of its parts in Mitsuba (they keep their own, or the default), and is ignored here too with a
+/// warning naming its line; what Mitsuba refuses is refused, naming the line: a `to_world` or any
+/// other setting on the merge, and an emitter in a merge inside a shapegroup. Refused before ("shape
+/// type not read"): seen failing.
+#[test]
+fn merged_shapes_read_as_their_parts() {
+    let d = tmp("merge");
+    let load = |name: &str, text: &str| {
+        let path = write(&d, name, text);
+        caustica::scene::mitsuba::convert(&path)
+            .and_then(|c| load_scene_with(&path, &[]).map(|s| (s, c.warnings)))
+            .map_err(|e| e.to_string())
+    };
+    let scene = |body: &str| format!("<scene version=\"3.0.0\">\n{}\n{body}\n</scene>", sensor_at_z2(8));
+    let cube = |x: f32| {
+        format!(
+            r#"<shape type="cube"><ref id="cu"/><transform name="to_world"><scale value="0.2"/><translate x="{x}"/></transform></shape>"#
+        )
+    };
+    let ball =
+        r#"<shape type="sphere"><point name="center" value="0, 0.4, 0"/><float name="radius" value="0.2"/></shape>"#;
+    let floor = r#"<shape type="rectangle"><transform name="to_world"><translate z="-0.5"/></transform></shape>"#;
+    let light =
+        r#"<emitter type="point"><point name="position" value="0, 0, 1"/><rgb name="intensity" value="1"/></emitter>"#;
+    let metal = r#"<bsdf type="conductor" id="cu"><string name="material" value="Cu"/></bsdf>"#;
+    let (a, b) = (cube(-0.5), cube(0.5));
+    let plain = load("plain.xml", &scene(&format!("{metal}{a}{b}{ball}{floor}{light}"))).unwrap();
+    let merged = |inner: &str| format!(r#"<shape type="merge">{inner}</shape>"#);
+    let cases = [
+        ("all", scene(&format!("{metal}{}", merged(&format!("{a}{b}{ball}{floor}{light}"))))),
+        ("some", scene(&format!("{metal}{}{ball}{floor}{light}", merged(&format!("{a}{b}"))))),
+        (
+            "nested",
+            scene(&format!("{metal}{}{floor}{light}", merged(&format!("{a}{}", merged(&format!("{b}{ball}")))))),
+        ),
+        ("empty", scene(&format!("{metal}{a}{b}{ball}{}{floor}{light}", merged("")))),
+        ("named", scene(&format!(r#"{metal}<shape type="merge" id="m">{a}{b}</shape>{ball}{floor}{light}"#))),
+    ];
+    for (name, text) in &cases {
+        let (s, warnings) = load(&format!("{name}.xml"), text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(s.content_hash(), plain.0.content_hash(), "{name}");
+        assert!(warnings.is_empty(), "{name}: {warnings:?}");
+    }
+    // In a shapegroup, placed by an instance, and around the instance: the group's shapes without it.
+    let group = |inner: &str| {
+        format!(r#"<shape type="shapegroup" id="g">{inner}</shape><shape type="instance"><ref id="g"/></shape>"#)
+    };
+    let grouped = load("grouped.xml", &scene(&format!("{metal}{}{floor}{light}", group(&format!("{a}{b}{ball}")))));
+    let grouped = grouped.unwrap().0.content_hash();
+    for (name, text) in [
+        ("in-group", scene(&format!("{metal}{}{floor}{light}", group(&merged(&format!("{a}{b}{ball}")))))),
+        (
+            "around-instance",
+            scene(&format!(
+                r#"{metal}<shape type="shapegroup" id="g">{a}{b}{ball}</shape>{}{floor}{light}"#,
+                merged(r#"<shape type="instance"><ref id="g"/></shape>"#)
+            )),
+        ),
+    ] {
+        let (s, _) = load(&format!("{name}.xml"), &text).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(s.content_hash(), grouped, "{name}");
+    }
+    // A BSDF in a merge: its parts keep their own BSDFs (the ball, none: Mitsuba's default diffuse).
+    let text =
+        scene(&format!("{metal}<shape type=\"merge\">\n<bsdf type=\"dielectric\"/>{a}{b}{ball}</shape>{floor}{light}"));
+    let (s, warnings) = load("bsdf.xml", &text).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.content_hash(), plain.0.content_hash());
+    let line = text.lines().position(|l| l.starts_with("<bsdf type=\"dielectric\"")).unwrap() + 1;
+    assert!(
+        warnings.len() == 1 && warnings[0].contains(&format!("bsdf.xml: line {line}")) && warnings[0].contains("none"),
+        "{warnings:?}"
+    );
+    // Refused as Mitsuba refuses them, naming the line.
+    let moved = format!(
+        "{metal}<shape type=\"merge\">\n<transform name=\"to_world\"><translate x=\"1\"/></transform>{a}</shape>{light}"
+    );
+    let lit_group = group(&merged(&format!(
+        "\n<shape type=\"cube\"><emitter type=\"area\"/></shape>{}",
+        r#"<shape type="sphere"/>"#
+    )));
+    let light_in_group = group(&merged(&format!("\n{light}")));
+    for (name, body, want, starts) in [
+        ("moved", moved, "not supported inside <shape type=\"merge\">", "<transform"),
+        ("lit-group", format!("{metal}{lit_group}{light}"), "an emitter inside a shapegroup", "<shape type=\"cube\">"),
+        ("light-in-group", format!("{metal}{light_in_group}"), "an emitter inside a shapegroup", "<emitter"),
+    ] {
+        let text = scene(&body);
+        let err = load(&format!("{name}.xml"), &text).err().expect(name);
+        let line = 1 + text.lines().position(|l| l.starts_with(starts)).unwrap();
+        assert!(err.contains(want) && err.contains(&format!("line {line}:")), "{name}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(d);
+}

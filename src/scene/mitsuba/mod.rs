@@ -31,7 +31,7 @@ enum Valued<'a> {
     Texture(&'a Node, String),
 }
 
-const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance";
+const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance, merge";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
                      roughconductor (ggx, beckmann), principled, twosided, blendbsdf, mask, null, normalmap, bumpmap";
 const EMITTERS: &str = "area (inside a shape), point, spot, projector, directional, constant, envmap";
@@ -764,26 +764,72 @@ impl<'a> Cx<'a> {
             // A group is drawn only where an instance places it.
             Some("shapegroup") => self.shapegroup(n).map(|_| ()),
             Some("instance") => self.instance(n),
+            Some("merge") => {
+                for c in self.merge_parts(n)? {
+                    match c.tag.as_str() {
+                        "shape" => self.shape(c)?,
+                        _ => self.emitter(c)?,
+                    }
+                }
+                Ok(())
+            }
             _ => self.placed_shape(n, None),
         }
     }
 
+    /// A `merge`'s parts, its shapes and emitters in the order written. Mitsuba joins the meshes in it
+    /// that share a BSDF, media and emitter into one mesh, which renders as its parts did, and passes
+    /// everything else (spheres, instances, emitters, nested merges) to the scene as it is: so its parts
+    /// are read as if they stood where it stands. A BSDF, texture or medium in it applies to none of
+    /// them (warned of); the merge itself takes no setting (`to_world` refused, as Mitsuba refuses it).
+    fn merge_parts(&mut self, n: &'a Node) -> Result<Vec<&'a Node>, SceneError> {
+        let p = Props::new(n);
+        let parts = p.objects_of(&["shape", "emitter"]);
+        let unused = p.objects_of(&["bsdf", "texture", "medium", "ref"]);
+        p.finish("shapes and emitters (a merge takes no setting, as in Mitsuba)")?;
+        // A <ref> to a top-level shape adds nothing: that shape is drawn where it stands (Mitsuba draws it
+        // twice, on itself).
+        let target = |u: &Node| u.attr("id").and_then(|id| self.ids.get(id)).map(|t| t.tag.as_str());
+        let unused: Vec<&Node> = unused.into_iter().filter(|u| u.tag != "ref" || target(u) != Some("shape")).collect();
+        for u in unused {
+            let w = format!(
+                "{}: line {}: a <{}> inside a merge applies to none of its shapes (Mitsuba passes it to the \
+                 scene, which ignores it); put it in each shape, or refer to it from there",
+                u.file.display(),
+                u.line,
+                u.tag
+            );
+            if !self.warnings.contains(&w) {
+                self.warnings.push(w);
+            }
+        }
+        Ok(parts)
+    }
+
     /// A `shapegroup`'s shapes, checked: an `id`, shapes only, none of them emitting or a group itself
-    /// (Mitsuba instances neither emitters nor groups).
-    fn shapegroup(&self, g: &'a Node) -> Result<Vec<&'a Node>, SceneError> {
+    /// (Mitsuba instances neither emitters nor groups); a merge's parts as the group's own.
+    fn shapegroup(&mut self, g: &'a Node) -> Result<Vec<&'a Node>, SceneError> {
         if g.attr("id").is_none() {
             return Err(g.error("a shapegroup needs an `id` for instances to refer to"));
         }
         let p = Props::new(g);
-        let shapes = p.objects("shape");
+        let mut todo = p.objects("shape");
         p.finish("shapes")?;
-        for c in &shapes {
+        todo.reverse();
+        let mut shapes = Vec::new();
+        while let Some(c) = todo.pop() {
+            let merge = c.tag == "shape" && c.attr("type") == Some("merge");
+            if merge {
+                todo.extend(self.merge_parts(c)?.into_iter().rev());
+                continue;
+            }
+            if c.tag == "emitter" || c.children.iter().any(|e| e.tag == "emitter") {
+                return Err(c.error("an emitter inside a shapegroup (Mitsuba does not instance emitters either)"));
+            }
             if matches!(c.attr("type"), Some("shapegroup" | "instance")) {
                 return Err(c.error("a shapegroup inside a shapegroup (Mitsuba does not nest instancing either)"));
             }
-            if c.children.iter().any(|e| e.tag == "emitter") {
-                return Err(c.error("an emitter inside a shapegroup (Mitsuba does not instance emitters either)"));
-            }
+            shapes.push(c);
         }
         Ok(shapes)
     }
