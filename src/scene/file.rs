@@ -706,6 +706,23 @@ pub enum ShapeSpec {
         #[serde(default)]
         transform: TransformSpec,
     },
+    /// Round curves from a text file, as Mitsuba's `linearcurve`: a control point a line (`x y z
+    /// radius`), a blank line between curves; along each segment the cone touching the spheres round
+    /// its two points, and those spheres (tessellated: `segments` round each ring, default 32, fewer
+    /// where the file has so many segments that the mesh would pass 8 million triangles). `transform`
+    /// places the points and leaves the radii as they are (Mitsuba's); `instance_transform` places the
+    /// whole surface after it (a Mitsuba instance's `to_world`). Closed surfaces seen from outside: their
+    /// material may not let light through, and they do not emit.
+    Curves {
+        file: String,
+        material: String,
+        #[serde(default)]
+        transform: TransformSpec,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        segments: Option<u32>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        instance_transform: Option<TransformSpec>,
+    },
     /// Axis-aligned box from `min` to `max` (then transformed), outward normals.
     Box {
         min: V3,

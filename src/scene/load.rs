@@ -1415,6 +1415,31 @@ fn build_shape(
                 push(out.shapes, mesh, *flip_normals, (transform, None), mat, (Rgb::ZERO, None), true, false)?;
             }
         }
+        ShapeSpec::Curves { file, material, transform, segments, instance_transform } => {
+            let path = dir.join(file);
+            let shown_file = path.display().to_string();
+            let in_scene = |e: SceneError| cx.err(&format!("{key}.file"), e.to_string());
+            let mut curves = mesh::read_curves(&path, &shown_file).map_err(in_scene)?;
+            // The points placed, the radii as they are (Mitsuba's).
+            let m = transform_matrix(key, transform, cx.shown)?;
+            for (p, _) in curves.iter_mut().flatten() {
+                *p = m.transform_point3(*p);
+            }
+            let around = curve_segments(cx, key, &curves, *segments)?;
+            let mat = lookup(material)?;
+            if lets_light_in(out.materials, mat) {
+                let msg = format!(
+                    "`{material}` lets light through or into the curves, which are closed surfaces seen from \
+                     outside here, where Mitsuba's cull their inside (light that enters its glass curve leaves \
+                     it unbent): give them an opaque material"
+                );
+                return Err(cx.err(&format!("{key}.material"), msg));
+            }
+            let mesh = mesh::round_linear_curves(&curves, around);
+            mesh.validate(&shown_file).map_err(in_scene)?;
+            let placed = (&TransformSpec::default(), instance_transform.as_ref());
+            push(out.shapes, mesh, false, placed, mat, (Rgb::ZERO, None), true, false)?;
+        }
         ShapeSpec::Heightfield { material, transform, .. } => {
             let mesh = generated_mesh(cx, key, spec)?;
             push(out.shapes, mesh, false, (transform, None), lookup(material)?, (Rgb::ZERO, None), false, false)?;
@@ -1541,6 +1566,44 @@ fn mtl_texture_material(
 /// its silhouette within 7.6e-5 of its longest radius of the true one.
 const ELLIPSOID_ROWS: u32 = 128;
 
+/// Most triangles the automatic tessellation of a curve file makes (`curve_segments`).
+const CURVE_TRIANGLES: usize = 8_000_000;
+
+/// Steps round each ring of a curve file's mesh: `asked` (3 to 1024), or 32, fewer (down to 6) where the
+/// mesh would pass `CURVE_TRIANGLES`. Refused: more than 200 million triangles.
+fn curve_segments(cx: &Ctx, key: &str, curves: &[mesh::Curve], asked: Option<u32>) -> Result<u32, SceneError> {
+    let segments: usize = curves.iter().map(|c| c.len() - 1).sum();
+    // Each segment's cone and end cap, each curve's start cap (`round_linear_curves`).
+    let triangles = |around: u32| {
+        let (a, rings) = (around as usize, (around / 4).max(2) as usize);
+        segments * (2 * a + 2 * a * rings) + curves.len() * 2 * a * rings
+    };
+    let around = match asked {
+        Some(a) if (3..=1024).contains(&a) => a,
+        Some(a) => return Err(cx.err(&format!("{key}.segments"), format!("must be in [3, 1024], got {a}"))),
+        None => (6..=128).rev().find(|&a| triangles(a) <= CURVE_TRIANGLES).unwrap_or(6),
+    };
+    if triangles(around) > 200_000_000 {
+        let msg = format!(
+            "{segments} curve segments at {around} steps round make {} triangles, more than 200 million",
+            triangles(around)
+        );
+        return Err(cx.err(&format!("{key}.file"), msg));
+    }
+    Ok(around)
+}
+
+/// Whether some material a hit on `material` can be lets light through or holds a medium.
+fn lets_light_in(materials: &[SurfaceMaterial], material: u32) -> bool {
+    let m = &materials[material as usize];
+    match m.blend {
+        Some(b) => lets_light_in(materials, b.first) || lets_light_in(materials, b.second),
+        None => {
+            m.bsdf.transmits() || m.bsdf.is_thin() || m.absorption != Rgb::ZERO || m.absorption_outside != Rgb::ZERO
+        }
+    }
+}
+
 /// Whether `m` only rotates (or reflects), translates and scales uniformly, to 1e-4: a sphere stays a
 /// sphere under it.
 pub fn is_similarity(m: &Mat4) -> bool {
@@ -1641,7 +1704,9 @@ fn generated_mesh(cx: &Ctx, key: &str, spec: &ShapeSpec) -> Result<TriMesh, Scen
             }
             mesh::cuboid(a, b)
         }
-        ShapeSpec::Mesh { .. } | ShapeSpec::Sphere { .. } => unreachable!("not a generated mesh"),
+        ShapeSpec::Mesh { .. } | ShapeSpec::Sphere { .. } | ShapeSpec::Curves { .. } => {
+            unreachable!("not a generated mesh")
+        }
     })
 }
 

@@ -1047,6 +1047,147 @@ pub fn cuboid(min: Vec3, max: Vec3) -> TriMesh {
     m
 }
 
+/// One curve of a curve file: its control points, each a centre and a radius.
+pub type Curve = Vec<(Vec3, f32)>;
+
+/// Reads a curve file as Mitsuba's `linearcurve` reads it: one control point a line, `x y z radius`
+/// (numbers after the fourth ignored), a blank line between two curves, each curve of at least two
+/// points. Refused, naming the line: a line that does not start with four numbers, a point or a radius
+/// that is not finite, a negative radius, a curve of one point, a file without any point.
+pub fn read_curves(path: &Path, shown: &str) -> Result<Vec<Curve>, SceneError> {
+    let err = |msg: String| SceneError::Mesh { file: shown.into(), msg };
+    if !path.exists() {
+        return Err(SceneError::MissingFile { file: shown.into() });
+    }
+    let text = std::fs::read(path).map_err(|e| err(e.to_string()))?;
+    let text = String::from_utf8_lossy(&text);
+    let mut curves: Vec<Curve> = Vec::new();
+    let mut current: Curve = Vec::new();
+    let mut first_line = 0;
+    let mut end = |current: &mut Curve, first_line: usize| -> Result<(), SceneError> {
+        match current.len() {
+            0 => Ok(()),
+            1 => Err(err(format!("line {first_line}: a curve needs at least two control points, this one has one"))),
+            _ => {
+                curves.push(std::mem::take(current));
+                Ok(())
+            }
+        }
+    };
+    for (i, line) in text.split('\n').enumerate() {
+        let line_no = i + 1;
+        let mut words = line.split_whitespace();
+        if line.trim().is_empty() {
+            end(&mut current, first_line)?;
+            continue;
+        }
+        let mut v = [0.0f32; 4];
+        for (k, slot) in v.iter_mut().enumerate() {
+            let word = words.next().unwrap_or("");
+            *slot = word.parse().map_err(|_| {
+                err(format!("line {line_no}: expected four numbers `x y z radius`, number {} is `{word}`", k + 1))
+            })?;
+        }
+        if !v.iter().all(|x| x.is_finite()) {
+            return Err(err(format!("line {line_no}: a control point must be finite, got {v:?}")));
+        }
+        if v[3] < 0.0 {
+            return Err(err(format!("line {line_no}: a radius must be ≥ 0, got {}", v[3])));
+        }
+        if current.is_empty() {
+            first_line = line_no;
+        }
+        current.push((Vec3::new(v[0], v[1], v[2]), v[3]));
+    }
+    end(&mut current, first_line)?;
+    if curves.is_empty() {
+        return Err(err("the file holds no control point".into()));
+    }
+    Ok(curves)
+}
+
+/// Mitsuba's `linearcurve` (Embree's round linear curves) as a closed mesh: along each segment the cone
+/// that touches the spheres round its two control points, and those spheres beyond where it touches
+/// them (the first point's only on a curve's first segment; a later segment starts inside the sphere
+/// that ends the one before). `around` steps round each ring; the spheres' caps take `around / 4`
+/// rings. Exact outward normals at the vertices, and Mitsuba's texture coordinates: u the angle round
+/// the segment's axis from its frame's radial direction (Mitsuba's frame, built on +z) over 2π, v
+/// (t + k) / n along segment k of all n segments of the file, t going 0 → 1 along the cone and held at 0
+/// on the start sphere and at 1 on the end sphere, as Embree reports it.
+pub fn round_linear_curves(curves: &[Curve], around: u32) -> TriMesh {
+    let mut m = TriMesh { uvs: Some(Vec::new()), normals: Some(Vec::new()), ..TriMesh::default() };
+    let total = curves.iter().map(|c| c.len() - 1).sum::<usize>().max(1) as f32;
+    let rings = (around / 4).max(2);
+    let mut k = 0usize;
+    for c in curves {
+        for (s, w) in c.windows(2).enumerate() {
+            let [(p0, r0), (p1, r1)] = [w[0], w[1]];
+            let d = p1 - p0;
+            let len = d.length();
+            let axis = if len > 0.0 { d / len } else { Vec3::Z };
+            // Mitsuba's frame: its rotation axis from +z made orthogonal to the segment, radial the
+            // rotation axis × the segment.
+            let rot = if axis.z.abs() == 1.0 { Vec3::Y } else { (Vec3::Z - axis * axis.z).normalize() };
+            let rad = rot.cross(axis);
+            // The cone's normal leans back by sin α = (r1 − r0) / length; none where one sphere holds
+            // the other.
+            let sin_a = if len > 0.0 { (r1 - r0) / len } else { 2.0 };
+            let cone = sin_a.abs() < 1.0;
+            let (v0, v1) = ((k as f32) / total, (k as f32 + 1.0) / total);
+            let normal = |phi: f32, cos_t: f32, sin_t: f32, pole: Vec3| {
+                let (sp, cp) = phi.sin_cos();
+                pole * cos_t + (rad * cp + rot * sp) * sin_t
+            };
+            // A sphere's cap about `pole` out to polar angle `theta`, its rings from the pole.
+            let cap = |m: &mut TriMesh, centre: Vec3, r: f32, pole: Vec3, theta: f32, v: f32, turn: bool| {
+                let base = m.positions.len() as u32;
+                for i in 0..=rings {
+                    let t = theta * i as f32 / rings as f32;
+                    let (sin_t, cos_t) = if i == 0 { (0.0, 1.0) } else { t.sin_cos() };
+                    for j in 0..=around {
+                        let phi = std::f32::consts::TAU * (j % around) as f32 / around as f32;
+                        let n = normal(phi, cos_t, sin_t, pole);
+                        m.positions.push(centre + n * r);
+                        m.normals.as_mut().unwrap().push(n);
+                        m.uvs.as_mut().unwrap().push([j as f32 / around as f32, v]);
+                    }
+                }
+                let from = m.indices.len();
+                grid_quads(m, rings as usize, around, |i, j| base + i as u32 * (around + 1) + j);
+                if turn {
+                    for t in &mut m.indices[from..] {
+                        t.swap(1, 2);
+                    }
+                }
+            };
+            let full = std::f32::consts::PI;
+            if s == 0 {
+                // About −axis out to where the cone touches (n·axis = −sin α), all of it without a cone.
+                let theta = if cone { sin_a.acos() } else { full };
+                cap(&mut m, p0, r0, -axis, theta, v0, true);
+            }
+            let theta = if cone { (-sin_a).acos() } else { full };
+            cap(&mut m, p1, r1, axis, theta, v1, false);
+            if cone {
+                let cos_a = (1.0 - sin_a * sin_a).sqrt();
+                let base = m.positions.len() as u32;
+                for j in 0..=around {
+                    let phi = std::f32::consts::TAU * (j % around) as f32 / around as f32;
+                    let n = normal(phi, -sin_a, cos_a, axis);
+                    for (p, r, v) in [(p0, r0, v0), (p1, r1, v1)] {
+                        m.positions.push(p + n * r);
+                        m.normals.as_mut().unwrap().push(n);
+                        m.uvs.as_mut().unwrap().push([j as f32 / around as f32, v]);
+                    }
+                }
+                grid_quads(&mut m, around as usize, 1, |i, j| base + 2 * i as u32 + j);
+            }
+            k += 1;
+        }
+    }
+    m
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -31,7 +31,8 @@ enum Valued<'a> {
     Texture(&'a Node, String),
 }
 
-const SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, shapegroup, instance, merge";
+const SHAPES: &str =
+    "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, linearcurve, shapegroup, instance, merge";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
                      roughconductor (ggx, beckmann), principled, twosided, blendbsdf, mask, null, normalmap, bumpmap";
 const EMITTERS: &str = "area (inside a shape), point, spot, projector, directional, constant, envmap";
@@ -980,6 +981,28 @@ impl<'a> Cx<'a> {
                 }
             }
             "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals)?,
+            "linearcurve" => {
+                if emission.is_some() {
+                    return Err(n.error(
+                        "an emitter on curves: Mitsuba cannot sample points on curves, and its render fails \
+                         (\"pdf_position(): not implemented\")",
+                    ));
+                }
+                if flip_normals {
+                    return Err(n.error("flip_normals on curves (their outside is always the front)"));
+                }
+                let file = p.string("filename")?.ok_or_else(|| n.error("needs a `filename`"))?;
+                // Its points are placed by its own to_world (a mirror included: the surface is built
+                // round them, facing out), its radii left as they are; an instance places the whole.
+                inside_out = mirrors;
+                ShapeSpec::Curves {
+                    file: self.resolve(n, &file),
+                    material,
+                    transform: transform_spec(own),
+                    segments: None,
+                    instance_transform: outer.map(|m| transform_spec(Some(m))),
+                }
+            }
             _ => return Err(n.error(format!("shape type not read (read: {SHAPES})"))),
         };
         if mirrors && !inside_out {
@@ -2002,7 +2025,7 @@ pub fn rebase(file: &mut SceneFile, from: &Path, to: &Path) -> Result<(), String
         Ok(())
     };
     for s in &mut file.shapes {
-        if let ShapeSpec::Mesh { file, .. } = s {
+        if let ShapeSpec::Mesh { file, .. } | ShapeSpec::Curves { file, .. } = s {
             fix(file)?;
         }
     }
