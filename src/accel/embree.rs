@@ -136,6 +136,28 @@ unsafe extern "C" fn sphere_occluded(args: *const RTCOccludedFunctionNArguments)
     }
 }
 
+/// Embree's filter for a mesh whose backs are culled (`TriMesh::cull_back`): a hit where the ray meets
+/// the triangle from behind its geometric normal (Embree's, which faces as the winding does) is
+/// rejected, and the ray goes on.
+unsafe extern "C" fn cull_back_faces(args: *const RTCFilterFunctionNArguments) {
+    // SAFETY: Embree passes N lanes of SoA ray and hit blocks (4-byte fields) and their valid mask.
+    unsafe {
+        let a = &*args;
+        let n = a.N as usize;
+        let (ray, hit) = (a.ray as *const f32, a.hit as *const f32);
+        for i in 0..n {
+            if *a.valid.add(i) == 0 {
+                continue;
+            }
+            // RTCRayN: org (3), tnear, dir (3)…; RTCHitN: Ng (3)….
+            let facing: f32 = (0..3).map(|k| *ray.add((lane::DIR + k) * n + i) * *hit.add(k * n + i)).sum();
+            if facing > 0.0 {
+                *a.valid.add(i) = 0;
+            }
+        }
+    }
+}
+
 impl Accel {
     /// Builds one Embree scene over all shapes; geometry ID = shape index.
     pub fn new(scene: &Scene) -> Result<Accel, String> {
@@ -171,6 +193,10 @@ impl Accel {
                         }
                         ptr::copy_nonoverlapping(m.positions.as_ptr() as *const f32, vb, m.positions.len() * 3);
                         ptr::copy_nonoverlapping(m.indices.as_ptr() as *const u32, ib, m.indices.len() * 3);
+                        if m.cull_back {
+                            rtcSetGeometryIntersectFilterFunction(g, Some(cull_back_faces));
+                            rtcSetGeometryOccludedFilterFunction(g, Some(cull_back_faces));
+                        }
                         g
                     }
                     Geometry::Sphere { center, radius, .. } => {

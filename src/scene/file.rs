@@ -706,16 +706,20 @@ pub enum ShapeSpec {
         #[serde(default)]
         transform: TransformSpec,
     },
-    /// Round curves from a text file, as Mitsuba's `linearcurve`: a control point a line (`x y z
-    /// radius`), a blank line between curves; along each segment the cone touching the spheres round
-    /// its two points, and those spheres (tessellated: `segments` round each ring, default 32, fewer
-    /// where the file has so many segments that the mesh would pass 8 million triangles). `transform`
-    /// places the points and leaves the radii as they are (Mitsuba's); `instance_transform` places the
-    /// whole surface after it (a Mitsuba instance's `to_world`). Closed surfaces seen from outside: their
-    /// material may not let light through, and they do not emit.
+    /// Round curves from a text file, as Mitsuba's `linearcurve` and `bsplinecurve`: a control point a
+    /// line (`x y z radius`), a blank line between curves. `basis = "linear"` (default): along each
+    /// segment the cone touching the spheres round its two points, and those spheres; `"bspline"`: round
+    /// the uniform cubic B-spline of each four consecutive points, the circle of the spline of their
+    /// radii across it, open at the ends. Tessellated: `segments` round each ring (default up to 128,
+    /// fewer where the file has so many segments that the mesh would pass 8 million triangles).
+    /// `transform` places the points and leaves the radii as they are (Mitsuba's);
+    /// `instance_transform` places the whole surface after it (a Mitsuba instance's `to_world`). Seen
+    /// from outside: their material may not let light through, and they do not emit.
     Curves {
         file: String,
         material: String,
+        #[serde(default)]
+        basis: CurveBasis,
         #[serde(default)]
         transform: TransformSpec,
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -735,6 +739,17 @@ pub enum ShapeSpec {
         #[serde(default, skip_serializing_if = "is_false")]
         flip_normals: bool,
     },
+}
+
+/// How a curve file's control points make its curves (`ShapeSpec::Curves`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CurveBasis {
+    /// Straight segments between consecutive points (Mitsuba's `linearcurve`).
+    #[default]
+    Linear,
+    /// A uniform cubic B-spline through each four consecutive points (Mitsuba's `bsplinecurve`).
+    Bspline,
 }
 
 fn default_lathe_segments() -> u32 {

@@ -1415,17 +1415,18 @@ fn build_shape(
                 push(out.shapes, mesh, *flip_normals, (transform, None), mat, (Rgb::ZERO, None), true, false)?;
             }
         }
-        ShapeSpec::Curves { file, material, transform, segments, instance_transform } => {
+        ShapeSpec::Curves { file, material, basis, transform, segments, instance_transform } => {
             let path = dir.join(file);
             let shown_file = path.display().to_string();
             let in_scene = |e: SceneError| cx.err(&format!("{key}.file"), e.to_string());
-            let mut curves = mesh::read_curves(&path, &shown_file).map_err(in_scene)?;
+            let least = if *basis == CurveBasis::Bspline { 4 } else { 2 };
+            let mut curves = mesh::read_curves(&path, &shown_file, least).map_err(in_scene)?;
             // The points placed, the radii as they are (Mitsuba's).
             let m = transform_matrix(key, transform, cx.shown)?;
             for (p, _) in curves.iter_mut().flatten() {
                 *p = m.transform_point3(*p);
             }
-            let around = curve_segments(cx, key, &curves, *segments)?;
+            let around = curve_segments(cx, key, &curves, *basis, *segments)?;
             let mat = lookup(material)?;
             if lets_light_in(out.materials, mat) {
                 let msg = format!(
@@ -1435,7 +1436,10 @@ fn build_shape(
                 );
                 return Err(cx.err(&format!("{key}.material"), msg));
             }
-            let mesh = mesh::round_linear_curves(&curves, around);
+            let mesh = match basis {
+                CurveBasis::Linear => mesh::round_linear_curves(&curves, around),
+                CurveBasis::Bspline => mesh::round_bspline_curves(&curves, around, bspline_steps(around)),
+            };
             mesh.validate(&shown_file).map_err(in_scene)?;
             let placed = (&TransformSpec::default(), instance_transform.as_ref());
             push(out.shapes, mesh, false, placed, mat, (Rgb::ZERO, None), true, false)?;
@@ -1569,14 +1573,29 @@ const ELLIPSOID_ROWS: u32 = 128;
 /// Most triangles the automatic tessellation of a curve file makes (`curve_segments`).
 const CURVE_TRIANGLES: usize = 8_000_000;
 
-/// Steps round each ring of a curve file's mesh: `asked` (3 to 1024), or 32, fewer (down to 6) where the
-/// mesh would pass `CURVE_TRIANGLES`. Refused: more than 200 million triangles.
-fn curve_segments(cx: &Ctx, key: &str, curves: &[mesh::Curve], asked: Option<u32>) -> Result<u32, SceneError> {
-    let segments: usize = curves.iter().map(|c| c.len() - 1).sum();
-    // Each segment's cone and end cap, each curve's start cap (`round_linear_curves`).
+/// Steps along each segment of a B-spline curve's mesh for `around` steps round it.
+fn bspline_steps(around: u32) -> u32 {
+    (around / 8).max(4)
+}
+
+/// Steps round each ring of a curve file's mesh: `asked` (3 to 1024), or 128, fewer (down to 6) where
+/// the mesh would pass `CURVE_TRIANGLES`. Refused: more than 200 million triangles.
+fn curve_segments(
+    cx: &Ctx,
+    key: &str,
+    curves: &[mesh::Curve],
+    basis: CurveBasis,
+    asked: Option<u32>,
+) -> Result<u32, SceneError> {
+    let least = if basis == CurveBasis::Bspline { 3 } else { 1 };
+    let segments: usize = curves.iter().map(|c| c.len() - least).sum();
     let triangles = |around: u32| {
         let (a, rings) = (around as usize, (around / 4).max(2) as usize);
-        segments * (2 * a + 2 * a * rings) + curves.len() * 2 * a * rings
+        match basis {
+            // Each segment's cone and end cap, each curve's start cap (`round_linear_curves`).
+            CurveBasis::Linear => segments * (2 * a + 2 * a * rings) + curves.len() * 2 * a * rings,
+            CurveBasis::Bspline => segments * 2 * a * bspline_steps(around) as usize,
+        }
     };
     let around = match asked {
         Some(a) if (3..=1024).contains(&a) => a,

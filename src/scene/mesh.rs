@@ -34,6 +34,9 @@ pub struct TriMesh {
     /// Triangles whose corners `face_vertex_normals` swapped on their own, each turned from the rest of
     /// the mesh (`turned_at`); empty where it swapped none, or every one (then `turned` says so).
     pub turned_alone: Vec<bool>,
+    /// Rays pass the triangles' backs unseen (Mitsuba's curves, whose inside Embree culls): a ray
+    /// meets a triangle only from in front of it, as its winding faces.
+    pub cull_back: bool,
 }
 
 impl TriMesh {
@@ -411,6 +414,7 @@ fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedM
                     face_colors: None,
                     turned: false,
                     turned_alone: Vec::new(),
+                    cull_back: false,
                 },
                 mtl_diffuse,
                 mtl_texture,
@@ -604,7 +608,17 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
             out.extend(std::iter::repeat_n(k.decode(f.c), f.idx.len() - 2));
         }
     }
-    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors, turned: false, turned_alone: Vec::new() })
+    Ok(TriMesh {
+        positions,
+        indices,
+        normals,
+        uvs,
+        colors,
+        face_colors,
+        turned: false,
+        turned_alone: Vec::new(),
+        cull_back: false,
+    })
 }
 
 /// How a PLY's colour properties encode a colour: floats as they are (linear), or integers up to
@@ -752,7 +766,17 @@ pub fn parse_serialized(bytes: &[u8], index: u32, want_normals: bool) -> Result<
         .map(|c| std::array::from_fn(|k| u32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
         .collect();
     let normals = normals.filter(|_| want_normals).map(|ns| ns.into_iter().map(|n| n.normalize_or_zero()).collect());
-    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors: None, turned: false, turned_alone: Vec::new() })
+    Ok(TriMesh {
+        positions,
+        indices,
+        normals,
+        uvs,
+        colors,
+        face_colors: None,
+        turned: false,
+        turned_alone: Vec::new(),
+        cull_back: false,
+    })
 }
 
 /// The fewest bytes one binary record of `def` can take: its scalars, and the count of each list.
@@ -885,6 +909,7 @@ pub fn quad(corner: Vec3, eu: Vec3, ev: Vec3) -> TriMesh {
         uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
         turned: false,
         turned_alone: Vec::new(),
+        cull_back: false,
     }
 }
 
@@ -1051,10 +1076,11 @@ pub fn cuboid(min: Vec3, max: Vec3) -> TriMesh {
 pub type Curve = Vec<(Vec3, f32)>;
 
 /// Reads a curve file as Mitsuba's `linearcurve` reads it: one control point a line, `x y z radius`
-/// (numbers after the fourth ignored), a blank line between two curves, each curve of at least two
-/// points. Refused, naming the line: a line that does not start with four numbers, a point or a radius
-/// that is not finite, a negative radius, a curve of one point, a file without any point.
-pub fn read_curves(path: &Path, shown: &str) -> Result<Vec<Curve>, SceneError> {
+/// (numbers after the fourth ignored), a blank line between two curves, each curve of at least
+/// `least` points (Mitsuba's: two for `linearcurve`, four for `bsplinecurve`). Refused, naming the line:
+/// a line that does not start with four numbers, a point or a radius that is not finite, a negative
+/// radius, a curve of fewer points, a file without any point.
+pub fn read_curves(path: &Path, shown: &str, least: usize) -> Result<Vec<Curve>, SceneError> {
     let err = |msg: String| SceneError::Mesh { file: shown.into(), msg };
     if !path.exists() {
         return Err(SceneError::MissingFile { file: shown.into() });
@@ -1067,7 +1093,9 @@ pub fn read_curves(path: &Path, shown: &str) -> Result<Vec<Curve>, SceneError> {
     let mut end = |current: &mut Curve, first_line: usize| -> Result<(), SceneError> {
         match current.len() {
             0 => Ok(()),
-            1 => Err(err(format!("line {first_line}: a curve needs at least two control points, this one has one"))),
+            n if n < least => {
+                Err(err(format!("line {first_line}: a curve needs at least {least} control points, this one has {n}")))
+            }
             _ => {
                 curves.push(std::mem::take(current));
                 Ok(())
@@ -1115,7 +1143,7 @@ pub fn read_curves(path: &Path, shown: &str) -> Result<Vec<Curve>, SceneError> {
 /// (t + k) / n along segment k of all n segments of the file, t going 0 → 1 along the cone and held at 0
 /// on the start sphere and at 1 on the end sphere, as Embree reports it.
 pub fn round_linear_curves(curves: &[Curve], around: u32) -> TriMesh {
-    let mut m = TriMesh { uvs: Some(Vec::new()), normals: Some(Vec::new()), ..TriMesh::default() };
+    let mut m = TriMesh { uvs: Some(Vec::new()), normals: Some(Vec::new()), cull_back: true, ..TriMesh::default() };
     let total = curves.iter().map(|c| c.len() - 1).sum::<usize>().max(1) as f32;
     let rings = (around / 4).max(2);
     let mut k = 0usize;
@@ -1182,6 +1210,58 @@ pub fn round_linear_curves(curves: &[Curve], around: u32) -> TriMesh {
                 }
                 grid_quads(&mut m, around as usize, 1, |i, j| base + 2 * i as u32 + j);
             }
+            k += 1;
+        }
+    }
+    m
+}
+
+/// Mitsuba's `bsplinecurve` (Embree's round B-spline curves) as a mesh: round each segment's centre
+/// line c(u), the uniform cubic B-spline of four consecutive control points (u from 0 to 1), the circle
+/// of radius r(u) (the same spline of their radii) in the plane across c′(u), which is the surface
+/// Mitsuba 3.9.1 reports hits on; open at both ends, as Mitsuba's (whose inside, seen through them, it
+/// culls). `around` steps round each ring, `steps` along each segment. Exact normals at the vertices
+/// ((|c′|² − (p − c)·c″)(p − c) − r r′ c′, Mitsuba's), and its texture coordinates: u round the centre
+/// line from its frame's radial direction (built on +z) over 2π, v (u + k) / n along segment k of the
+/// file's n.
+pub fn round_bspline_curves(curves: &[Curve], around: u32, steps: u32) -> TriMesh {
+    let mut m = TriMesh { uvs: Some(Vec::new()), normals: Some(Vec::new()), cull_back: true, ..TriMesh::default() };
+    let total = curves.iter().map(|c| c.len().saturating_sub(3)).sum::<usize>().max(1) as f32;
+    let mut k = 0usize;
+    for c in curves {
+        for w in c.windows(4) {
+            let base = m.positions.len() as u32;
+            for i in 0..=steps {
+                let u = i as f32 / steps as f32;
+                let (u2, u3) = (u * u, u * u * u);
+                let b = [
+                    -u3 + 3.0 * u2 - 3.0 * u + 1.0,
+                    3.0 * u3 - 6.0 * u2 + 4.0,
+                    -3.0 * u3 + 3.0 * u2 + 3.0 * u + 1.0,
+                    u3,
+                ];
+                let db = [-3.0 * u2 + 6.0 * u - 3.0, 9.0 * u2 - 12.0 * u, -9.0 * u2 + 6.0 * u + 3.0, 3.0 * u2];
+                let ddb = [6.0 * (1.0 - u), 6.0 * (3.0 * u - 2.0), 6.0 * (1.0 - 3.0 * u), 6.0 * u];
+                let sum = |f: &[f32; 4]| {
+                    w.iter().zip(f).fold((Vec3::ZERO, 0.0), |(p, r), ((q, s), f)| (p + *q * *f, r + s * f))
+                };
+                let ((centre, radius), (dc, dr), (ddc, _)) = (sum(&b), sum(&db), sum(&ddb));
+                let (centre, radius, dc, dr, ddc) = (centre / 6.0, radius / 6.0, dc / 6.0, dr / 6.0, ddc / 6.0);
+                let t = dc.normalize_or(Vec3::X);
+                let rot = if t.z.abs() == 1.0 { Vec3::Y } else { (Vec3::Z - t * t.z).normalize() };
+                let rad = rot.cross(t);
+                for j in 0..=around {
+                    let phi = std::f32::consts::TAU * (j % around) as f32 / around as f32;
+                    let (sp, cp) = phi.sin_cos();
+                    let d = rad * cp + rot * sp;
+                    let n = (dc.length_squared() - radius * d.dot(ddc)) * d - dr * dc;
+                    m.positions.push(centre + d * radius);
+                    m.normals.as_mut().unwrap().push(n.normalize_or(d));
+                    m.uvs.as_mut().unwrap().push([j as f32 / around as f32, (u + k as f32) / total]);
+                }
+            }
+            // Rows round the ring, columns along the segment: the quads face out (as the cone's).
+            grid_quads(&mut m, around as usize, steps, |i, j| base + j * (around + 1) + i as u32);
             k += 1;
         }
     }

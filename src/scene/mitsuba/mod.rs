@@ -32,7 +32,7 @@ enum Valued<'a> {
 }
 
 const SHAPES: &str =
-    "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, linearcurve, shapegroup, instance, merge";
+    "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder, linearcurve, bsplinecurve, shapegroup, instance, merge";
 const BSDFS: &str = "diffuse, plastic, roughplastic, dielectric, roughdielectric, thindielectric, conductor, \
                      roughconductor (ggx, beckmann), principled, twosided, blendbsdf, mask, null, normalmap, bumpmap";
 const EMITTERS: &str = "area (inside a shape), point, spot, projector, directional, constant, envmap";
@@ -981,7 +981,7 @@ impl<'a> Cx<'a> {
                 }
             }
             "cylinder" => cylinder(n, &p, to_world, material, emission, flip_normals)?,
-            "linearcurve" => {
+            kind @ ("linearcurve" | "bsplinecurve") => {
                 if emission.is_some() {
                     return Err(n.error(
                         "an emitter on curves: Mitsuba cannot sample points on curves, and its render fails \
@@ -998,6 +998,11 @@ impl<'a> Cx<'a> {
                 ShapeSpec::Curves {
                     file: self.resolve(n, &file),
                     material,
+                    basis: if kind == "bsplinecurve" {
+                        crate::scene::file::CurveBasis::Bspline
+                    } else {
+                        crate::scene::file::CurveBasis::Linear
+                    },
                     transform: transform_spec(own),
                     segments: None,
                     instance_transform: outer.map(|m| transform_spec(Some(m))),
