@@ -288,7 +288,9 @@ fn see_through_surfaces_under_mitsubas_path_or_direct_are_warned_of() {
     let point = r#"<emitter type="point"><point name="position" x="0" y="0" z="1.5"/><rgb name="intensity" value="1"/></emitter>"#;
     let sun = r#"<emitter type="directional"><vector name="direction" x="0" y="0" z="-1"/><rgb name="irradiance" value="1"/></emitter>"#;
     let area = r#"<shape type="rectangle"><transform name="to_world"><scale value="0.2"/><rotate x="1" angle="180"/><translate z="1.5"/></transform><emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>"#;
-    let cases: [(Option<&str>, String, Option<&str>); 13] = [
+    let cases: [(Option<&str>, String, Option<&str>); 15] = [
+        (Some("path"), format!("{floor}{mask}{area}"), Some("masks (`mask`)")),
+        (Some("prb"), format!("{floor}{null}{pane}{mask}{area}"), Some("masks (`mask`)")),
         (Some("path"), format!("{floor}{pane}{point}"), Some("thin panes")),
         (None, format!("{floor}{pane}{point}"), Some("thin panes")),
         (Some("prb"), format!("{floor}{null}{sun}"), Some("null surfaces")),

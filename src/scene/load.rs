@@ -1428,12 +1428,8 @@ fn build_shape(
             }
             let around = curve_segments(cx, key, &curves, *basis, *segments)?;
             let mat = lookup(material)?;
-            if lets_light_in(out.materials, mat) {
-                let msg = format!(
-                    "`{material}` lets light through or into the curves, which are closed surfaces seen from \
-                     outside here, where Mitsuba's cull their inside (light that enters its glass curve leaves \
-                     it unbent): give them an opaque material"
-                );
+            if let Some(why) = unfit_for_curves(out.materials, mat) {
+                let msg = format!("`{material}` {why}: curves cull their backs, as Mitsuba's do");
                 return Err(cx.err(&format!("{key}.material"), msg));
             }
             let mesh = match basis {
@@ -1612,14 +1608,21 @@ fn curve_segments(
     Ok(around)
 }
 
-/// Whether some material a hit on `material` can be lets light through or holds a medium.
-fn lets_light_in(materials: &[SurfaceMaterial], material: u32) -> bool {
+/// Why a curve may not have `material` (`ShapeSpec::Curves`), if some material a hit on it can be
+/// refracts or holds a medium: curves cull their backs (as Mitsuba's do), so light that enters one
+/// meets no wall from inside.
+fn unfit_for_curves(materials: &[SurfaceMaterial], material: u32) -> Option<&'static str> {
     let m = &materials[material as usize];
     match m.blend {
-        Some(b) => lets_light_in(materials, b.first) || lets_light_in(materials, b.second),
-        None => {
-            m.bsdf.transmits() || m.bsdf.is_thin() || m.absorption != Rgb::ZERO || m.absorption_outside != Rgb::ZERO
+        Some(b) => unfit_for_curves(materials, b.first).or_else(|| unfit_for_curves(materials, b.second)),
+        None if m.absorption != Rgb::ZERO || m.absorption_outside != Rgb::ZERO => {
+            Some("holds a medium, which a path that enters a curve could never leave")
         }
+        None if m.bsdf.transmits() && !m.bsdf.is_thin() => Some(
+            "refracts, and light that enters a curve leaves it unbent (as in Mitsuba), which paths from the \
+             lights (BDPT, VCM, photons) and from the camera do not see alike",
+        ),
+        None => None,
     }
 }
 
