@@ -3368,3 +3368,71 @@ fn bspline_curves_render_as_mitsubas() {
     assert!(err.contains("line 1: a curve needs at least 4 control points"), "{err}");
     let _ = std::fs::remove_dir_all(d);
 }
+
+/// A film's `pixel_format`, `component_format` and `file_format` are read as Mitsuba 3.9.1 reads them:
+/// the values it knows, in any case, change nothing here (scene hashes equal to the film without them),
+/// a luminance or XYZ pixel format is warned of, naming the film's line (caustica writes RGB), and a value
+/// Mitsuba refuses is refused, naming the line; an orthogonal sampler's `strength` is read (it changes
+/// only the noise). Before, any value was read and `strength` refused: seen failing.
+#[test]
+fn film_formats_are_checked_as_mitsuba_checks_them() {
+    let d = tmp("film-formats");
+    let base = panel_scene(r#"<bsdf type="diffuse"/>"#);
+    let film_line = 1 + base.lines().position(|l| l.contains("<film")).unwrap();
+    let with = |name: &str, extra: &str| {
+        let text = base.replacen("<rfilter", &format!("{extra}<rfilter"), 1);
+        let path = write(&d, &format!("{name}.xml"), &text);
+        caustica::scene::mitsuba::convert(&path)
+            .and_then(|c| load_scene_with(&path, &[]).map(|s| (s.content_hash(), c.warnings)))
+            .map_err(|e| e.to_string())
+    };
+    let (plain, _) = with("plain", "").unwrap();
+    let formats = |p: &str, c: &str, f: &str| {
+        format!(
+            r#"<string name="pixel_format" value="{p}"/><string name="component_format" value="{c}"/><string name="file_format" value="{f}"/>"#
+        )
+    };
+    for (k, (p, c, f, warned)) in [
+        ("rgb", "float32", "openexr", false),
+        ("RGBA", "float16", "EXR", false),
+        ("luminance", "uint32", "rgbe", true),
+        ("xyza", "float32", "pfm", true),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let (hash, warnings) = with(&format!("ok{k}"), &formats(p, c, f)).unwrap_or_else(|e| panic!("{p}: {e}"));
+        assert_eq!(hash, plain, "{p} {c} {f}");
+        let said: Vec<&String> = warnings.iter().filter(|w| w.contains("pixel_format")).collect();
+        assert_eq!(said.len(), warned as usize, "{p}: {warnings:?}");
+        if warned {
+            assert!(said[0].contains(&format!("ok{k}.xml: line {film_line}")), "{}", said[0]);
+        }
+    }
+    for (k, (p, c, f, bad)) in [
+        ("rgbz", "float32", "exr", "pixel_format"),
+        ("rgb", "half", "exr", "component_format"),
+        ("rgb", "float32", "png", "file_format"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let err = with(&format!("bad{k}"), &formats(p, c, f)).expect_err(bad);
+        assert!(err.contains(bad) && err.contains(&format!("line {film_line}")), "{err}");
+    }
+    // The orthogonal array's strength, beside its sample count.
+    let sampler = base.replacen(
+        "<film",
+        r#"<sampler type="orthogonal"><integer name="sample_count" value="25"/><integer name="strength" value="2"/></sampler><film"#,
+        1,
+    );
+    let counted = base.replacen(
+        "<film",
+        r#"<sampler type="independent"><integer name="sample_count" value="25"/></sampler><film"#,
+        1,
+    );
+    let [a, b] = [("strength.xml", &sampler), ("counted.xml", &counted)]
+        .map(|(name, text)| load_scene_with(&write(&d, name, text), &[]).unwrap_or_else(|e| panic!("{name}: {e}")));
+    assert_eq!(a.content_hash(), b.content_hash());
+    let _ = std::fs::remove_dir_all(d);
+}

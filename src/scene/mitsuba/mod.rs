@@ -483,6 +483,8 @@ impl<'a> Cx<'a> {
             }
             sp.boolean("jitter")?;
             sp.int("scramble_seed")?;
+            // The orthogonal array's strength.
+            sp.int("strength")?;
             sp.finish("sample_count, seed (the sampler type only changes the noise)")?;
         }
         Ok(())
@@ -575,8 +577,26 @@ impl<'a> Cx<'a> {
             }
             self.file.camera.crop = Some(window);
         }
-        for key in ["pixel_format", "component_format", "file_format"] {
-            p.string(key)?;
+        // How Mitsuba stores its image, checked as Mitsuba checks them (in any case); caustica writes
+        // RGB (and its other files) whatever they say, the same radiance.
+        for (key, known) in [
+            ("pixel_format", &["rgb", "rgba", "luminance", "luminance_alpha", "xyz", "xyza"][..]),
+            ("component_format", &["float16", "float32", "uint32"][..]),
+            ("file_format", &["openexr", "exr", "rgbe", "pfm"][..]),
+        ] {
+            let Some(v) = p.string(key)? else { continue };
+            let lower = v.to_lowercase();
+            if !known.contains(&lower.as_str()) {
+                return Err(f.error(format!("{key} `{v}` is not one Mitsuba knows ({})", known.join(", "))));
+            }
+            if key == "pixel_format" && !lower.starts_with("rgb") {
+                self.warnings.push(format!(
+                    "{}: line {}: the film's pixel_format `{v}`: Mitsuba writes its image so, caustica writes RGB \
+                     (of the same radiance)",
+                    f.file.display(),
+                    f.line
+                ));
+            }
         }
         p.boolean("banner")?;
         p.boolean("high_quality_edges")?;
