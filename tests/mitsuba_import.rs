@@ -3436,3 +3436,30 @@ fn film_formats_are_checked_as_mitsuba_checks_them() {
     assert_eq!(a.content_hash(), b.content_hash());
     let _ = std::fs::remove_dir_all(d);
 }
+
+/// An envmap whose `to_world` scales or shears it is refused, naming its line: Mitsuba 3.9.1 renders
+/// another sky then (a uniform scale of 2 read 1.31 of the unscaled sky's mean), and the loader's own
+/// refusal named only a TOML key (`lights[0].transform`: seen failing). A rotation is read.
+#[test]
+fn a_scaled_envmap_is_refused_naming_its_line() {
+    let d = tmp("envmap-scale");
+    let sky = dir().join("sky.exr").display().to_string();
+    let scene = |transform: &str| {
+        panel_with(
+            "<emitter type=\"point\">",
+            &format!(
+                "\n<emitter type=\"envmap\"><string name=\"filename\" value=\"{sky}\"/>{transform}</emitter>\n<emitter type=\"point\">"
+            ),
+        )
+    };
+    let line = 1 + scene("").lines().position(|l| l.starts_with("<emitter type=\"envmap\"")).unwrap();
+    for (k, t) in [r#"<scale value="2"/>"#, r#"<scale x="1" y="3" z="1"/>"#].iter().enumerate() {
+        let text = scene(&format!("<transform name=\"to_world\">{t}</transform>"));
+        let Err(err) = load_scene_with(&write(&d, &format!("case{k}.xml"), &text), &[]) else { panic!("{t}: loaded") };
+        let err = err.to_string();
+        assert!(err.contains(&format!("line {line}:")) && err.contains("scales or shears"), "{err}");
+    }
+    let turned = scene(r#"<transform name="to_world"><rotate y="1" angle="30"/></transform>"#);
+    load_scene_with(&write(&d, "turned.xml", &turned), &[]).unwrap_or_else(|e| panic!("{e}"));
+    let _ = std::fs::remove_dir_all(d);
+}
