@@ -2867,7 +2867,7 @@ fn what_is_not_read_is_refused_naming_the_line() {
             &volpath_glass("", r#"<medium type="homogeneous"><float name="albedo" value="0"/></medium>"#),
             "a top-level BSDF, texture or medium needs an `id`",
         ),
-        ("shape", &panel_with("type=\"rectangle\"", "type=\"bsplinecurve\""), "shape type not read"),
+        ("shape", &panel_with("type=\"rectangle\"", "type=\"sdfgrid\""), "shape type not read"),
         (
             "cylinder-radius",
             r#"<scene version="3.0.0"><shape type="cylinder"><float name="radius" value="0"/></shape></scene>"#,
