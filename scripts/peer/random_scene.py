@@ -59,6 +59,9 @@ ap.add_argument("out")
 ap.add_argument("--no-blend", action="store_true", help="no blendbsdf, mask or twosided")
 ap.add_argument("--area-lights", action="store_true", help="no point, spot or directional emitter")
 ap.add_argument("--more", action="store_true", help="emitting meshes, bitmap textures, thin lens, more filters")
+ap.add_argument("--curves", action="store_true",
+                help="one to three linearcurve or bsplinecurve shapes of random strands (not with --scale: "
+                     "Mitsuba's to_world scales a curve's points and not its radii)")
 ap.add_argument("--exporter", action="store_true",
                 help="the same scene written as other tools write it (labels, True, aliases, a mirrored camera)")
 ap.add_argument("--scale", type=float, default=1.0,
@@ -955,6 +958,42 @@ if args.more:
     for spd, body in spd_files:
         with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), spd), "w") as fh:
             fh.write("# wavelength (nm) value\n" + body)
+if args.curves and args.scale == 1.0:
+    # Strands of Mitsuba's round curves (session 75), from a stream of their own after everything else
+    # is drawn (the rest of the scene is the seed's scene without --curves): walks above the floor that
+    # keep most of their heading from step to step, each point's radius within 30% of its strand's,
+    # thin beside a step, written next to the scene; a BSDF that does not refract (light leaves a curve
+    # unbent, its inside culled); half of them turned about y by their to_world (which moves the points,
+    # not the radii). Tame strands, as hair is: where a B-spline strand folds over itself (a radius
+    # beyond its bend, a cusp), Mitsuba's Embree and caustica's mesh differ (README "Not done").
+    C = random.Random(args.seed * 6151 + 41)
+    strands = []
+    for i in range(C.randint(1, 3)):
+        kind = C.choice(["linearcurve", "bsplinecurve"])
+        lines = []
+        for _ in range(C.randint(1, 4)):
+            n = C.randint(4, 9) if kind == "bsplinecurve" else C.randint(2, 7)
+            p = [C.uniform(-1.2, 1.2), C.uniform(0.1, 0.8), C.uniform(-0.9, 0.9)]
+            step = C.uniform(0.2, 0.4)
+            r0 = step * C.uniform(0.05, 0.25)
+            heading = [C.uniform(-1, 1), C.uniform(0, 1), C.uniform(-1, 1)]
+            for _ in range(n):
+                lines.append(" ".join(f(v) for v in p) + " " + f(r0 * C.uniform(0.7, 1.3)))
+                heading = [h + C.uniform(-0.6, 0.6) for h in heading]
+                norm = max(1e-6, sum(h * h for h in heading) ** 0.5)
+                heading = [h / norm for h in heading]
+                p = [p[0] + step * heading[0], min(1.5, max(0.05, p[1] + step * heading[1])), p[2] + step * heading[2]]
+            lines.append("")
+        name = f"{os.path.splitext(os.path.basename(args.out))[0]}-curves-{i}.txt"
+        with open(os.path.join(os.path.dirname(os.path.abspath(args.out)), name), "w") as fh:
+            fh.write("\n".join(lines))
+        saved, R = R, C
+        m = bsdf(allow_glass=False)
+        R = saved
+        turn = (f'<transform name="to_world"><rotate y="1" angle="{f(C.uniform(-60, 60))}"/></transform>'
+                if C.random() < 0.5 else "")
+        strands.append(f'<shape type="{kind}"><string name="filename" value="{name}"/>{turn}{m}</shape>')
+    text = text.replace("</scene>", "".join(strands) + "\n</scene>", 1)
 # Mitsuba's path integrator stops shadow rays at a mask's holes and a thin pane, and counts crossing
 # them as a bounce; its volpath (the same without media) lets light straight through them by their
 # transmittance, as no bounce, as caustica does: the reference for such scenes.
