@@ -577,14 +577,16 @@ impl<'a> Cx<'a> {
             }
             self.file.camera.crop = Some(window);
         }
-        // How Mitsuba stores its image, checked as Mitsuba checks them (in any case); caustica writes
-        // RGB (and its other files) whatever they say, the same radiance.
+        // How Mitsuba stores its image, checked as Mitsuba 3 checks an `hdrfilm`'s (in any case; a 0.x
+        // `ldrfilm` writes PNG and JPEG, read as they are); caustica writes RGB (and its other files)
+        // whatever they say, the same radiance.
+        let hdr = f.attr("type") == Some("hdrfilm");
         for (key, known) in [
             ("pixel_format", &["rgb", "rgba", "luminance", "luminance_alpha", "xyz", "xyza"][..]),
             ("component_format", &["float16", "float32", "uint32"][..]),
             ("file_format", &["openexr", "exr", "rgbe", "pfm"][..]),
         ] {
-            let Some(v) = p.string(key)? else { continue };
+            let Some(v) = p.string(key)?.filter(|_| hdr) else { continue };
             let lower = v.to_lowercase();
             if !known.contains(&lower.as_str()) {
                 return Err(f.error(format!("{key} `{v}` is not one Mitsuba knows ({})", known.join(", "))));
