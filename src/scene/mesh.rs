@@ -1134,6 +1134,21 @@ pub fn read_curves(path: &Path, shown: &str, least: usize) -> Result<Vec<Curve>,
     Ok(curves)
 }
 
+/// Mitsuba's frame round a curve's unit tangent `t` (its `local_frame`): the rotation axis, +z made
+/// orthogonal to `t` (+y where `t` is ±z), and the radial direction, that axis × `t`. u = 0 lies along
+/// the radial direction and a quarter turn along the rotation axis.
+fn curve_frame(t: Vec3) -> (Vec3, Vec3) {
+    let rot = if t.z.abs() == 1.0 { Vec3::Y } else { (Vec3::Z - t * t.z).normalize() };
+    (rot, rot.cross(t))
+}
+
+/// Appends one vertex of a curve's mesh: its position, unit normal and texture coordinates.
+fn curve_vertex(m: &mut TriMesh, p: Vec3, n: Vec3, uv: [f32; 2]) {
+    m.positions.push(p);
+    m.normals.get_or_insert_with(Vec::new).push(n);
+    m.uvs.get_or_insert_with(Vec::new).push(uv);
+}
+
 /// Mitsuba's `linearcurve` (Embree's round linear curves) as a closed mesh: along each segment the cone
 /// that touches the spheres round its two control points, and those spheres beyond where it touches
 /// them (the first point's only on a curve's first segment; a later segment starts inside the sphere
@@ -1153,10 +1168,7 @@ pub fn round_linear_curves(curves: &[Curve], around: u32) -> TriMesh {
             let d = p1 - p0;
             let len = d.length();
             let axis = if len > 0.0 { d / len } else { Vec3::Z };
-            // Mitsuba's frame: its rotation axis from +z made orthogonal to the segment, radial the
-            // rotation axis × the segment.
-            let rot = if axis.z.abs() == 1.0 { Vec3::Y } else { (Vec3::Z - axis * axis.z).normalize() };
-            let rad = rot.cross(axis);
+            let (rot, rad) = curve_frame(axis);
             // The cone's normal leans back by sin α = (r1 − r0) / length; none where one sphere holds
             // the other.
             let sin_a = if len > 0.0 { (r1 - r0) / len } else { 2.0 };
@@ -1175,9 +1187,7 @@ pub fn round_linear_curves(curves: &[Curve], around: u32) -> TriMesh {
                     for j in 0..=around {
                         let phi = std::f32::consts::TAU * (j % around) as f32 / around as f32;
                         let n = normal(phi, cos_t, sin_t, pole);
-                        m.positions.push(centre + n * r);
-                        m.normals.as_mut().unwrap().push(n);
-                        m.uvs.as_mut().unwrap().push([j as f32 / around as f32, v]);
+                        curve_vertex(m, centre + n * r, n, [j as f32 / around as f32, v]);
                     }
                 }
                 let from = m.indices.len();
@@ -1203,9 +1213,7 @@ pub fn round_linear_curves(curves: &[Curve], around: u32) -> TriMesh {
                     let phi = std::f32::consts::TAU * (j % around) as f32 / around as f32;
                     let n = normal(phi, -sin_a, cos_a, axis);
                     for (p, r, v) in [(p0, r0, v0), (p1, r1, v1)] {
-                        m.positions.push(p + n * r);
-                        m.normals.as_mut().unwrap().push(n);
-                        m.uvs.as_mut().unwrap().push([j as f32 / around as f32, v]);
+                        curve_vertex(&mut m, p + n * r, n, [j as f32 / around as f32, v]);
                     }
                 }
                 grid_quads(&mut m, around as usize, 1, |i, j| base + 2 * i as u32 + j);
@@ -1247,17 +1255,18 @@ pub fn round_bspline_curves(curves: &[Curve], around: u32, steps: u32) -> TriMes
                 };
                 let ((centre, radius), (dc, dr), (ddc, _)) = (sum(&b), sum(&db), sum(&ddb));
                 let (centre, radius, dc, dr, ddc) = (centre / 6.0, radius / 6.0, dc / 6.0, dr / 6.0, ddc / 6.0);
-                let t = dc.normalize_or(Vec3::X);
-                let rot = if t.z.abs() == 1.0 { Vec3::Y } else { (Vec3::Z - t * t.z).normalize() };
-                let rad = rot.cross(t);
+                let (rot, rad) = curve_frame(dc.normalize_or(Vec3::X));
                 for j in 0..=around {
                     let phi = std::f32::consts::TAU * (j % around) as f32 / around as f32;
                     let (sp, cp) = phi.sin_cos();
                     let d = rad * cp + rot * sp;
                     let n = (dc.length_squared() - radius * d.dot(ddc)) * d - dr * dc;
-                    m.positions.push(centre + d * radius);
-                    m.normals.as_mut().unwrap().push(n.normalize_or(d));
-                    m.uvs.as_mut().unwrap().push([j as f32 / around as f32, (u + k as f32) / total]);
+                    curve_vertex(
+                        &mut m,
+                        centre + d * radius,
+                        n.normalize_or(d),
+                        [j as f32 / around as f32, (u + k as f32) / total],
+                    );
                 }
             }
             // Rows round the ring, columns along the segment: the quads face out (as the cone's).
