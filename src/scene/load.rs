@@ -278,6 +278,18 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     }
     scene.point_media = point_media;
     scene.warnings = warnings;
+    // B-spline curves are open at their ends and cull their backs, as Mitsuba's are: light that passes
+    // into an end and out through the wall cannot pass back the other way.
+    for (i, spec) in file.shapes.iter().enumerate() {
+        if let ShapeSpec::Curves { basis: CurveBasis::Bspline, .. } = spec {
+            scene.warnings.push(format!(
+                "shapes[{i}] (B-spline curves) is open at its curves' ends and culls its inside, as Mitsuba's: \
+                 light that passes into an end and out through the wall cannot pass back the other way, which \
+                 paths from the lights and from the camera do not see alike, so near the open ends the photon \
+                 and bidirectional modes may differ from the path tracer (which renders what Mitsuba's does)"
+            ));
+        }
+    }
     scene.lights = Lights::build(&scene, &points, &distant, env);
     let keys: Vec<String> = env_key.into_iter().chain(distant_keys).chain(point_keys).collect();
     let env_file = file.lights.iter().find_map(|l| match l {
