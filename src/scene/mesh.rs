@@ -405,17 +405,7 @@ fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedM
         // An object with no faces (points, lines, an empty group) has nothing to render.
         if !indices.is_empty() {
             out.push(LoadedMesh {
-                mesh: TriMesh {
-                    positions,
-                    indices,
-                    normals,
-                    uvs,
-                    colors: None,
-                    face_colors: None,
-                    turned: false,
-                    turned_alone: Vec::new(),
-                    cull_back: false,
-                },
+                mesh: TriMesh { positions, indices, normals, uvs, ..TriMesh::default() },
                 mtl_diffuse,
                 mtl_texture,
                 mtl_error: mtl_error.clone(),
@@ -608,17 +598,7 @@ pub fn parse_ply(bytes: &[u8], want_normals: bool) -> Result<TriMesh, String> {
             out.extend(std::iter::repeat_n(k.decode(f.c), f.idx.len() - 2));
         }
     }
-    Ok(TriMesh {
-        positions,
-        indices,
-        normals,
-        uvs,
-        colors,
-        face_colors,
-        turned: false,
-        turned_alone: Vec::new(),
-        cull_back: false,
-    })
+    Ok(TriMesh { positions, indices, normals, uvs, colors, face_colors, ..TriMesh::default() })
 }
 
 /// How a PLY's colour properties encode a colour: floats as they are (linear), or integers up to
@@ -766,17 +746,7 @@ pub fn parse_serialized(bytes: &[u8], index: u32, want_normals: bool) -> Result<
         .map(|c| std::array::from_fn(|k| u32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap())))
         .collect();
     let normals = normals.filter(|_| want_normals).map(|ns| ns.into_iter().map(|n| n.normalize_or_zero()).collect());
-    Ok(TriMesh {
-        positions,
-        indices,
-        normals,
-        uvs,
-        colors,
-        face_colors: None,
-        turned: false,
-        turned_alone: Vec::new(),
-        cull_back: false,
-    })
+    Ok(TriMesh { positions, indices, normals, uvs, colors, ..TriMesh::default() })
 }
 
 /// The fewest bytes one binary record of `def` can take: its scalars, and the count of each list.
@@ -903,13 +873,8 @@ pub fn quad(corner: Vec3, eu: Vec3, ev: Vec3) -> TriMesh {
     TriMesh {
         positions: vec![corner, corner + eu, corner + eu + ev, corner + ev],
         indices: vec![[0, 1, 2], [0, 2, 3]],
-        normals: None,
-        colors: None,
-        face_colors: None,
         uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
-        turned: false,
-        turned_alone: Vec::new(),
-        cull_back: false,
+        ..TriMesh::default()
     }
 }
 
