@@ -1050,22 +1050,28 @@ fn apply_normal_maps(
     Ok(())
 }
 
+/// The first leaf under material `m` (itself, or a blend's parts, first then second; cycles are refused
+/// before anything walks them) for which `f` holds.
+fn find_leaf(m: u32, materials: &[SurfaceMaterial], f: &dyn Fn(&SurfaceMaterial) -> bool) -> Option<u32> {
+    match materials[m as usize].blend {
+        Some(b) => find_leaf(b.first, materials, f).or_else(|| find_leaf(b.second, materials, f)),
+        None => f(&materials[m as usize]).then_some(m),
+    }
+}
+
+/// Whether a material absorbs inside or around it (`absorption`, `outside_absorption`: a medium).
+fn absorbs(m: &SurfaceMaterial) -> bool {
+    m.absorption != Rgb::ZERO || m.absorption_outside != Rgb::ZERO
+}
+
 /// A side blend's back is seen from behind as from its own front, so each material it can be must be
 /// two-sided (a one-sided one would be black there); and neither side may let light through (a path
 /// through the surface would meet the other side's material: Mitsuba's `twosided` refuses it too).
 fn check_sides(cx: &Ctx, materials: &[SurfaceMaterial], names: &[String]) -> Result<(), SceneError> {
-    // Every leaf under `m` (cycles were refused before), and whether `f` holds for one of them.
-    fn find(m: u32, materials: &[SurfaceMaterial], f: &dyn Fn(&SurfaceMaterial) -> bool) -> Option<u32> {
-        match materials[m as usize].blend {
-            Some(b) => find(b.first, materials, f).or_else(|| find(b.second, materials, f)),
-            None => f(&materials[m as usize]).then_some(m),
-        }
-    }
     for (i, m) in materials.iter().enumerate() {
         let Some(b) = m.blend else { continue };
         for (field, part) in [("first", b.first), ("second", b.second)] {
-            let absorbs = |l: &SurfaceMaterial| l.absorption != Rgb::ZERO || l.absorption_outside != Rgb::ZERO;
-            if let Some(l) = find(part, materials, &absorbs) {
+            if let Some(l) = find_leaf(part, materials, &absorbs) {
                 let field =
                     if b.weight == BlendWeight::Side { ["front", "back"][(field == "second") as usize] } else { field };
                 let msg = format!(
@@ -1079,7 +1085,7 @@ fn check_sides(cx: &Ctx, materials: &[SurfaceMaterial], names: &[String]) -> Res
         let Some(b) = m.blend.filter(|b| b.weight == BlendWeight::Side) else { continue };
         let key = format!("materials.{}", names[i]);
         let one_sided = |l: &SurfaceMaterial| !l.two_sided || matches!(l.bsdf, Material::Principled(p) if !p.two_sided);
-        if let Some(l) = find(b.second, materials, &one_sided) {
+        if let Some(l) = find_leaf(b.second, materials, &one_sided) {
             let msg = format!(
                 "`{}` is one-sided: seen from behind it would be black (make it two_sided = true)",
                 names[l as usize]
@@ -1087,7 +1093,7 @@ fn check_sides(cx: &Ctx, materials: &[SurfaceMaterial], names: &[String]) -> Res
             return Err(cx.err(&format!("{key}.back"), msg));
         }
         for (field, side) in [("front", b.first), ("back", b.second)] {
-            if let Some(l) = find(side, materials, &|l: &SurfaceMaterial| l.bsdf.transmits()) {
+            if let Some(l) = find_leaf(side, materials, &|l: &SurfaceMaterial| l.bsdf.transmits()) {
                 let msg = format!(
                     "`{}` lets light through; a surface with a material on each side cannot",
                     names[l as usize]
@@ -1620,22 +1626,18 @@ fn curve_segments(
     Ok(around)
 }
 
-/// Why a curve may not have `material` (`ShapeSpec::Curves`), if some material a hit on it can be
-/// refracts or holds a medium: curves cull their backs (as Mitsuba's do), so light that enters one
-/// meets no wall from inside.
+/// Why a curve may not have `material`, if some material a hit on it can be holds a medium or refracts:
+/// curves cull their backs (as Mitsuba's do), so light that enters one meets no wall from inside. (A
+/// blend holds no medium: `check_sides` refuses one.)
 fn unfit_for_curves(materials: &[SurfaceMaterial], material: u32) -> Option<&'static str> {
-    let m = &materials[material as usize];
-    match m.blend {
-        Some(b) => unfit_for_curves(materials, b.first).or_else(|| unfit_for_curves(materials, b.second)),
-        None if m.absorption != Rgb::ZERO || m.absorption_outside != Rgb::ZERO => {
-            Some("holds a medium, which a path that enters a curve could never leave")
-        }
-        None if m.bsdf.transmits() && !m.bsdf.is_thin() => Some(
-            "refracts, and light that enters a curve leaves it unbent (as in Mitsuba), which paths from the \
-             lights (BDPT, VCM, photons) and from the camera do not see alike",
-        ),
-        None => None,
+    if find_leaf(material, materials, &absorbs).is_some() {
+        return Some("holds a medium, which a path that enters a curve could never leave");
     }
+    let refracts = |m: &SurfaceMaterial| m.bsdf.transmits() && !m.bsdf.is_thin();
+    find_leaf(material, materials, &refracts).map(|_| {
+        "refracts, and light that enters a curve leaves it unbent (as in Mitsuba), which paths from the \
+         lights (BDPT, VCM, photons) and from the camera do not see alike"
+    })
 }
 
 /// Whether `m` only rotates (or reflects), translates and scales uniformly, to 1e-4: a sphere stays a
