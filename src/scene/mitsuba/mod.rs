@@ -1999,17 +1999,13 @@ impl<'a> Cx<'a> {
                 let scale = p.float("scale")?.unwrap_or(1.0);
                 let to_world = p.transform("to_world")?;
                 // Mitsuba 3.9.1 renders another sky under a to_world that scales (a uniform scale of 2:
-                // 1.31 of the unscaled sky's mean, 1, 3, 1: 1.62), which caustica does not copy.
-                if let Some(m) = to_world {
-                    let axes = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate());
-                    let unit = axes.iter().all(|a| (a.length() - 1.0).abs() < 1e-3);
-                    let square = [(0, 1), (0, 2), (1, 2)].iter().all(|&(i, j)| axes[i].dot(axes[j]).abs() < 1e-3);
-                    if !(unit && square) {
-                        return Err(e.error(
-                            "an envmap's to_world that scales or shears it: Mitsuba renders another sky then (a \
-                             uniform scale of 2 read 1.31 of the unscaled sky's mean); rotate it only",
-                        ));
-                    }
+                // 1.31 of the unscaled sky's mean, 1, 3, 1: 1.62), which caustica does not copy; and
+                // caustica's sky only turns (the loader refuses a mirror too, naming only its key).
+                if to_world.is_some_and(|m| !rotates_and_translates(&m)) {
+                    return Err(e.error(
+                        "an envmap's to_world that scales or shears it (Mitsuba renders another sky then: a \
+                         uniform scale of 2 read 1.31 of the unscaled sky's mean) or mirrors it; rotate it only",
+                    ));
                 }
                 let transform = transform_spec(to_world);
                 // How Mitsuba draws directions from the sky (sharpened for MIS): the image is the same.
