@@ -3250,6 +3250,20 @@ fn merged_shapes_read_as_their_parts() {
     let _ = std::fs::remove_dir_all(d);
 }
 
+/// A TOML scene in `d` of one curves shape read from `curve` (written as `d/c.txt`) in `material`
+/// (`white` diffuse or `glass`), `extra` lines added to the shape, under a point light, loaded.
+fn load_curves(d: &Path, curve: &str, material: &str, extra: &str) -> Result<Scene, String> {
+    let toml = format!(
+        "[camera]\norigin = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n[materials]\n\
+         white = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
+         glass = {{ type = \"dielectric\", ior = 1.5 }}\n[[shapes]]\ntype = \"curves\"\n\
+         file = \"c.txt\"\nmaterial = \"{material}\"\n{extra}\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.0, 3.0, 3.0]\npower = [10.0, 10.0, 10.0]\n"
+    );
+    std::fs::write(d.join("c.txt"), curve).unwrap();
+    caustica::scene::load_scene_str(&toml, "c.toml", d, &[]).map_err(|e| e.to_string())
+}
+
 /// Mitsuba's round linear curves (`linearcurve`: along each segment the cone touching the spheres round
 /// its two control points, and those spheres), which caustica tessellates (exact normals at the
 /// vertices, Mitsuba's texture coordinates): `curves.xml` (a checkerboard over curves of three, two and
@@ -3265,19 +3279,7 @@ fn linear_curves_render_as_mitsubas() {
     matches_mitsuba("curves", 1024, 0.003);
     let d = tmp("curves");
     std::fs::create_dir_all(&d).unwrap();
-    let toml = |material: &str, extra: &str| {
-        format!(
-            "[camera]\norigin = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n[materials]\n\
-             white = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n\
-             glass = {{ type = \"dielectric\", ior = 1.5 }}\n[[shapes]]\ntype = \"curves\"\n\
-             file = \"c.txt\"\nmaterial = \"{material}\"\n{extra}\n\
-             [[lights]]\ntype = \"point\"\nposition = [0.0, 3.0, 3.0]\npower = [10.0, 10.0, 10.0]\n"
-        )
-    };
-    let load = |curve: &str, material: &str, extra: &str| {
-        std::fs::write(d.join("c.txt"), curve).unwrap();
-        caustica::scene::load_scene_str(&toml(material, extra), "c.toml", &d, &[]).map_err(|e| e.to_string())
-    };
+    let load = |curve: &str, material: &str, extra: &str| load_curves(&d, curve, material, extra);
     let mesh_of = |s: &Scene| match &s.shapes[0].geometry {
         caustica::scene::Geometry::Mesh(m) => m.clone(),
         _ => panic!("not a mesh"),
@@ -3341,14 +3343,7 @@ fn bspline_curves_render_as_mitsubas() {
     matches_mitsuba("strands", 1024, 0.003);
     let d = tmp("bspline");
     std::fs::create_dir_all(&d).unwrap();
-    let toml = "[camera]\norigin = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n[materials]\n\
-                white = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n[[shapes]]\ntype = \"curves\"\n\
-                basis = \"bspline\"\nfile = \"c.txt\"\nmaterial = \"white\"\n\
-                [[lights]]\ntype = \"point\"\nposition = [0.0, 3.0, 3.0]\npower = [10.0, 10.0, 10.0]\n";
-    let load = |curve: &str| {
-        std::fs::write(d.join("c.txt"), curve).unwrap();
-        caustica::scene::load_scene_str(toml, "c.toml", &d, &[]).map_err(|e| e.to_string())
-    };
+    let load = |curve: &str| load_curves(&d, curve, "white", "basis = \"bspline\"");
     // A straight tube of radius 0.2 from x = 1 to x = 2 (the spline of points 0, 1, 2, 3).
     let s = load("0 0 0 0.2\n1 0 0 0.2\n2 0 0 0.2\n3 0 0 0.2\n").unwrap_or_else(|e| panic!("{e}"));
     let embree = Accel::new(&s).unwrap();
