@@ -292,14 +292,27 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             Geometry::Sphere { radius, inward: true, .. } => format!("sphere r={radius}, normals inward"),
         };
         let m = &scene.materials[s.material as usize];
-        let sides: Vec<String> = [("inside", m.absorption), ("outside", m.absorption_outside)]
-            .iter()
-            .filter(|(_, sigma)| *sigma != glam::Vec3::ZERO)
-            .map(|(side, sigma)| format!("{side}: σ {:?}", sigma.to_array()))
-            .collect();
+        let sides: Vec<String> =
+            [("inside", m.absorption, m.scattering), ("outside", m.absorption_outside, m.scattering_outside)]
+                .iter()
+                .filter(|(_, sigma, _)| *sigma != glam::Vec3::ZERO)
+                .map(|(side, sigma, sc)| match sc.scatters() {
+                    // A medium that scatters: σ is its extinction, of which the albedo scatters.
+                    true => format!(
+                        "{side}: σ_t {:?} per unit, albedo {:?}, phase g {}",
+                        sigma.to_array(),
+                        (sc.sigma_s / *sigma).to_array().map(|a| if a.is_finite() { a } else { 0.0 }),
+                        sc.g
+                    ),
+                    false => format!("{side}: σ {:?}", sigma.to_array()),
+                })
+                .collect();
         // A shape that bounds no medium but lies in one (`scene::immersed`).
         let round = scene.absorption.get(i).map_or(glam::Vec3::ZERO, |s| s[0]);
-        let absorbs = if !sides.is_empty() {
+        let scatters = m.scattering.scatters() || m.scattering_outside.scatters();
+        let absorbs = if scatters {
+            format!(" (a medium that scatters; {})", sides.join("; "))
+        } else if !sides.is_empty() {
             format!(" (absorbs {} per unit)", sides.join(", "))
         } else if round != glam::Vec3::ZERO {
             format!(" (lies in a medium: σ {:?} per unit round it)", round.to_array())

@@ -65,6 +65,7 @@ pub fn render_layers(
     quiet: bool,
 ) -> Result<Vec<Layer>> {
     let mode = scene.render.mode;
+    scene.check_mode(mode).map_err(|e| anyhow::anyhow!("{e}"))?;
     let (i, n) = part.unwrap_or((0, 1));
     let share = |rows: bool| match part {
         None => Share::All,
@@ -207,6 +208,7 @@ pub fn render_pm_share(
     share: Share,
     quiet: bool,
 ) -> Result<(PhotonMaps, ShareOutput)> {
+    scene.check_mode(crate::scene::file::Mode::PhotonMap).map_err(|e| anyhow::anyhow!("{e}"))?;
     let maps = build_maps(scene, tracer, &MapRequest::planned(scene, plan), quiet)?;
     let r = render_photon_map_share(scene, tracer, &maps, plan, None, share, quiet);
     Ok((maps, r))
@@ -528,6 +530,7 @@ pub fn render_progressive_share(
 ) -> Result<Progressive> {
     use crate::integrator::ppm::{ppm_pass, radius_at};
     use crate::integrator::vcm;
+    scene.check_mode(scene.render.mode).map_err(|e| anyhow::anyhow!("{e}"))?;
     let p = &scene.render.progressive;
     let mode = scene.render.mode;
     let sppm_mode = mode == Mode::Sppm;

@@ -227,9 +227,14 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
 /// this heuristic concludes. Point lights have no other strategy and are always kept; estimators
 /// without MIS (the photon-map eye pass) sample every light. An area light is left out when it reaches
 /// no diffuse point among the first hits of a 48×48 grid of camera rays (two light samples each).
-/// All triangles of an emissive shape share the answer.
+/// All triangles of an emissive shape share the answer. In a scene with a medium that scatters every
+/// light is kept: the light a medium scatters to the camera is not lit at the diffuse points the probes
+/// look at (a light inside a fog ball lights the fog).
 fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &mut Vec<String>) -> Vec<bool> {
     let lights = &scene.lights;
+    if !scene.scattering.is_empty() {
+        return vec![true; lights.list.len()];
+    }
     let eps = 1e-4 * scene.diagonal().max(1e-6);
     let targets: Vec<Vec3> = seen.iter().filter(|(s, _)| scene.holds_photons(*s)).map(|&(_, p)| p).collect();
     let mut keep = vec![true; lights.list.len()];

@@ -76,6 +76,7 @@ fn clone_scene(s: &Scene) -> Scene {
         absorption: s.absorption.clone(),
         boundary: s.boundary.clone(),
         point_media: s.point_media.clone(),
+        scattering: s.scattering.clone(),
         warnings: s.warnings.clone(),
     }
 }

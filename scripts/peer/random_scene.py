@@ -62,6 +62,9 @@ ap.add_argument("--more", action="store_true", help="emitting meshes, bitmap tex
 ap.add_argument("--curves", action="store_true",
                 help="one to three linearcurve or bsplinecurve shapes of random strands (not with --scale: "
                      "Mitsuba's to_world scales a curve's points and not its radii)")
+ap.add_argument("--scatter", action="store_true",
+                help="the coloured glass's media scatter too (albedo 0.3 to 1 a channel, isotropic or "
+                     "Henyey-Greenstein), and more closed glass shapes hold one")
 ap.add_argument("--exporter", action="store_true",
                 help="the same scene written as other tools write it (labels, True, aliases, a mirrored camera)")
 ap.add_argument("--scale", type=float, default=1.0,
@@ -792,6 +795,8 @@ if args.more:
     # `homogeneous` medium of albedo 0 (a colour in [0, 1] times a scale of 0.5 to 5 per unit length),
     # nested or by <ref> to a top-level one; the integrator is then volpath (path ignores media).
     V = random.Random(args.seed * 9973 + 41)
+    # --scatter's own stream (session 76), so that the media's absorption stays what the seed gives.
+    W = random.Random(args.seed * 7331 + 53)
     media = []
 
     def coloured(m):
@@ -800,10 +805,19 @@ if args.more:
         closed = m.group(1) in ("sphere", "cube") or re.search(r'value="[\w-]*ball\.ply"', body)
         if not closed or "<emitter" in body or not first or first.group(1) not in ("dielectric", "roughdielectric"):
             return body
-        if V.random() >= 0.8:
+        if V.random() >= 0.8 and not args.scatter:
             return body
         sigma = ", ".join(f(V.uniform(0.0, 1.0)) for _ in range(3))
         albedo = V.choice(['<float name="albedo" value="0"/>', '<rgb name="albedo" value="0, 0, 0"/>'])
+        if args.scatter:
+            # A medium that scatters: σ_t's channels within five times each other (Mitsuba's volpath draws
+            # one channel's free flights a path, whose weights in the others grow with their difference
+            # and leave its images slow to converge), an albedo of 0.3 to 1 a channel, and a phase
+            # function, isotropic (written or by default) or Henyey-Greenstein.
+            sigma = ", ".join(f(W.uniform(0.2, 1.0)) for _ in range(3))
+            albedo = f'<rgb name="albedo" value="{", ".join(f(W.uniform(0.3, 1.0)) for _ in range(3))}"/>'
+            albedo += W.choice(["", '<phase type="isotropic"/>',
+                                f'<phase type="hg"><float name="g" value="{f(W.uniform(-0.7, 0.9))}"/></phase>'])
         props = f'<rgb name="sigma_t" value="{sigma}"/>{albedo}<float name="scale" value="{f(V.uniform(0.5, 5.0))}"/>'
         if V.random() < 0.5:
             medium = f'<medium type="homogeneous" name="interior">{props}</medium>'

@@ -7,9 +7,12 @@ use super::direct::{emission_seen, estimate_direct_with, DirectStrategy};
 use super::{Counters, LineOfSight};
 use crate::accel::{Interaction, Tracer};
 use crate::color::Rgb;
+use crate::math::sampling::power_heuristic;
 use crate::math::sampling::russian_roulette;
 use crate::math::{max_component, Ray, Rng};
-use crate::scene::{Scene, TransportMode};
+use crate::scene::medium::{fly, mean_ratio, Flight};
+use crate::scene::{Crossing, Scattering, Scene, TransportMode};
+use glam::Vec3;
 
 pub struct PathTracer<'a> {
     pub scene: &'a Scene,
@@ -33,21 +36,102 @@ impl PathTracer<'_> {
         // Absorption of the medium the current segment runs through (`Scene::sigma_next`): none from
         // the camera (Mitsuba's sensor without a medium), set where the path leaves a medium's boundary.
         let mut sigma = Rgb::ZERO;
-        for depth in 0.. {
+        // What that medium scatters (`Scene::scattering_next`): nothing in most scenes.
+        let mut scat = Scattering::default();
+        // Spectral MIS through media that scatter (`medium::fly`): the channel whose free flights the
+        // path draws (chosen at its first such medium), and each channel's path density so far over
+        // their mean (`beta` then holds the path's contribution over that mean: the balance heuristic).
+        let mut hero = None;
+        let mut ratio = Rgb::ONE;
+        let mut depth = 0;
+        // See-through surfaces crossed in a row inside a medium that scatters (as `cross_from` bounds
+        // them).
+        let mut crossed = 0;
+        loop {
             c.rays += 1;
             let mut found = view.trace(scene, self.tracer, &ray, c);
             // Past see-through surfaces (out of line: most scenes have none), with the BSDF picked where
             // the path scatters.
             let mut picked = None;
-            if let Some(f) = found.take_if(|f| scene.is_see_through(f.si.shape)) {
-                let (at, tr) = view.cross_from(scene, self.tracer, &ray, f, rng, c);
-                beta *= tr;
-                found = at.map(|(i, m)| {
-                    picked = Some(m);
-                    i
-                });
+            if scat.scatters() {
+                // A medium that scatters: the path may scatter in it before it reaches `found`.
+                let len = found.as_ref().map_or(f32::INFINITY, |f| f.hit.t * ray.d.length());
+                let h = *hero.get_or_insert_with(|| ((rng.next_f32() * 3.0) as usize).min(2));
+                match fly(sigma, len, h, rng.next_f32()) {
+                    Flight::Scatter { dist, pdf } => {
+                        // The scattering event is the path's next (`max_depth` counts these too, as
+                        // Mitsuba's volpath does).
+                        if depth >= self.max_depth {
+                            break;
+                        }
+                        let m = mean_ratio(ratio * pdf);
+                        if m <= 0.0 {
+                            break;
+                        }
+                        beta *= Scene::absorbed(sigma, dist) / m;
+                        ratio *= pdf / m;
+                        let inc = ray.d.normalize();
+                        let p = ray.o + inc * dist;
+                        l += beta * in_medium_direct(scene, self.tracer, p, inc, scat, sigma, rng, c);
+                        // The phase sample's weight (phase over density) is 1.
+                        beta *= scat.sigma_s;
+                        let (out, pdf) = scat.sample_phase(inc, rng.next_2d());
+                        view = LineOfSight::NOT;
+                        specular = false;
+                        prev_pdf = pdf;
+                        prev_p = p;
+                        ray = Ray::new(p, out);
+                        depth += 1;
+                        crossed = 0;
+                        if depth >= self.rr_depth {
+                            let Some(q) = russian_roulette(max_component(beta) / radiance_scale, rng.next_f32()) else {
+                                break;
+                            };
+                            beta /= q;
+                        }
+                        continue;
+                    }
+                    Flight::Through { prob } => {
+                        let m = mean_ratio(ratio * prob);
+                        if m <= 0.0 {
+                            break;
+                        }
+                        beta *= prob / m;
+                        ratio *= prob / m;
+                    }
+                }
+                // A see-through surface in the medium is crossed as its own segment's end: the medium
+                // goes on beyond it, where the path may scatter again.
+                if let Some(f) = found.take_if(|f| scene.is_see_through(f.si.shape)) {
+                    let mat = scene.bsdf(&f.si, f.wo, || rng.next_f32());
+                    match scene.crossing(&f.si, f.wo, mat, || rng.next_f32()) {
+                        Crossing::Through(t) => {
+                            beta *= t;
+                            crossed += 1;
+                            if beta == Rgb::ZERO || crossed > crate::accel::MAX_CROSSINGS {
+                                break;
+                            }
+                            ray = f.si.spawn(ray.d);
+                            continue;
+                        }
+                        Crossing::At(m) => {
+                            picked = Some(m);
+                            found = Some(f);
+                        }
+                    }
+                }
+            } else {
+                if let Some(f) = found.take_if(|f| scene.is_see_through(f.si.shape)) {
+                    let (at, tr) = view.cross_from(scene, self.tracer, &ray, f, rng, c);
+                    beta *= tr;
+                    found = at.map(|(i, m)| {
+                        picked = Some(m);
+                        i
+                    });
+                }
+                beta *= scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| f.hit.t));
             }
-            beta *= scene.absorbed_to(sigma, &ray, found.as_ref().map(|f| f.hit.t));
+            crossed = 0;
             let (le, w) = emission_seen(scene, found.as_ref(), ray.d, (!specular).then_some((prev_pdf, prev_p)));
             if le != Rgb::ZERO && !view.hides(scene) {
                 l += beta * le * w;
@@ -72,8 +156,10 @@ impl PathTracer<'_> {
             prev_pdf = bs.pdf;
             prev_p = si.p;
             sigma = scene.sigma_next(&si, next.d, sigma);
+            scat = scene.scattering_next(&si, next.d, scat);
             ray = next;
-            if depth + 1 >= self.rr_depth {
+            depth += 1;
+            if depth >= self.rr_depth {
                 let Some(q) = russian_roulette(max_component(beta) / radiance_scale, rng.next_f32()) else {
                     break;
                 };
@@ -82,4 +168,39 @@ impl PathTracer<'_> {
         }
         l
     }
+}
+
+/// Direct light scattered at `p` in a medium towards where the path came from (it arrived travelling
+/// along `inc`): one light sample, its shadow ray dimmed by the medium's extinction `sigma` (a ray in a
+/// medium bounded by glass meets the glass and is blocked, as in Mitsuba's `volpath`), times the phase
+/// function and σ_s, MIS-weighted against the phase sample that goes on from `p` (which counts the
+/// lights it meets with `emission_seen`).
+#[allow(clippy::too_many_arguments)]
+fn in_medium_direct(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    p: Vec3,
+    inc: Vec3,
+    scat: Scattering,
+    sigma: Rgb,
+    rng: &mut Rng,
+    c: &mut Counters,
+) -> Rgb {
+    let u_sel = rng.next_f32();
+    let u = rng.next_2d();
+    let Some(ls) = scene.lights.sample(scene, p, u_sel, u, true) else {
+        return Rgb::ZERO;
+    };
+    if ls.pdf <= 0.0 || ls.li == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let phase = scat.phase(inc, ls.wi);
+    c.rays += 1;
+    let ray = Ray { o: p, d: ls.p - p, tmin: 0.0, tmax: 1.0 - 1e-4 };
+    let tr = crate::accel::shadow(scene, tracer, &ray, ls.p, &mut c.rays);
+    if tr == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, phase) };
+    scat.sigma_s * ls.li * tr * Scene::absorbed(sigma, ray.d.length()) * (phase * w / ls.pdf)
 }

@@ -270,6 +270,23 @@ pub enum MaterialSpec {
         /// `exterior` medium). Default: none.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         outside_absorption: Option<V3>,
+        /// A medium inside that scatters as well as absorbs (Mitsuba's `homogeneous` medium's
+        /// `albedo`): per channel the share of `absorption`, then the medium's extinction σ_t, that
+        /// scatters rather than is absorbed, in [0, 1] (milk, jade, fog in a glass). Only the path tracer
+        /// renders it (`--mode path`). Default: none (the medium only absorbs).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        albedo: Option<V3>,
+        /// The Henyey–Greenstein asymmetry of the inside medium's scattering, in (−1, 1): 0 (the default)
+        /// scatters alike in every direction (Mitsuba's `isotropic` phase function), > 0 mostly onwards,
+        /// < 0 mostly back (Mitsuba's `hg` and its `g`).
+        #[serde(default, skip_serializing_if = "is_zero")]
+        phase_g: f32,
+        /// `albedo` for the medium outside (with `outside_absorption`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        outside_albedo: Option<V3>,
+        /// `phase_g` for the medium outside.
+        #[serde(default, skip_serializing_if = "is_zero")]
+        outside_phase_g: f32,
     },
     /// Two of the other `[materials]`, by name, mixed (Mitsuba's `blendbsdf`): at each hit the surface is
     /// `second` with probability `weight` (a number in [0, 1], or the name of a `[textures]` entry,

@@ -181,6 +181,42 @@ fn absorption_of(cx: &Ctx, key: &str, a: V3) -> Result<Rgb, SceneError> {
     cx.colour(key, a, None)
 }
 
+/// A dielectric's medium's scattering (`albedo`, `phase_g`; the keys' names in `keys` beside the
+/// absorption's): an albedo in [0, 1] of a medium whose absorption, its extinction σ_t, is not zero, and
+/// a g strictly between −1 and 1 only beside an albedo.
+fn scattering_of(
+    cx: &Ctx,
+    key: &str,
+    [sigma_key, albedo_key, g_key]: [&str; 3],
+    sigma_t: Rgb,
+    albedo: &Option<V3>,
+    g: f32,
+) -> Result<crate::scene::Scattering, SceneError> {
+    let Some(a) = albedo else {
+        if g != 0.0 {
+            return Err(cx.err(
+                &format!("{key}.{g_key}"),
+                format!("{g} without `{albedo_key}`: a medium that only absorbs has no phase function"),
+            ));
+        }
+        return Ok(Default::default());
+    };
+    let albedo_key = format!("{key}.{albedo_key}");
+    if a.iter().any(|x| !(0.0..=1.0).contains(x)) {
+        return Err(cx.err(
+            &albedo_key,
+            format!("{a:?}: each channel must lie in [0, 1] (the share of `{sigma_key}` that scatters)"),
+        ));
+    }
+    if sigma_t == Rgb::ZERO && *a != [0.0; 3] {
+        return Err(cx.err(&albedo_key, format!("{a:?} without `{sigma_key}`: the medium's extinction σ_t, of which the albedo scatters a share, is needed")));
+    }
+    if !(g > -1.0 && g < 1.0) {
+        return Err(cx.err(&format!("{key}.{g_key}"), format!("{g} must lie strictly between -1 and 1")));
+    }
+    Ok(crate::scene::Scattering { sigma_s: sigma_t * Rgb::from(*a), g })
+}
+
 fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> {
     let cx = Ctx { shown };
     let camera = build_camera(&cx, &file.camera)?;
@@ -263,11 +299,13 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         absorption: Vec::new(),
         boundary: Vec::new(),
         point_media: Vec::new(),
+        scattering: Vec::new(),
         warnings: Vec::new(),
     };
     scene.see_through = scene.see_through_shapes();
     scene.absorption = scene.absorbing_shapes();
     scene.boundary = scene.absorption.iter().map(|sides| *sides != [Rgb::ZERO; 2]).collect();
+    scene.scattering = scene.scattering_shapes();
     // A shape that bounds no medium lies in the one round it, on both of its sides (`immersed`).
     let lamps: Vec<Vec3> = points.iter().map(|p| p.position).collect();
     let (round, point_media, warnings) = crate::scene::immersed::surrounding_media(&scene, &lamps);
@@ -864,6 +902,10 @@ fn build_material(
                 distribution,
                 absorption,
                 outside_absorption,
+                albedo,
+                phase_g,
+                outside_albedo,
+                outside_phase_g,
                 ..
             } = spec
             {
@@ -875,9 +917,20 @@ fn build_material(
                     Some(a) => absorption_of(cx, &format!("{key}.{name}"), *a),
                     None => Ok(Rgb::ZERO),
                 };
+                let inside = sigma("absorption", absorption)?;
+                let outside = sigma("outside_absorption", outside_absorption)?;
                 SurfaceMaterial {
-                    absorption: sigma("absorption", absorption)?,
-                    absorption_outside: sigma("outside_absorption", outside_absorption)?,
+                    absorption: inside,
+                    absorption_outside: outside,
+                    scattering: scattering_of(cx, key, ["absorption", "albedo", "phase_g"], inside, albedo, *phase_g)?,
+                    scattering_outside: scattering_of(
+                        cx,
+                        key,
+                        ["outside_absorption", "outside_albedo", "outside_phase_g"],
+                        outside,
+                        outside_albedo,
+                        *outside_phase_g,
+                    )?,
                     ..sided(
                         bsdf,
                         true,

@@ -380,6 +380,11 @@ pub struct SurfaceMaterial {
     /// The same for the medium on the outside of its surface (`outside_absorption`, Mitsuba's
     /// `exterior` medium).
     pub absorption_outside: Rgb,
+    /// What the medium inside scatters (a dielectric's `albedo` and `phase_g`), `absorption` then
+    /// being its extinction σ_t: zero where it only absorbs.
+    pub scattering: crate::scene::Scattering,
+    /// The same for the medium outside (`outside_albedo`, `outside_phase_g`).
+    pub scattering_outside: crate::scene::Scattering,
 }
 
 /// The texture that bends a normal-mapped material's normal at each hit (indices into
@@ -461,6 +466,8 @@ impl SurfaceMaterial {
             normal_map: None,
             absorption: Rgb::ZERO,
             absorption_outside: Rgb::ZERO,
+            scattering: Default::default(),
+            scattering_outside: Default::default(),
         }
     }
 

@@ -7,9 +7,12 @@ pub mod immersed;
 pub mod light;
 pub mod load;
 pub mod material;
+pub mod medium;
 pub mod mesh;
 pub mod mitsuba;
 pub mod texture;
+
+pub use medium::Scattering;
 
 use crate::color::Rgb;
 use glam::Vec3;
@@ -211,6 +214,10 @@ pub struct Scene {
     /// Per point, spot or projector light (beside a non-empty `absorption`), in the order `Lights::build`
     /// lists them, the absorption of the medium round its position (`immersed::surrounding_media`).
     pub point_media: Vec<Rgb>,
+    /// Per shape (beside `absorption`), what the media inside and outside it scatter
+    /// (`SurfaceMaterial::scattering`, `scattering_outside`); empty when no medium scatters, which
+    /// every mode but the path tracer's requires (`Scene::check_mode`).
+    pub scattering: Vec<[Scattering; 2]>,
     /// What the loader found worth saying about the scene (a shape partly in a medium), each naming
     /// the shape; printed once at load.
     pub warnings: Vec<String>,
@@ -551,6 +558,50 @@ impl Scene {
         } else {
             arrived
         }
+    }
+
+    /// What the medium of a segment that leaves `si` in direction `w` scatters, the path having arrived
+    /// through one that scatters `arrived`: the side's where `si`'s shape bounds a medium, `arrived`
+    /// elsewhere (as `sigma_next` follows the absorption).
+    #[inline(always)]
+    pub fn scattering_next(&self, si: &SurfaceHit, w: Vec3, arrived: Scattering) -> Scattering {
+        if self.scattering.is_empty() || !self.boundary[si.shape as usize] {
+            return arrived;
+        }
+        let [inside, outside] = self.scattering[si.shape as usize];
+        if w.dot(si.ng) < 0.0 {
+            inside
+        } else {
+            outside
+        }
+    }
+
+    /// Per shape, what the media inside and outside it scatter; empty when none does.
+    pub fn scattering_shapes(&self) -> Vec<[Scattering; 2]> {
+        let sides: Vec<[Scattering; 2]> = (self.shapes.iter())
+            .map(|s| &self.materials[s.material as usize])
+            .map(|m| [m.scattering, m.scattering_outside])
+            .collect();
+        if sides.iter().flatten().any(Scattering::scatters) {
+            sides
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// Whether `mode` renders this scene: a medium that scatters is rendered by the path tracer alone
+    /// (its photons, light subpaths and gathers would pass through it as through coloured glass).
+    pub fn check_mode(&self, mode: crate::scene::file::Mode) -> Result<(), String> {
+        if self.scattering.is_empty() || mode == crate::scene::file::Mode::Path {
+            return Ok(());
+        }
+        let shape = self.scattering.iter().position(|s| s.iter().any(Scattering::scatters)).unwrap_or(0);
+        let name = &self.material_names[self.shapes[shape].material as usize];
+        let file = if self.path.as_os_str().is_empty() { String::new() } else { format!("{}: ", self.path.display()) };
+        Err(format!(
+            "{file}material `{name}` holds a medium that scatters light, which only the path tracer renders \
+             (--mode path); the photon-mapping and bidirectional modes read media that only absorb"
+        ))
     }
 
     /// The medium the paths of light `light` (an index in `lights.list`) start in where the scene knows

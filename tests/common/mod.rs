@@ -27,6 +27,7 @@ pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
         absorption: Vec::new(),
         boundary: Vec::new(),
         point_media: Vec::new(),
+        scattering: Vec::new(),
         warnings: Vec::new(),
     }
 }

@@ -142,11 +142,18 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
     Ok(Converted { file: cx.file, warnings: cx.warnings })
 }
 
-/// A `homogeneous` medium that only absorbs (`albedo` 0; Mitsuba's default albedo, 0.75, scatters):
-/// its absorption coefficient, `sigma_t` times `scale`. Its phase function does not matter then.
-fn absorbing_medium(m: &Node) -> Result<[f32; 3], SceneError> {
+/// A `homogeneous` medium: its extinction σ_t (`sigma_t` × `scale`), what share of it scatters
+/// (`albedo`, Mitsuba's default 0.75; None where it is 0 and the medium only absorbs, coloured glass)
+/// and its phase function's asymmetry (`isotropic`: 0, `hg`: its `g`, 0.8 by default).
+struct Medium {
+    sigma: [f32; 3],
+    albedo: Option<[f32; 3]>,
+    g: f32,
+}
+
+fn homogeneous_medium(m: &Node) -> Result<Medium, SceneError> {
     if m.attr("type") != Some("homogeneous") {
-        return Err(m.error("medium type not read (read: homogeneous, of albedo 0: coloured glass)"));
+        return Err(m.error("medium type not read (read: homogeneous)"));
     }
     let p = Props::new(m);
     let sigma_t = p.rgb("sigma_t")?.unwrap_or([1.0; 3]);
@@ -154,19 +161,34 @@ fn absorbing_medium(m: &Node) -> Result<[f32; 3], SceneError> {
     let scale = p.float("scale")?.unwrap_or(1.0);
     p.boolean("sample_emitters")?;
     p.boolean("has_spectral_extinction")?;
-    p.children_where(|c| c.tag == "phase");
-    p.finish("sigma_t, albedo (0), scale, sample_emitters, has_spectral_extinction, a phase function")?;
-    if albedo != [0.0; 3] {
-        return Err(m.error(format!(
-            "albedo {albedo:?}: a medium that scatters light is not rendered (caustica reads media of albedo 0, \
-             which only absorb; Mitsuba's default albedo is 0.75)"
-        )));
-    }
+    let phases = p.children_where(|c| c.tag == "phase");
+    p.finish("sigma_t, albedo, scale, sample_emitters, has_spectral_extinction, a phase function (isotropic, hg)")?;
     let sigma = sigma_t.map(|x| x * scale);
     if sigma.iter().any(|x| !x.is_finite() || *x < 0.0) {
         return Err(m.error(format!("sigma_t × scale = {sigma:?} must be finite and ≥ 0")));
     }
-    Ok(sigma)
+    if albedo.iter().any(|a| !(0.0..=1.0).contains(a)) {
+        return Err(m.error(format!("albedo {albedo:?} must lie in [0, 1] (the share of sigma_t that scatters)")));
+    }
+    let g = match phases.as_slice() {
+        [] => 0.0,
+        [ph] => {
+            let pp = Props::new(ph);
+            let g = match ph.attr("type") {
+                Some("isotropic") => 0.0,
+                Some("hg") => pp.float("g")?.unwrap_or(0.8),
+                _ => return Err(ph.error("phase function type not read (read: isotropic, hg)")),
+            };
+            pp.finish(if ph.attr("type") == Some("hg") { "g" } else { "no property" })?;
+            if !(g > -1.0 && g < 1.0) {
+                return Err(ph.error(format!("g = {g} must lie strictly between -1 and 1")));
+            }
+            g
+        }
+        [_, second, ..] => return Err(second.error("a second phase function")),
+    };
+    let albedo = (albedo != [0.0; 3]).then_some(albedo);
+    Ok(Medium { sigma, albedo, g })
 }
 
 fn empty_file() -> SceneFile {
@@ -1143,7 +1165,7 @@ impl<'a> Cx<'a> {
             return Ok(material);
         }
         // Interior, exterior: σ and the name each gives the material's copy.
-        let mut sides: [Option<([f32; 3], String)>; 2] = [None, None];
+        let mut sides: [Option<(Medium, String)>; 2] = [None, None];
         for m in &media {
             let side = m.attr("name") == Some("exterior");
             let which = ["interior", "exterior"][side as usize];
@@ -1161,7 +1183,7 @@ impl<'a> Cx<'a> {
                 }
                 _ => (*m, format!("shapes[{index}]-{which}")),
             };
-            sides[side as usize] = Some((absorbing_medium(node)?, label));
+            sides[side as usize] = Some((homogeneous_medium(node)?, label));
         }
         let turned = self.media_turned(n, p, mirrors)?;
         let label = sides.iter().filter_map(|s| s.as_ref().map(|(_, l)| l.as_str())).collect::<Vec<_>>();
@@ -1179,9 +1201,26 @@ impl<'a> Cx<'a> {
         // A copy of a dielectric's spec with the media (None for any other material).
         let with_media = |spec: Option<&MaterialSpec>| {
             let mut copy = spec?.clone();
-            let MaterialSpec::Dielectric { absorption, outside_absorption, .. } = &mut copy else { return None };
-            *absorption = inside.as_ref().map(|(s, _)| *s);
-            *outside_absorption = outside.as_ref().map(|(s, _)| *s);
+            let MaterialSpec::Dielectric {
+                absorption,
+                outside_absorption,
+                albedo,
+                phase_g,
+                outside_albedo,
+                outside_phase_g,
+                ..
+            } = &mut copy
+            else {
+                return None;
+            };
+            for (side, sigma, a, g) in [
+                (&inside, absorption, albedo, phase_g),
+                (&outside, outside_absorption, outside_albedo, outside_phase_g),
+            ] {
+                *sigma = side.as_ref().map(|(m, _)| m.sigma);
+                *a = side.as_ref().and_then(|(m, _)| m.albedo);
+                *g = side.as_ref().filter(|(m, _)| m.albedo.is_some()).map_or(0.0, |(m, _)| m.g);
+            }
             Some(copy)
         };
         let mut spec = self.file.materials.get(&material).cloned();
@@ -1353,6 +1392,10 @@ impl<'a> Cx<'a> {
                         distribution: Default::default(),
                         absorption: None,
                         outside_absorption: None,
+                        albedo: None,
+                        phase_g: 0.0,
+                        outside_albedo: None,
+                        outside_phase_g: 0.0,
                     },
                     _ => {
                         let (roughness, roughness_v, distribution) = self.microfacet(b, &p, name)?;
@@ -1365,6 +1408,10 @@ impl<'a> Cx<'a> {
                             distribution,
                             absorption: None,
                             outside_absorption: None,
+                            albedo: None,
+                            phase_g: 0.0,
+                            outside_albedo: None,
+                            outside_phase_g: 0.0,
                         }
                     }
                 }
