@@ -125,7 +125,8 @@ pub struct RenderArgs {
     /// merging under one MIS (render.vcm.connect / render.vcm.merge switch either half off; its merge
     /// radius follows the light's density, render.vcm.local_radius). bdpt and vcm aim a share of their
     /// light subpaths at mirrors and glass the lights seldom reach (render.vcm.aim). All four converge
-    /// to the right image as passes accumulate.
+    /// to the right image as passes accumulate. A medium that scatters (a material's albedo) is rendered
+    /// by path alone.
     #[arg(long, value_parser = ["path", "photon_map", "both", "ppm", "sppm", "bdpt", "vcm"])]
     pub mode: Option<String>,
     /// Progressive modes: stop after this many passes (overrides render.progressive.passes).

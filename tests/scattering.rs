@@ -137,3 +137,54 @@ fn bad_scattering_settings_are_refused_naming_the_key() {
         assert!(err.contains("fog.toml") && err.contains(key), "{fields}: {err}");
     }
 }
+
+/// A box of ink inside a `null` boundary (no surface, a medium that only absorbs σ; Mitsuba's null
+/// boundary of a `homogeneous` medium), 0.5 thick, between a point light 2 above a white floor and the
+/// floor, seen straight down by an orthographic camera: every pixel reads ρ/π · I cos θ / d² ·
+/// e^(−σ·0.5 / cos θ) · e^(−σ·0.5), the shadow ray and the camera ray each dimmed by the ink they cross
+/// (θ the light's angle at the floor point), within 0.2% (`max_depth` 1: crossing the boundary is no
+/// bounce). Shadow rays that crossed it undimmed would read e^(σ·0.5) too much. The other modes refuse
+/// the scene (their photons and light subpaths would cross the boundary as if it bounded nothing).
+#[test]
+fn ink_inside_a_null_boundary_dims_camera_and_shadow_rays() {
+    let sigma = [0.4f32, 1.0, 2.5];
+    let text = format!(
+        "[camera]\nprojection = \"orthographic\"\nfilm_size = [0.2, 0.2]\norigin = [0.0, 3.0, 0.0]\n\
+         target = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, -1.0]\nresolution = [8, 8]\n\
+         [materials]\nfloor = {{ type = \"diffuse\", reflectance = [0.8, 0.8, 0.8] }}\n\
+         ink = {{ type = \"null\", absorption = [{}, {}, {}] }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-3.0, 0.0, 3.0]\nedge_u = [6.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -6.0]\n\
+         material = \"floor\"\n\
+         [[shapes]]\ntype = \"box\"\nmin = [-3.0, 0.5, -3.0]\nmax = [3.0, 1.0, 3.0]\nmaterial = \"ink\"\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.0, 2.0, 0.0]\npower = [10.0, 10.0, 10.0]\n\
+         [render]\nmax_depth = 1\nspp = 4\n",
+        sigma[0], sigma[1], sigma[2]
+    );
+    let scene = common::scene(&text);
+    assert!(scene.see_through_media);
+    let img = common::render_image(&scene);
+    let intensity = 10.0 / (4.0 * std::f64::consts::PI);
+    for y in 0..8u32 {
+        for x in 0..8u32 {
+            // The pixel's centre on the floor (x across, z down the film: up is −z).
+            let (px, pz) = ((x as f64 + 0.5) / 8.0 * 0.2 - 0.1, (y as f64 + 0.5) / 8.0 * 0.2 - 0.1);
+            let d2 = px * px + pz * pz + 4.0;
+            let cos = 2.0 / d2.sqrt();
+            for (k, s) in sigma.iter().map(|s| *s as f64).enumerate() {
+                let want =
+                    0.8 / std::f64::consts::PI * intensity * cos / d2 * (-s * 0.5 / cos).exp() * (-s * 0.5).exp();
+                let got = img.pixels[(y * 8 + x) as usize][k] as f64;
+                assert!((got / want - 1.0).abs() < 2e-3, "pixel ({x}, {y}) channel {k}: {got} where {want} is due");
+            }
+        }
+    }
+    // The other modes refuse it, naming the material.
+    let scene = common::scene_in_mode(&text, "sppm", &[]);
+    let accel = caustica::accel::Accel::new(&scene).unwrap();
+    let plan = caustica::pipeline::plan_for(&scene, &accel);
+    let msg = caustica::pipeline::render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true)
+        .err()
+        .expect("sppm rendered a medium inside a null boundary")
+        .to_string();
+    assert!(msg.contains("`ink`") && msg.contains("--mode path"), "{msg}");
+}

@@ -77,6 +77,7 @@ fn clone_scene(s: &Scene) -> Scene {
         boundary: s.boundary.clone(),
         point_media: s.point_media.clone(),
         scattering: s.scattering.clone(),
+        see_through_media: s.see_through_media,
         warnings: s.warnings.clone(),
     }
 }

@@ -63,8 +63,8 @@ ap.add_argument("--curves", action="store_true",
                 help="one to three linearcurve or bsplinecurve shapes of random strands (not with --scale: "
                      "Mitsuba's to_world scales a curve's points and not its radii)")
 ap.add_argument("--scatter", action="store_true",
-                help="the coloured glass's media scatter too (albedo 0.3 to 1 a channel, isotropic or "
-                     "Henyey-Greenstein), and more closed glass shapes hold one")
+                help="with --more: the coloured glass's media scatter too (albedo 0.3 to 1 a channel, "
+                     "isotropic or Henyey-Greenstein), and every closed glass shape holds one")
 ap.add_argument("--exporter", action="store_true",
                 help="the same scene written as other tools write it (labels, True, aliases, a mirrored camera)")
 ap.add_argument("--scale", type=float, default=1.0,
@@ -799,10 +799,35 @@ if args.more:
     W = random.Random(args.seed * 7331 + 53)
     media = []
 
+    def glass_instead(body):
+        """--scatter: half the closed shapes' outermost BSDF (nested ones too, its whole element)
+        becomes a smooth or rough glass, so that more of them hold a medium."""
+        start = body.find("<bsdf")
+        if start < 0 or W.random() >= 0.5:
+            return body
+        depth, k = 0, start
+        for t in re.finditer(r"<(/?)bsdf\b[^>]*?(/?)>", body[start:]):
+            if t.group(1):
+                depth -= 1
+            elif not t.group(2):
+                depth += 1
+            if depth == 0:
+                k = start + t.end()
+                break
+        else:
+            return body
+        ior = f(W.uniform(1.1, 1.8))
+        glass = W.choice([f'<bsdf type="dielectric"><float name="int_ior" value="{ior}"/></bsdf>',
+                          f'<bsdf type="roughdielectric"><float name="alpha" value="{f(W.uniform(0.05, 0.4))}"/>'
+                          f'<float name="int_ior" value="{ior}"/></bsdf>'])
+        return body[:start] + glass + body[k:]
+
     def coloured(m):
         body = m.group(0)
-        first = re.search(r'<bsdf type="(\w+)"', body)
         closed = m.group(1) in ("sphere", "cube") or re.search(r'value="[\w-]*ball\.ply"', body)
+        if args.scatter and closed and "<emitter" not in body and "<bsdf" in body:
+            body = glass_instead(body)
+        first = re.search(r'<bsdf type="(\w+)"', body)
         if not closed or "<emitter" in body or not first or first.group(1) not in ("dielectric", "roughdielectric"):
             return body
         if V.random() >= 0.8 and not args.scatter:

@@ -77,6 +77,41 @@ pub fn transmittance(
     Rgb::ZERO
 }
 
+/// `shadow` in a scene whose see-through surfaces may bound media (`Scene::see_through_media`): the
+/// light let through along the shadow ray, which starts in a medium of extinction `sigma`, each stretch
+/// dimmed by the medium it runs through (e^(−σ·length)) and each see-through surface crossed by its
+/// transmittance, the medium changing where the ray leaves a boundary (`Scene::sigma_next`), as
+/// Mitsuba's volpath follows its shadow rays through null interfaces. Zero at anything else.
+pub fn shadow_in_media(
+    scene: &crate::scene::Scene,
+    tracer: &dyn Tracer,
+    ray: &Ray,
+    end: glam::Vec3,
+    mut sigma: crate::color::Rgb,
+    rays: &mut u64,
+) -> crate::color::Rgb {
+    use crate::color::Rgb;
+    let mut ray = *ray;
+    let mut tr = Rgb::ONE;
+    for _ in 0..MAX_CROSSINGS {
+        let Some(hit) = tracer.intersect(&ray) else {
+            return tr * crate::scene::Scene::absorbed(sigma, (end - ray.o).length());
+        };
+        if !scene.is_see_through(hit.shape) {
+            return Rgb::ZERO;
+        }
+        let si = scene.surface(&ray, hit.shape, hit.prim, hit.u, hit.v, hit.t);
+        tr *= crate::scene::Scene::absorbed(sigma, (si.p - ray.o).length()) * scene.transmittance_at(&si, ray.d);
+        if tr == Rgb::ZERO {
+            return tr;
+        }
+        sigma = scene.sigma_next(&si, ray.d, sigma);
+        ray = si.spawn_to(end);
+        *rays += 1;
+    }
+    Rgb::ZERO
+}
+
 /// The first hit along `ray` on a shape that `passes` does not walk past, going straight on through
 /// those it does (at most `MAX_CROSSINGS`), with the ray it was found on (its `t` is along that ray).
 /// The probes' view past see-through surfaces: the planner's camera rays, the caustic aim's light rays.

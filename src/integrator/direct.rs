@@ -176,6 +176,10 @@ pub fn shadow(
 ) -> Rgb {
     c.rays += 1;
     let ray = si.spawn_to(ls.p);
+    let sigma = scene.sigma_next(si, ray.d, arrived);
+    if scene.see_through_media {
+        return crate::accel::shadow_in_media(scene, tracer, &ray, ls.p, sigma, &mut c.rays);
+    }
     let tr = crate::accel::shadow(scene, tracer, &ray, ls.p, &mut c.rays);
-    tr * Scene::absorbed(scene.sigma_next(si, ray.d, arrived), ray.d.length())
+    tr * Scene::absorbed(sigma, ray.d.length())
 }

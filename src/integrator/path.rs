@@ -53,11 +53,19 @@ impl PathTracer<'_> {
             // Past see-through surfaces (out of line: most scenes have none), with the BSDF picked where
             // the path scatters.
             let mut picked = None;
-            if scat.scatters() {
-                // A medium that scatters: the path may scatter in it before it reaches `found`.
+            if scat.scatters() || scene.see_through_media {
+                // A medium that scatters: the path may scatter in it before it reaches `found`. (Also
+                // where see-through surfaces bound media, which it then crosses one at a time.)
                 let len = found.as_ref().map_or(f32::INFINITY, |f| f.hit.t * ray.d.length());
-                let h = *hero.get_or_insert_with(|| ((rng.next_f32() * 3.0) as usize).min(2));
-                match fly(sigma, len, h, rng.next_f32()) {
+                let flight = if scat.scatters() {
+                    let h = *hero.get_or_insert_with(|| ((rng.next_f32() * 3.0) as usize).min(2));
+                    fly(sigma, len, h, rng.next_f32())
+                } else {
+                    // A medium that only absorbs (past a see-through boundary): its transmittance.
+                    beta *= Scene::absorbed(sigma, len);
+                    Flight::Through { prob: Rgb::ONE }
+                };
+                match flight {
                     Flight::Scatter { dist, pdf } => {
                         // The scattering event is the path's next (`max_depth` counts these too, as
                         // Mitsuba's volpath does).
@@ -91,7 +99,7 @@ impl PathTracer<'_> {
                         }
                         continue;
                     }
-                    Flight::Through { prob } => {
+                    Flight::Through { prob } if prob != Rgb::ONE => {
                         let m = mean_ratio(ratio * prob);
                         if m <= 0.0 {
                             break;
@@ -99,9 +107,10 @@ impl PathTracer<'_> {
                         beta *= prob / m;
                         ratio *= prob / m;
                     }
+                    Flight::Through { .. } => {}
                 }
-                // A see-through surface in the medium is crossed as its own segment's end: the medium
-                // goes on beyond it, where the path may scatter again.
+                // A see-through surface is crossed as its own segment's end: the medium goes on beyond
+                // it (or changes, where it bounds one), where the path may scatter again.
                 if let Some(f) = found.take_if(|f| scene.is_see_through(f.si.shape)) {
                     let mat = scene.bsdf(&f.si, f.wo, || rng.next_f32());
                     match scene.crossing(&f.si, f.wo, mat, || rng.next_f32()) {
@@ -111,6 +120,8 @@ impl PathTracer<'_> {
                             if beta == Rgb::ZERO || crossed > crate::accel::MAX_CROSSINGS {
                                 break;
                             }
+                            sigma = scene.sigma_next(&f.si, ray.d, sigma);
+                            scat = scene.scattering_next(&f.si, ray.d, scat);
                             ray = f.si.spawn(ray.d);
                             continue;
                         }
@@ -197,10 +208,14 @@ fn in_medium_direct(
     let phase = scat.phase(inc, ls.wi);
     c.rays += 1;
     let ray = Ray { o: p, d: ls.p - p, tmin: 0.0, tmax: 1.0 - 1e-4 };
-    let tr = crate::accel::shadow(scene, tracer, &ray, ls.p, &mut c.rays);
+    let tr = if scene.see_through_media {
+        crate::accel::shadow_in_media(scene, tracer, &ray, ls.p, sigma, &mut c.rays)
+    } else {
+        crate::accel::shadow(scene, tracer, &ray, ls.p, &mut c.rays) * Scene::absorbed(sigma, ray.d.length())
+    };
     if tr == Rgb::ZERO {
         return Rgb::ZERO;
     }
     let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, phase) };
-    scat.sigma_s * ls.li * tr * Scene::absorbed(sigma, ray.d.length()) * (phase * w / ls.pdf)
+    scat.sigma_s * ls.li * tr * (phase * w / ls.pdf)
 }

@@ -384,11 +384,39 @@ pub enum MaterialSpec {
         two_sided: Option<bool>,
     },
     /// No surface: light passes straight through, unbent and undimmed (Mitsuba's `null`). A blend of it
-    /// with another material is a cut-out (Mitsuba's `mask`: `weight` is the opacity).
-    Null,
+    /// with another material is a cut-out (Mitsuba's `mask`: `weight` is the opacity). A closed shape
+    /// of it may bound a medium (smoke in a box; Mitsuba's `null` boundary of a `homogeneous` medium):
+    /// `absorption`, `albedo`, `phase_g` and their `outside_` kin as a dielectric's, rendered by the
+    /// path tracer alone (`--mode path`).
+    Null {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        absorption: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        outside_absorption: Option<V3>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        albedo: Option<V3>,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        phase_g: f32,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        outside_albedo: Option<V3>,
+        #[serde(default, skip_serializing_if = "is_zero")]
+        outside_phase_g: f32,
+    },
 }
 
 impl MaterialSpec {
+    /// A `null` material without media.
+    pub fn null() -> MaterialSpec {
+        MaterialSpec::Null {
+            absorption: None,
+            outside_absorption: None,
+            albedo: None,
+            phase_g: 0.0,
+            outside_albedo: None,
+            outside_phase_g: 0.0,
+        }
+    }
+
     /// A principled BSDF's weights that may be textures, in `PRINCIPLED_WEIGHTS`' order (metallic,
     /// spec_trans, spec_tint, sheen, sheen_tint, flatness, clearcoat, clearcoat_gloss, anisotropic);
     /// None for another material.
@@ -420,7 +448,7 @@ impl MaterialSpec {
                 t(base_color) || w(roughness) || self.principled_weights().into_iter().flatten().any(w)
             }
             MaterialSpec::Blend { weight, .. } => w(weight),
-            MaterialSpec::Sides { .. } | MaterialSpec::Null => false,
+            MaterialSpec::Sides { .. } | MaterialSpec::Null { .. } => false,
             MaterialSpec::Normalmap { .. } | MaterialSpec::Bumpmap { .. } => true,
         }
     }

@@ -181,6 +181,38 @@ fn absorption_of(cx: &Ctx, key: &str, a: V3) -> Result<Rgb, SceneError> {
     cx.colour(key, a, None)
 }
 
+/// `base` with the media inside and outside it that a dielectric's or a null material's keys give
+/// (`absorption`, `albedo`, `phase_g` and their `outside_` kin).
+fn with_media(
+    cx: &Ctx,
+    key: &str,
+    [absorption, outside_absorption]: [&Option<V3>; 2],
+    [albedo, outside_albedo]: [&Option<V3>; 2],
+    [phase_g, outside_phase_g]: [f32; 2],
+    base: SurfaceMaterial,
+) -> Result<SurfaceMaterial, SceneError> {
+    let sigma = |name: &str, a: &Option<V3>| match a {
+        Some(a) => absorption_of(cx, &format!("{key}.{name}"), *a),
+        None => Ok(Rgb::ZERO),
+    };
+    let inside = sigma("absorption", absorption)?;
+    let outside = sigma("outside_absorption", outside_absorption)?;
+    Ok(SurfaceMaterial {
+        absorption: inside,
+        absorption_outside: outside,
+        scattering: scattering_of(cx, key, ["absorption", "albedo", "phase_g"], inside, albedo, phase_g)?,
+        scattering_outside: scattering_of(
+            cx,
+            key,
+            ["outside_absorption", "outside_albedo", "outside_phase_g"],
+            outside,
+            outside_albedo,
+            outside_phase_g,
+        )?,
+        ..base
+    })
+}
+
 /// A dielectric's medium's scattering (`albedo`, `phase_g`; the keys' names in `keys` beside the
 /// absorption's): an albedo in [0, 1] of a medium whose absorption, its extinction σ_t, is not zero, and
 /// a g strictly between −1 and 1 only beside an albedo.
@@ -300,12 +332,15 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
         boundary: Vec::new(),
         point_media: Vec::new(),
         scattering: Vec::new(),
+        see_through_media: false,
         warnings: Vec::new(),
     };
     scene.see_through = scene.see_through_shapes();
     scene.absorption = scene.absorbing_shapes();
     scene.boundary = scene.absorption.iter().map(|sides| *sides != [Rgb::ZERO; 2]).collect();
     scene.scattering = scene.scattering_shapes();
+    scene.see_through_media =
+        (0..scene.shapes.len()).any(|i| scene.is_see_through(i as u32) && scene.boundary.get(i) == Some(&true));
     // A shape that bounds no medium lies in the one round it, on both of its sides (`immersed`).
     let lamps: Vec<Vec3> = points.iter().map(|p| p.position).collect();
     let (round, point_media, warnings) = crate::scene::immersed::surrounding_media(&scene, &lamps);
@@ -913,30 +948,19 @@ fn build_material(
                 let (alpha_v, alpha_v_map) = across(alpha, alpha_map, roughness_v)?;
                 let distribution = *distribution;
                 let bsdf = Material::Dielectric { ior, tint, alpha, alpha_v, tangent: Vec3::ZERO, distribution };
-                let sigma = |name: &str, a: &Option<V3>| match a {
-                    Some(a) => absorption_of(cx, &format!("{key}.{name}"), *a),
-                    None => Ok(Rgb::ZERO),
-                };
-                let inside = sigma("absorption", absorption)?;
-                let outside = sigma("outside_absorption", outside_absorption)?;
-                SurfaceMaterial {
-                    absorption: inside,
-                    absorption_outside: outside,
-                    scattering: scattering_of(cx, key, ["absorption", "albedo", "phase_g"], inside, albedo, *phase_g)?,
-                    scattering_outside: scattering_of(
-                        cx,
-                        key,
-                        ["outside_absorption", "outside_albedo", "outside_phase_g"],
-                        outside,
-                        outside_albedo,
-                        *outside_phase_g,
-                    )?,
-                    ..sided(
-                        bsdf,
-                        true,
-                        ParamMaps { tint: tint_map, alpha: alpha_map, alpha_v: alpha_v_map, ..Default::default() },
-                    )
-                }
+                let base = sided(
+                    bsdf,
+                    true,
+                    ParamMaps { tint: tint_map, alpha: alpha_map, alpha_v: alpha_v_map, ..Default::default() },
+                );
+                with_media(
+                    cx,
+                    key,
+                    [absorption, outside_absorption],
+                    [albedo, outside_albedo],
+                    [*phase_g, *outside_phase_g],
+                    base,
+                )?
             } else {
                 sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })
             }
@@ -1003,7 +1027,16 @@ fn build_material(
             let maps = ParamMaps { alpha, weights, ..Default::default() };
             SurfaceMaterial { texture, maps, ..SurfaceMaterial::new(Material::Principled(p)) }
         }
-        MaterialSpec::Null => SurfaceMaterial::null(),
+        MaterialSpec::Null { absorption, outside_absorption, albedo, phase_g, outside_albedo, outside_phase_g } => {
+            with_media(
+                cx,
+                key,
+                [absorption, outside_absorption],
+                [albedo, outside_albedo],
+                [*phase_g, *outside_phase_g],
+                SurfaceMaterial::null(),
+            )?
+        }
         MaterialSpec::Blend { weight, first, second } => {
             let weight = match weight {
                 Weight::Value(w) => BlendWeight::Value(unit("weight", *w)?),

@@ -218,6 +218,10 @@ pub struct Scene {
     /// (`SurfaceMaterial::scattering`, `scattering_outside`); empty when no medium scatters, which
     /// every mode but the path tracer's requires (`Scene::check_mode`).
     pub scattering: Vec<[Scattering; 2]>,
+    /// Whether a see-through shape (a `null` material) bounds a medium: paths then cross see-through
+    /// surfaces one at a time and shadow rays follow the media they cross (`accel::shadow_in_media`),
+    /// which only the path tracer does (`Scene::check_mode`).
+    pub see_through_media: bool,
     /// What the loader found worth saying about the scene (a shape partly in a medium), each naming
     /// the shape; printed once at load.
     pub warnings: Vec<String>,
@@ -592,15 +596,23 @@ impl Scene {
     /// Whether `mode` renders this scene: a medium that scatters is rendered by the path tracer alone
     /// (its photons, light subpaths and gathers would pass through it as through coloured glass).
     pub fn check_mode(&self, mode: crate::scene::file::Mode) -> Result<(), String> {
-        if self.scattering.is_empty() || mode == crate::scene::file::Mode::Path {
+        if (self.scattering.is_empty() && !self.see_through_media) || mode == crate::scene::file::Mode::Path {
             return Ok(());
         }
-        let shape = self.scattering.iter().position(|s| s.iter().any(Scattering::scatters)).unwrap_or(0);
-        let name = &self.material_names[self.shapes[shape].material as usize];
         let file = if self.path.as_os_str().is_empty() { String::new() } else { format!("{}: ", self.path.display()) };
+        let name = |shape: usize| &self.material_names[self.shapes[shape].material as usize];
+        if let Some(shape) = self.scattering.iter().position(|s| s.iter().any(Scattering::scatters)) {
+            return Err(format!(
+                "{file}material `{}` holds a medium that scatters light, which only the path tracer renders \
+                 (--mode path); the photon-mapping and bidirectional modes read media that only absorb, in glass",
+                name(shape)
+            ));
+        }
+        let shape = (0..self.shapes.len()).position(|i| self.is_see_through(i as u32) && self.boundary[i]).unwrap_or(0);
         Err(format!(
-            "{file}material `{name}` holds a medium that scatters light, which only the path tracer renders \
-             (--mode path); the photon-mapping and bidirectional modes read media that only absorb"
+            "{file}material `{}` is a see-through surface (null) round a medium, which only the path tracer \
+             renders (--mode path); the photon-mapping and bidirectional modes read media in glass",
+            name(shape)
         ))
     }
 

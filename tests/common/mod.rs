@@ -28,6 +28,7 @@ pub fn shapes_scene(shapes: Vec<Shape>) -> Scene {
         boundary: Vec::new(),
         point_media: Vec::new(),
         scattering: Vec::new(),
+        see_through_media: false,
         warnings: Vec::new(),
     }
 }

@@ -321,7 +321,7 @@ impl<'a> Cx<'a> {
                 | MaterialSpec::Conductor { roughness, .. }
                 | MaterialSpec::Dielectric { roughness, .. } => smooth(roughness),
                 MaterialSpec::Plastic { roughness, .. } => *roughness == 0.0,
-                MaterialSpec::ThinDielectric { .. } | MaterialSpec::Null => true,
+                MaterialSpec::ThinDielectric { .. } | MaterialSpec::Null { .. } => true,
                 _ => false,
             })
         };
@@ -356,14 +356,14 @@ impl<'a> Cx<'a> {
         let (kind, at, named) = self.opaque_see_through.as_ref()?;
         let has = |f: fn(&MaterialSpec) -> bool| self.file.materials.values().any(f);
         let mut which = Vec::new();
-        if has(|m| matches!(m, MaterialSpec::Null)) {
+        if has(|m| matches!(m, MaterialSpec::Null { .. })) {
             which.push("null surfaces or a mask's holes");
         }
         if has(|m| matches!(m, MaterialSpec::ThinDielectric { .. })) {
             which.push("thin panes (`thindielectric`)");
         }
         // A mask: a blend with a null surface on one side (`blend` reads `mask` so).
-        let null = |name: &String| matches!(self.file.materials.get(name), Some(MaterialSpec::Null));
+        let null = |name: &String| matches!(self.file.materials.get(name), Some(MaterialSpec::Null { .. }));
         let masks = (self.file.materials.values())
             .any(|m| matches!(m, MaterialSpec::Blend { first, second, .. } if null(first) || null(second)));
         let lost = if kind.starts_with("direct") {
@@ -1133,10 +1133,11 @@ impl<'a> Cx<'a> {
     }
 
     /// A shape's media (`<medium name="interior|exterior">`, nested or a `<ref>`), read into its material
-    /// (named `material`): under `volpath` `homogeneous` media of albedo 0 inside and outside a
-    /// dielectric (bare or under a normal or bump map) are coloured glass (or the coloured liquid or glass
-    /// round it), a copy of the material with its `absorption` and `outside_absorption` (σ = `sigma_t` ×
-    /// `scale`); anything else is refused. Mitsuba's other integrators ignore media, and so does the import then, with a warning.
+    /// (named `material`): under `volpath` `homogeneous` media inside and outside a dielectric (bare or
+    /// under a normal or bump map) or a `null` surface are a copy of the material with its `absorption`
+    /// and `outside_absorption` (σ_t = `sigma_t` × `scale`), and for a medium that scatters its `albedo`
+    /// and `phase_g` (coloured glass, the coloured liquid or glass round it, milk in glass, smoke in a
+    /// null box); anything else is refused. Mitsuba's other integrators ignore media, and so does the import then, with a warning.
     ///
     /// Mitsuba gives a segment the medium by the side of the face's geometric normal, from its winding
     /// (`target_medium`), where caustica's faces may be turned from the file's (`media_turned`): the
@@ -1194,14 +1195,15 @@ impl<'a> Cx<'a> {
         let [inside, outside] = sides;
         let refuse = || {
             media[0].error(
-                "a medium on a shape whose BSDF is not a `dielectric` or `roughdielectric` (or a `normalmap` or \
-                 `bumpmap` over one) is not read (caustica reads absorbing media in and around glass)",
+                "a medium on a shape whose BSDF is not a `dielectric`, `roughdielectric` (or a `normalmap` or \
+                 `bumpmap` over one) or `null` is not read (caustica reads media in and around glass, and \
+                 inside null boundaries)",
             )
         };
         // A copy of a dielectric's spec with the media (None for any other material).
         let with_media = |spec: Option<&MaterialSpec>| {
             let mut copy = spec?.clone();
-            let MaterialSpec::Dielectric {
+            let (MaterialSpec::Dielectric {
                 absorption,
                 outside_absorption,
                 albedo,
@@ -1209,7 +1211,15 @@ impl<'a> Cx<'a> {
                 outside_albedo,
                 outside_phase_g,
                 ..
-            } = &mut copy
+            }
+            | MaterialSpec::Null {
+                absorption,
+                outside_absorption,
+                albedo,
+                phase_g,
+                outside_albedo,
+                outside_phase_g,
+            }) = &mut copy
             else {
                 return None;
             };
@@ -1419,7 +1429,7 @@ impl<'a> Cx<'a> {
             "conductor" | "roughconductor" => self.conductor(b, &p, two_sided, name)?,
             "principled" => self.principled(b, &p, two_sided, name)?,
             "blendbsdf" | "mask" => self.blend(b, &p, two_sided, name)?,
-            "null" => MaterialSpec::Null,
+            "null" => MaterialSpec::null(),
             "normalmap" | "bumpmap" => self.normal_map(b, &p, two_sided, name)?,
             _ => return Err(b.error(format!("BSDF type not read (read: {BSDFS})"))),
         };
@@ -1572,7 +1582,7 @@ impl<'a> Cx<'a> {
         Ok(match (mask, nested) {
             (true, [one]) => {
                 let null = self.fresh_material_name("null");
-                self.file.materials.insert(null.clone(), MaterialSpec::Null);
+                self.file.materials.insert(null.clone(), MaterialSpec::null());
                 (null, self.nested_material(one, two_sided, &format!("{name}-masked"))?)
             }
             (false, [one, two]) => (
