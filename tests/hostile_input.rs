@@ -174,7 +174,8 @@ fn run_case(name: &str, bytes: &[u8]) {
     }
 }
 
-/// Renders a scene that loaded tiny in every mode: whatever a mutation kept must not break the renderer.
+/// Renders a scene that loaded tiny in every mode (or, where only the path tracer renders it, path-traces it
+/// and sees every other mode refuse it): whatever a mutation kept must not break the renderer.
 fn render_tiny(mut scene: caustica::scene::Scene, what: &str) {
     scene.camera.width = scene.camera.width.min(6);
     scene.camera.height = scene.camera.height.min(6);
@@ -190,8 +191,22 @@ fn render_tiny(mut scene: caustica::scene::Scene, what: &str) {
     }
     let accel = Accel::new(&scene).expect("Embree scene");
     let pt = render_path(&scene, &accel, 1, true);
+    assert_eq!(pt.counters.nonfinite, 0, "{what}");
+    // A medium that scatters, or one inside a null boundary, only the path tracer renders: every other
+    // mode must refuse the scene with that reason (`Scene::check_mode`), not render it wrong or fail.
+    if scene.check_mode(Mode::PhotonMap).is_err() {
+        for mode in [Mode::PhotonMap, Mode::Ppm, Mode::Sppm, Mode::Bdpt, Mode::Vcm] {
+            scene.render.mode = mode;
+            let plan = plan_for(&scene, &accel);
+            let e = render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true)
+                .err()
+                .unwrap_or_else(|| panic!("{mode:?} rendered a scene only the path tracer renders\n{what}"));
+            assert!(e.to_string().contains("--mode path"), "{mode:?}: {e}\n{what}");
+        }
+        return;
+    }
     let pm = render_pm_default(&scene, &accel, true).expect("photon maps");
-    assert_eq!(pt.counters.nonfinite + pm.counters.nonfinite, 0, "{what}");
+    assert_eq!(pm.counters.nonfinite, 0, "{what}");
     // The progressive and bidirectional modes, one small pass each: their radius schedules, light
     // subpaths, splats and merges meet the same scene.
     let r = &mut scene.render;

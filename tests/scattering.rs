@@ -110,7 +110,8 @@ fn channel_blocks(img: &Image, k: usize) -> Vec<f64> {
 }
 
 /// Bad scattering settings are refused naming the key: an albedo above 1 or below 0, an albedo without
-/// an absorption (the extinction it is a share of), a `phase_g` of 1 or without an albedo.
+/// an absorption (the extinction it is a share of), a `phase_g` of 1 or without an albedo; and a null
+/// surface round a medium that emits, naming the shape.
 #[test]
 fn bad_scattering_settings_are_refused_naming_the_key() {
     for (fields, key) in [
@@ -136,6 +137,19 @@ fn bad_scattering_settings_are_refused_naming_the_key() {
             .to_string();
         assert!(err.contains("fog.toml") && err.contains(key), "{fields}: {err}");
     }
+    // A null surface round a medium that emits: an emitter is no see-through surface.
+    let text = "[camera]\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
+                [materials]\nsmoke = { type = \"null\", absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5] }\n\
+                [[shapes]]\ntype = \"box\"\nmin = [-1.0, -1.0, -1.0]\nmax = [1.0, 1.0, 1.0]\nmaterial = \"smoke\"\n\
+                emission = [1.0, 1.0, 1.0]\n";
+    let err = caustica::scene::load_scene_str(text, "smoke.toml", std::path::Path::new("."), &[])
+        .err()
+        .expect("an emitting null surface round a medium loaded")
+        .to_string();
+    assert!(
+        err.contains("smoke.toml") && err.contains("shapes[0]") && err.contains("null surface round a medium"),
+        "{err}"
+    );
 }
 
 /// A box of ink inside a `null` boundary (no surface, a medium that only absorbs σ; Mitsuba's null

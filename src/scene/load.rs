@@ -341,6 +341,17 @@ fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> 
     scene.scattering = scene.scattering_shapes();
     scene.see_through_media =
         (0..scene.shapes.len()).any(|i| scene.is_see_through(i as u32) && scene.boundary.get(i) == Some(&true));
+    // An emitter is never see-through (its light is met where a path crosses it), so a null surface
+    // round a medium may not emit: paths and shadow rays would stop at it.
+    for (i, shape) in scene.shapes.iter().enumerate() {
+        let m = &scene.materials[shape.material as usize];
+        // (Named by the shape's name, its place in the file.)
+        if shape.emission != Rgb::ZERO && scene.boundary.get(i) == Some(&true) && m.bsdf.is_thin() {
+            let msg = "emits, and its material is a null surface round a medium, which caustica does not \
+                       render (give the light a shape of its own)";
+            return Err(cx.err(&shape.name, msg));
+        }
+    }
     // A shape that bounds no medium lies in the one round it, on both of its sides (`immersed`).
     let lamps: Vec<Vec3> = points.iter().map(|p| p.position).collect();
     let (round, point_media, warnings) = crate::scene::immersed::surrounding_media(&scene, &lamps);
