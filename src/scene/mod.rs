@@ -593,8 +593,10 @@ impl Scene {
         }
     }
 
-    /// Whether `mode` renders this scene: a medium that scatters is rendered by the path tracer alone
-    /// (its photons, light subpaths and gathers would pass through it as through coloured glass).
+    /// Whether `mode` renders this scene: a medium that scatters, and one inside a see-through boundary
+    /// (a `null` material), are rendered by the path tracer alone (the other modes' photons, light
+    /// subpaths and gathers would pass through the first as through coloured glass, and cross the
+    /// second's boundary as if it bounded nothing).
     pub fn check_mode(&self, mode: crate::scene::file::Mode) -> Result<(), String> {
         if (self.scattering.is_empty() && !self.see_through_media) || mode == crate::scene::file::Mode::Path {
             return Ok(());
