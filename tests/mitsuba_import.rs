@@ -1524,6 +1524,36 @@ fn media_inside_null_boundaries_match_mitsuba() {
     let _ = std::fs::remove_dir_all(d);
 }
 
+/// A medium's `albedo` and `sigma_t` given as Mitsuba's constant volumes (`<volume type="constvolume">`
+/// with a `value`, as Mitsuba's own examples write them) read as the plain values: `smoke.xml` so written
+/// hashes equal to it (refused before: "`sigma_t` must be <rgb>, <spectrum>, <float> or a <texture>",
+/// seen failing). A `gridvolume`, a medium that varies in space, is refused naming its line.
+#[test]
+fn constant_volumes_read_as_their_values() {
+    let d = tmp("constvolume");
+    let text = std::fs::read_to_string(dir().join("smoke.xml")).unwrap();
+    let plain = r#"<rgb name="sigma_t" value="1, 1, 1"/>
+        <rgb name="albedo" value="0.9, 0.85, 0.8"/>"#;
+    assert!(text.contains(plain));
+    let volumes = text.replace(
+        plain,
+        r#"<volume type="constvolume" name="sigma_t"><float name="value" value="1"/></volume>
+        <volume name="albedo" type="constvolume"><rgb name="value" value="0.9, 0.85, 0.8"/></volume>"#,
+    );
+    let path = write(&d, "smoke-volumes.xml", &volumes);
+    let a = load_scene_with(&dir().join("smoke.xml"), &[]).unwrap();
+    let b = load_scene_with(&path, &[]).unwrap();
+    assert_eq!(a.content_hash(), b.content_hash());
+    let grid = text.replace(
+        plain,
+        r#"<volume type="gridvolume" name="sigma_t"><string name="filename" value="smoke.vol"/></volume>"#,
+    );
+    let path = write(&d, "smoke-grid.xml", &grid);
+    let msg = load_scene_with(&path, &[]).err().expect("a gridvolume loaded").to_string();
+    assert!(msg.contains("smoke-grid.xml: line 17") && msg.contains("`gridvolume`"), "{msg}");
+    let _ = std::fs::remove_dir_all(d);
+}
+
 /// Mesh colours (`vertexcolor.xml`, Mitsuba's `mesh_attribute` textures `vertex_color` and
 /// `face_color`): a binary PLY ball with float vertex colours as a diffuse reflectance and a rough
 /// silver's `specular_reflectance`, an ASCII PLY card with 8-bit vertex colours in stripes (sRGB values;

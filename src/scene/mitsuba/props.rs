@@ -174,6 +174,25 @@ impl<'a> Props<'a> {
             "texture" if n.attr("type") == Some("srgb") => ColourProp::Rgb(srgb_texture(n)?),
             "texture" => ColourProp::Texture(n),
             "ref" => ColourProp::Ref(n, n.attr("id").ok_or_else(|| n.error("needs an `id`"))?.to_string()),
+            // A medium's constant volume (Mitsuba's `constvolume`): its `value`, one number or a colour.
+            "volume" if self.node.tag == "medium" && n.attr("type") == Some("constvolume") => {
+                let inner = Props::new(n);
+                let value = inner.colour("value")?.ok_or_else(|| n.error("a `constvolume` needs its `value`"))?;
+                inner.finish("value")?;
+                match value {
+                    ColourProp::Rgb(c) => ColourProp::Rgb(c),
+                    ColourProp::Texture(t) | ColourProp::Ref(t, _) => {
+                        return Err(t.error("a constvolume's `value` must be <rgb>, <spectrum> or <float>"))
+                    }
+                }
+            }
+            "volume" if self.node.tag == "medium" => {
+                return Err(n.error(format!(
+                    "volume type `{}` is not read (read: constvolume; a medium that varies in space, \
+                     `gridvolume`, is not rendered)",
+                    n.attr("type").unwrap_or("")
+                )))
+            }
             _ => return Err(n.error(format!("`{name}` must be <rgb>, <spectrum>, <float> or a <texture>"))),
         }))
     }
