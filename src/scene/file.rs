@@ -404,7 +404,62 @@ pub enum MaterialSpec {
     },
 }
 
+/// One side's medium as a dielectric's or a null material's keys give it: `absorption`, `albedo` and
+/// `phase_g` for the inside, their `outside_` kin for the outside (`MaterialSpec::media`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MediumKeys {
+    pub absorption: Option<V3>,
+    pub albedo: Option<V3>,
+    pub phase_g: f32,
+}
+
 impl MaterialSpec {
+    /// The media inside and outside a dielectric or a null material; None for any other material.
+    pub fn media(&self) -> Option<[MediumKeys; 2]> {
+        match self {
+            MaterialSpec::Dielectric {
+                absorption,
+                outside_absorption,
+                albedo,
+                phase_g,
+                outside_albedo,
+                outside_phase_g,
+                ..
+            }
+            | MaterialSpec::Null { absorption, outside_absorption, albedo, phase_g, outside_albedo, outside_phase_g } => {
+                Some([
+                    MediumKeys { absorption: *absorption, albedo: *albedo, phase_g: *phase_g },
+                    MediumKeys { absorption: *outside_absorption, albedo: *outside_albedo, phase_g: *outside_phase_g },
+                ])
+            }
+            _ => None,
+        }
+    }
+
+    /// Gives a dielectric or a null material these media inside and outside; false (and nothing
+    /// changed) for any other material.
+    pub fn set_media(&mut self, [inside, outside]: [MediumKeys; 2]) -> bool {
+        match self {
+            MaterialSpec::Dielectric {
+                absorption,
+                outside_absorption,
+                albedo,
+                phase_g,
+                outside_albedo,
+                outside_phase_g,
+                ..
+            }
+            | MaterialSpec::Null { absorption, outside_absorption, albedo, phase_g, outside_albedo, outside_phase_g } =>
+            {
+                (*absorption, *albedo, *phase_g) = (inside.absorption, inside.albedo, inside.phase_g);
+                (*outside_absorption, *outside_albedo, *outside_phase_g) =
+                    (outside.absorption, outside.albedo, outside.phase_g);
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// A `null` material without media.
     pub fn null() -> MaterialSpec {
         MaterialSpec::Null {

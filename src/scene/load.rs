@@ -186,28 +186,33 @@ fn absorption_of(cx: &Ctx, key: &str, a: V3) -> Result<Rgb, SceneError> {
 fn with_media(
     cx: &Ctx,
     key: &str,
-    [absorption, outside_absorption]: [&Option<V3>; 2],
-    [albedo, outside_albedo]: [&Option<V3>; 2],
-    [phase_g, outside_phase_g]: [f32; 2],
+    [inside, outside]: [MediumKeys; 2],
     base: SurfaceMaterial,
 ) -> Result<SurfaceMaterial, SceneError> {
     let sigma = |name: &str, a: &Option<V3>| match a {
         Some(a) => absorption_of(cx, &format!("{key}.{name}"), *a),
         None => Ok(Rgb::ZERO),
     };
-    let inside = sigma("absorption", absorption)?;
-    let outside = sigma("outside_absorption", outside_absorption)?;
+    let sigma_in = sigma("absorption", &inside.absorption)?;
+    let sigma_out = sigma("outside_absorption", &outside.absorption)?;
     Ok(SurfaceMaterial {
-        absorption: inside,
-        absorption_outside: outside,
-        scattering: scattering_of(cx, key, ["absorption", "albedo", "phase_g"], inside, albedo, phase_g)?,
+        absorption: sigma_in,
+        absorption_outside: sigma_out,
+        scattering: scattering_of(
+            cx,
+            key,
+            ["absorption", "albedo", "phase_g"],
+            sigma_in,
+            &inside.albedo,
+            inside.phase_g,
+        )?,
         scattering_outside: scattering_of(
             cx,
             key,
             ["outside_absorption", "outside_albedo", "outside_phase_g"],
-            outside,
-            outside_albedo,
-            outside_phase_g,
+            sigma_out,
+            &outside.albedo,
+            outside.phase_g,
         )?,
         ..base
     })
@@ -942,19 +947,7 @@ fn build_material(
         | MaterialSpec::ThinDielectric { ior, outside_ior, tint } => {
             let ior = relative_ior(cx, key, *ior, *outside_ior)?;
             let (tint, tint_map) = colour("tint", tint)?;
-            if let MaterialSpec::Dielectric {
-                roughness: r,
-                roughness_v,
-                distribution,
-                absorption,
-                outside_absorption,
-                albedo,
-                phase_g,
-                outside_albedo,
-                outside_phase_g,
-                ..
-            } = spec
-            {
+            if let MaterialSpec::Dielectric { roughness: r, roughness_v, distribution, .. } = spec {
                 let (alpha, alpha_map) = roughness(r)?;
                 let (alpha_v, alpha_v_map) = across(alpha, alpha_map, roughness_v)?;
                 let distribution = *distribution;
@@ -964,14 +957,7 @@ fn build_material(
                     true,
                     ParamMaps { tint: tint_map, alpha: alpha_map, alpha_v: alpha_v_map, ..Default::default() },
                 );
-                with_media(
-                    cx,
-                    key,
-                    [absorption, outside_absorption],
-                    [albedo, outside_albedo],
-                    [*phase_g, *outside_phase_g],
-                    base,
-                )?
+                with_media(cx, key, spec.media().unwrap_or_default(), base)?
             } else {
                 sided(Material::ThinDielectric { ior, tint }, true, ParamMaps { tint: tint_map, ..Default::default() })
             }
@@ -1038,16 +1024,7 @@ fn build_material(
             let maps = ParamMaps { alpha, weights, ..Default::default() };
             SurfaceMaterial { texture, maps, ..SurfaceMaterial::new(Material::Principled(p)) }
         }
-        MaterialSpec::Null { absorption, outside_absorption, albedo, phase_g, outside_albedo, outside_phase_g } => {
-            with_media(
-                cx,
-                key,
-                [absorption, outside_absorption],
-                [albedo, outside_albedo],
-                [*phase_g, *outside_phase_g],
-                SurfaceMaterial::null(),
-            )?
-        }
+        MaterialSpec::Null { .. } => with_media(cx, key, spec.media().unwrap_or_default(), SurfaceMaterial::null())?,
         MaterialSpec::Blend { weight, first, second } => {
             let weight = match weight {
                 Weight::Value(w) => BlendWeight::Value(unit("weight", *w)?),

@@ -1200,38 +1200,18 @@ impl<'a> Cx<'a> {
                  inside null boundaries)",
             )
         };
-        // A copy of a dielectric's spec with the media (None for any other material).
+        // A copy of a dielectric's or null material's spec with the media (None for any other material).
+        let keys = |side: &Option<(Medium, String)>| {
+            side.as_ref().map_or(MediumKeys::default(), |(m, _)| MediumKeys {
+                absorption: Some(m.sigma),
+                albedo: m.albedo,
+                phase_g: if m.albedo.is_some() { m.g } else { 0.0 },
+            })
+        };
+        let media = [keys(&inside), keys(&outside)];
         let with_media = |spec: Option<&MaterialSpec>| {
             let mut copy = spec?.clone();
-            let (MaterialSpec::Dielectric {
-                absorption,
-                outside_absorption,
-                albedo,
-                phase_g,
-                outside_albedo,
-                outside_phase_g,
-                ..
-            }
-            | MaterialSpec::Null {
-                absorption,
-                outside_absorption,
-                albedo,
-                phase_g,
-                outside_albedo,
-                outside_phase_g,
-            }) = &mut copy
-            else {
-                return None;
-            };
-            for (side, sigma, a, g) in [
-                (&inside, absorption, albedo, phase_g),
-                (&outside, outside_absorption, outside_albedo, outside_phase_g),
-            ] {
-                *sigma = side.as_ref().map(|(m, _)| m.sigma);
-                *a = side.as_ref().and_then(|(m, _)| m.albedo);
-                *g = side.as_ref().filter(|(m, _)| m.albedo.is_some()).map_or(0.0, |(m, _)| m.g);
-            }
-            Some(copy)
+            copy.set_media(media).then_some(copy)
         };
         let mut spec = self.file.materials.get(&material).cloned();
         match &mut spec {
