@@ -255,6 +255,20 @@ fn cmd_convert(scene: &Path, out: &Path) -> Result<()> {
     Ok(())
 }
 
+/// A medium of extinction `sigma` that scatters `sc` of it, for `caustica info`: a medium that
+/// scatters by its σ_t, albedo and phase; one that only absorbs by its σ.
+fn medium_text(sigma: glam::Vec3, sc: &crate::scene::Scattering) -> String {
+    match sc.scatters() {
+        true => format!(
+            "σ_t {:?} per unit, albedo {:?}, phase g {}",
+            sigma.to_array(),
+            (sc.sigma_s / sigma).to_array().map(|a| if a.is_finite() { a } else { 0.0 }),
+            sc.g
+        ),
+        false => format!("σ {:?} per unit", sigma.to_array()),
+    }
+}
+
 fn cmd_info(a: InfoArgs) -> Result<()> {
     let scene = load_scene_with(&a.scene, &a.set)?;
     let t0 = Instant::now();
@@ -272,7 +286,12 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         Some((at, film)) => format!(", the window at ({}, {}) of a {}×{} film", at[0], at[1], film[0], film[1]),
         None => String::new(),
     };
-    println!("camera      {}×{}{window}", scene.camera.width, scene.camera.height);
+    let medium = scene.camera.medium;
+    let medium = match medium.sigma_t != glam::Vec3::ZERO {
+        true => format!(", in a medium ({})", medium_text(medium.sigma_t, &medium.scattering)),
+        false => String::new(),
+    };
+    println!("camera      {}×{}{window}{medium}", scene.camera.width, scene.camera.height);
     println!("shapes      {} ({} triangles, {} analytic spheres)", scene.shapes.len(), tris, spheres);
     for (i, s) in scene.shapes.iter().enumerate() {
         let kind = match &s.geometry {
@@ -296,16 +315,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
             [("inside", m.absorption, m.scattering), ("outside", m.absorption_outside, m.scattering_outside)]
                 .iter()
                 .filter(|(_, sigma, _)| *sigma != glam::Vec3::ZERO)
-                .map(|(side, sigma, sc)| match sc.scatters() {
-                    // A medium that scatters: σ is its extinction, of which the albedo scatters.
-                    true => format!(
-                        "{side}: σ_t {:?} per unit, albedo {:?}, phase g {}",
-                        sigma.to_array(),
-                        (sc.sigma_s / *sigma).to_array().map(|a| if a.is_finite() { a } else { 0.0 }),
-                        sc.g
-                    ),
-                    false => format!("{side}: σ {:?}", sigma.to_array()),
-                })
+                .map(|(side, sigma, sc)| format!("{side}: {}", medium_text(*sigma, sc)))
                 .collect();
         // A shape that bounds no medium but lies in one (`scene::immersed`).
         let round = scene.absorption.get(i).map_or(glam::Vec3::ZERO, |s| s[0]);
@@ -313,7 +323,7 @@ fn cmd_info(a: InfoArgs) -> Result<()> {
         let absorbs = if scatters {
             format!(" (a medium that scatters; {})", sides.join("; "))
         } else if !sides.is_empty() {
-            format!(" (absorbs {} per unit)", sides.join(", "))
+            format!(" (absorbs {})", sides.join(", "))
         } else if round != glam::Vec3::ZERO {
             format!(" (lies in a medium: σ {:?} per unit round it)", round.to_array())
         } else {

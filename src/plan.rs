@@ -227,12 +227,12 @@ pub fn plan(scene: &Scene, probe: &Probe) -> Plan {
 /// this heuristic concludes. Point lights have no other strategy and are always kept; estimators
 /// without MIS (the photon-map eye pass) sample every light. An area light is left out when it reaches
 /// no diffuse point among the first hits of a 48×48 grid of camera rays (two light samples each).
-/// All triangles of an emissive shape share the answer. In a scene with a medium that scatters every
-/// light is kept: the light a medium scatters to the camera is not lit at the diffuse points the probes
+/// All triangles of an emissive shape share the answer. In a scene with a medium that scatters (also
+/// round the camera) every light is kept: the light a medium scatters to the camera is not lit at the diffuse points the probes
 /// look at (a light inside a fog ball lights the fog).
 fn lights_in_view(scene: &Scene, probe: &Probe, seen: &[(u32, Vec3)], reasons: &mut Vec<String>) -> Vec<bool> {
     let lights = &scene.lights;
-    if !scene.scattering.is_empty() {
+    if !scene.scattering.is_empty() || scene.camera.medium.scattering.scatters() {
         return vec![true; lights.list.len()];
     }
     let eps = 1e-4 * scene.diagonal().max(1e-6);

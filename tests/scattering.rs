@@ -202,3 +202,138 @@ fn ink_inside_a_null_boundary_dims_camera_and_shadow_rays() {
         .to_string();
     assert!(msg.contains("`ink`") && msg.contains("--mode path"), "{msg}");
 }
+
+/// A camera in a medium that only absorbs (`camera.medium`, Mitsuba's sensor `medium`), looking
+/// straight (orthographic) at a quad light of radiance 1 at distance 4: every pixel reads e^(−σ·4),
+/// and with a near clipping plane at 1.5 e^(−σ·2.5), the medium starting at the plane as Mitsuba's
+/// camera rays start there (σ differing per channel); past a mirror that bounds no medium to a light
+/// 6 behind it, e^(−σ·10) (seen: e^(−σ·4) where the path lost the medium at the mirror in a scene
+/// without boundaries). With nothing but a white sky, infinitely far
+/// beyond the medium, a channel of σ 0 sees the sky and the others nothing, with and without a far
+/// clipping plane (past which the view leaves through the rest of the medium). Every other mode
+/// refuses a camera in a medium, naming `camera.medium` and `--mode path`. Refused before (an unknown
+/// key): seen failing.
+#[test]
+fn a_camera_in_an_absorbing_medium_sees_from_its_near_plane() {
+    let sigma = [0.1f32, 0.5, 1.0];
+    let text = |clip: &str| {
+        format!(
+            "[camera]\nprojection = \"orthographic\"\nfilm_size = [2.0, 2.0]\norigin = [0.0, 0.0, 4.0]\n\
+             target = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n{clip}\n\
+             [camera.medium]\nabsorption = [{}, {}, {}]\n\
+             [[lights]]\ntype = \"quad\"\ncorner = [-5.0, -5.0, 0.0]\nedge_u = [10.0, 0.0, 0.0]\n\
+             edge_v = [0.0, 10.0, 0.0]\nradiance = [1.0, 1.0, 1.0]\n\
+             [render]\nspp = 4\n",
+            sigma[0], sigma[1], sigma[2]
+        )
+    };
+    for (clip, len) in [("", 4.0f32), ("near_clip = 1.5", 2.5)] {
+        let img = common::render_image(&common::scene(&text(clip)));
+        for p in &img.pixels {
+            for k in 0..3 {
+                let want = (-sigma[k] * len).exp();
+                assert!((p[k] / want - 1.0).abs() < 1e-3, "{clip:?}: channel {k} reads {} for {want}", p[k]);
+            }
+        }
+    }
+    // Past a mirror at z = 0 back up to a quad light at z = 6 facing it, behind the camera: the path
+    // keeps the camera's medium where it reflects (the mirror bounds none), e^(−σ·(4 + 6)).
+    let mirror = format!(
+        "[camera]\nprojection = \"orthographic\"\nfilm_size = [2.0, 2.0]\norigin = [0.0, 0.0, 4.0]\n\
+         target = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
+         [camera.medium]\nabsorption = [{}, {}, {}]\n\
+         [materials]\nmirror = {{ type = \"mirror\" }}\n\
+         [[shapes]]\ntype = \"quad\"\ncorner = [-5.0, -5.0, 0.0]\nedge_u = [10.0, 0.0, 0.0]\n\
+         edge_v = [0.0, 10.0, 0.0]\nmaterial = \"mirror\"\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [-5.0, -5.0, 6.0]\nedge_u = [0.0, 10.0, 0.0]\n\
+         edge_v = [10.0, 0.0, 0.0]\nradiance = [1.0, 1.0, 1.0]\n\
+         [render]\nspp = 4\n",
+        sigma[0], sigma[1], sigma[2]
+    );
+    let img = common::render_image(&common::scene(&mirror));
+    for p in &img.pixels {
+        for k in 0..3 {
+            let want = (-sigma[k] * 10.0).exp();
+            assert!((p[k] / want - 1.0).abs() < 1e-3, "past a mirror: channel {k} reads {} for {want}", p[k]);
+        }
+    }
+    for clip in ["", "far_clip = 3.0"] {
+        let sky = format!(
+            "[camera]\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n{clip}\n\
+             [camera.medium]\nabsorption = [0.0, 0.5, 1.0]\n\
+             [[lights]]\ntype = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n[render]\nspp = 4\n"
+        );
+        let img = common::render_image(&common::scene(&sky));
+        for p in &img.pixels {
+            assert!((p[0] - 1.0).abs() < 1e-4 && p[1] == 0.0 && p[2] == 0.0, "{clip:?}: {p:?}");
+        }
+    }
+    for mode in ["bdpt", "vcm", "sppm", "ppm", "photon_map", "both"] {
+        let scene = common::scene_in_mode(&text(""), mode, &[]);
+        let accel = caustica::accel::Accel::new(&scene).unwrap();
+        let plan = caustica::pipeline::plan_for(&scene, &accel);
+        let err = caustica::pipeline::render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true)
+            .err()
+            .unwrap_or_else(|| panic!("{mode} rendered a camera in a medium"));
+        let msg = err.to_string();
+        assert!(msg.contains("camera.medium") && msg.contains("--mode path"), "{mode}: {msg}");
+    }
+}
+
+/// A camera in a white medium (albedo 1, no absorption; extinction differing a hundredfold between
+/// red and blue, Henyey–Greenstein g 0.6) inside a sphere that emits radiance ½ inwards and reflects
+/// half the light it meets (diffuse): a furnace whose radiance L = ½ + ½L is 1 everywhere, so every
+/// pixel reads 1. A path that started in vacuum, lost the medium where it bounced off the sphere (which
+/// bounds none; seen: the path kept none in a scene without boundaries, 0.93 in red and 0.73 in blue),
+/// or left its σ_s out, reads otherwise.
+#[test]
+fn a_camera_in_a_white_medium_in_a_white_furnace_reads_one() {
+    let text = "[camera]\nfov = 60\norigin = [0.0, 0.0, 0.5]\ntarget = [0.0, 0.0, 0.0]\nresolution = [16, 16]\n\
+                [camera.medium]\nabsorption = [0.1, 1.0, 10.0]\nalbedo = [1.0, 1.0, 1.0]\nphase_g = 0.6\n\
+                [materials]\ngrey = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\
+                [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 2.0\nmaterial = \"grey\"\n\
+                flip_normals = true\nemission = [0.5, 0.5, 0.5]\n\
+                [render]\nmax_depth = 100000\nspp = 1024\n";
+    let img = common::render_image(&common::scene(text));
+    let n = img.pixels.len() as f64;
+    for k in 0..3 {
+        let mean = img.pixels.iter().map(|p| p[k] as f64).sum::<f64>() / n;
+        let blocks = channel_blocks(&img, k);
+        let (lo, hi) = blocks.iter().fold((f64::MAX, f64::MIN), |(lo, hi), b| (lo.min(*b), hi.max(*b)));
+        println!("channel {k}: mean {mean:.5}, 4 × 4 blocks {lo:.4} to {hi:.4}");
+        assert!((mean - 1.0).abs() < 0.004, "channel {k}: mean {mean}");
+        assert!(lo > 0.97 && hi < 1.03, "channel {k}: blocks {lo} to {hi}");
+    }
+}
+
+/// Bad camera media are refused naming the key: a negative or non-finite absorption, an albedo above
+/// 1 or without absorption, a phase_g of 1, an unknown key.
+#[test]
+fn bad_camera_media_are_refused_naming_the_key() {
+    for (fields, key) in [
+        ("absorption = [-1.0, 1.0, 1.0]", "camera.medium.absorption"),
+        ("absorption = [1.0, 1.0, 1.0], albedo = [1.5, 0.5, 0.5]", "camera.medium.albedo"),
+        ("absorption = [0.0, 0.0, 0.0], albedo = [0.5, 0.5, 0.5]", "camera.medium.albedo"),
+        ("absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase_g = 1.0", "camera.medium.phase_g"),
+        ("absorption = [1.0, 1.0, 1.0], phase_g = 0.5", "camera.medium.phase_g"),
+        ("absorption = [1.0, 1.0, 1.0], sigma_s = [0.5, 0.5, 0.5]", "sigma_s"),
+        ("albedo = [0.5, 0.5, 0.5]", "absorption"),
+    ] {
+        let text = format!(
+            "[camera]\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
+             medium = {{ {fields} }}\n\
+             [[lights]]\ntype = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n"
+        );
+        let err = caustica::scene::load_scene_str(&text, "fogcam.toml", std::path::Path::new("."), &[])
+            .err()
+            .unwrap_or_else(|| panic!("{fields}: loaded"))
+            .to_string();
+        assert!(err.contains("fogcam.toml") && err.contains(key), "{fields}: {err}");
+    }
+    let text = "[camera]\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
+                medium = { absorption = [inf, 1.0, 1.0] }\n\
+                [[lights]]\ntype = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n";
+    let err =
+        caustica::scene::load_scene_str(text, "fogcam.toml", std::path::Path::new("."), &[]).err().unwrap().to_string();
+    assert!(err.contains("camera.medium.absorption"), "{err}");
+}

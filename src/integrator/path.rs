@@ -33,11 +33,17 @@ impl PathTracer<'_> {
         let mut prev_pdf = 0.0f32;
         let mut prev_p = ray.o;
         let mut view = LineOfSight::CAMERA;
-        // Absorption of the medium the current segment runs through (`Scene::sigma_next`): none from
-        // the camera (Mitsuba's sensor without a medium), set where the path leaves a medium's boundary.
-        let mut sigma = Rgb::ZERO;
+        // Absorption (extinction) of the medium the current segment runs through (`Scene::sigma_next`):
+        // the camera's (none unless `camera.medium`: Mitsuba's sensor `medium`), set where the path
+        // leaves a medium's boundary.
+        let mut sigma = scene.camera.medium.sigma_t;
         // What that medium scatters (`Scene::scattering_next`): nothing in most scenes.
-        let mut scat = Scattering::default();
+        let mut scat = scene.camera.medium.scattering;
+        if sigma != Rgb::ZERO && ray.tmin > 0.0 {
+            // The camera's medium starts at the near clipping plane, as Mitsuba's camera rays do (their
+            // origin on it): what lies nearer is cut away, the medium too.
+            ray = Ray { o: ray.at(ray.tmin), tmin: 0.0, tmax: ray.tmax - ray.tmin, ..ray };
+        }
         // Spectral MIS through media that scatter (`medium::fly`): the channel whose free flights the
         // path draws (chosen at its first such medium), and each channel's path density so far over
         // their mean (`beta` then holds the path's contribution over that mean: the balance heuristic).
@@ -56,7 +62,9 @@ impl PathTracer<'_> {
             if scat.scatters() || scene.see_through_media {
                 // A medium that scatters: the path may scatter in it before it reaches `found`. (Also
                 // where see-through surfaces bound media, which it then crosses one at a time.)
-                let len = found.as_ref().map_or(f32::INFINITY, |f| f.hit.t * ray.d.length());
+                // To the hit, else to the ray's end (a camera ray's far clipping plane, where Mitsuba's
+                // free flights stop too; infinite elsewhere).
+                let len = found.as_ref().map_or(ray.tmax, |f| f.hit.t) * ray.d.length();
                 let flight = if scat.scatters() {
                     let h = *hero.get_or_insert_with(|| ((rng.next_f32() * 3.0) as usize).min(2));
                     fly(sigma, len, h, rng.next_f32())
@@ -108,6 +116,11 @@ impl PathTracer<'_> {
                         ratio *= prob / m;
                     }
                     Flight::Through { .. } => {}
+                }
+                if found.is_none() && len < f32::INFINITY {
+                    // Past the far clipping plane the ray leaves the scene through the rest of the
+                    // medium: only channels it does not dim see the sky (Mitsuba's escaping flight).
+                    beta *= Scene::absorbed(sigma, f32::INFINITY);
                 }
                 // A see-through surface is crossed as its own segment's end: the medium goes on beyond
                 // it (or changes, where it bounds one), where the path may scatter again.

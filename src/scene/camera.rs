@@ -277,6 +277,9 @@ pub struct Camera {
     /// reflects; whatever is farther is not seen either, the sky shows instead. Only the segment from the
     /// camera is clipped, as in Mitsuba (a reflection shows everything).
     pub clip: [f32; 2],
+    /// The medium the camera sits in (Mitsuba's sensor `medium`; vacuum by default): camera paths start
+    /// in it at the near clipping plane (`PathTracer::li`).
+    pub medium: crate::scene::medium::Medium,
 }
 
 /// Where light leaving a surface point reaches the camera (`Camera::link`).
@@ -331,6 +334,7 @@ impl Camera {
             centre: [0.0, 0.0],
             window: None,
             clip: [0.0, f32::INFINITY],
+            medium: Default::default(),
         }
     }
 

@@ -115,6 +115,26 @@ pub struct CameraSpec {
     /// read on the mirrored film.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub mirror: bool,
+    /// The medium the camera sits in (Mitsuba's sensor `medium`): fog round the whole scene, water
+    /// round an underwater camera. Camera paths start in it, from the near clipping plane, and carry it
+    /// until they cross a shape that bounds a medium (a dielectric's or null material's `absorption` /
+    /// `outside_absorption`); a surface without media keeps it on both sides. Rendered by the path
+    /// tracer alone (`--mode path`). None (the default): the camera sits in vacuum.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub medium: Option<CameraMediumSpec>,
+}
+
+/// `[camera.medium]`: its extinction σ_t per channel and unit of scene length (`absorption`, as a
+/// dielectric's), what share of it scatters (`albedo`, each channel in [0, 1]; none: it only absorbs)
+/// and the Henyey–Greenstein asymmetry of its phase function (`phase_g` in (−1, 1), 0: isotropic).
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CameraMediumSpec {
+    pub absorption: V3,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub albedo: Option<V3>,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub phase_g: f32,
 }
 
 fn is_box_filter(f: &crate::scene::camera::FilterSpec) -> bool {

@@ -149,10 +149,11 @@ impl Boundaries {
 }
 
 /// The absorption σ of the medium `ray` starts in, by the first boundary other than `skip` it meets:
-/// its inside's if met from behind, its outside's in front (zero if none).
+/// its inside's if met from behind, its outside's in front (if none, the camera's: zero unless it sits
+/// in a medium, which then fills the space no boundary encloses).
 fn medium_along(scene: &Scene, boundaries: &Boundaries, ray: &Ray, skip: u32) -> Rgb {
     (boundaries.first_hit(ray, skip))
-        .map_or(Rgb::ZERO, |(_, i, behind)| scene.absorption[i as usize][if behind { 0 } else { 1 }])
+        .map_or(scene.camera.medium.sigma_t, |(_, i, behind)| scene.absorption[i as usize][if behind { 0 } else { 1 }])
 }
 
 /// The medium a point lies in: the majority of what `rays` from it (one per direction of
@@ -201,7 +202,7 @@ pub fn surrounding_media(scene: &Scene, lamps: &[Vec3]) -> (Vec<Rgb>, Vec<Rgb>, 
                 j != i && (lo - slack).cmple(bhi).all() && (hi + slack).cmpge(blo).all()
             };
             if !boundaries.boxes.iter().any(near) {
-                return (Rgb::ZERO, 0, 0);
+                return (scene.camera.medium.sigma_t, 0, 0);
             }
             let votes: Vec<Rgb> = spread_points(&scene.shapes[i].geometry, POINTS)
                 .iter()
@@ -276,20 +277,21 @@ fn near_plane_in_medium(scene: &Scene, boundaries: &Boundaries, dirs: &[Vec3; 6]
             let ray = cam.ray(at(k % NEAR_GRID, cam.width), at(k / NEAR_GRID, cam.height));
             let p = ray.at(ray.tmin);
             let sigma = medium_at(scene, boundaries, dirs, p);
-            Some(sigma).filter(|sigma| *sigma != Rgb::ZERO)
+            Some(sigma).filter(|sigma| *sigma != cam.medium.sigma_t)
         })
         .collect();
     let (sigma, _) = majority(&inside);
     (!inside.is_empty()).then(|| {
         format!(
             "the camera's near clipping plane lies inside a medium that absorbs (σ {:?}, at {} of {} points \
-             of the plane the film sees): camera paths start in the sensor's medium (none) and carry it \
+             of the plane the film sees): camera paths start in the sensor's medium (σ {:?}) and carry it \
              until they cross the medium's boundary, as in Mitsuba, while light from the medium's own \
              lights and photons is absorbed in it: caustica's photon and bidirectional modes differ from \
              its path tracer there. Move the plane out of the medium",
             sigma.to_array(),
             inside.len(),
-            NEAR_GRID * NEAR_GRID
+            NEAR_GRID * NEAR_GRID,
+            cam.medium.sigma_t.to_array()
         )
     })
 }

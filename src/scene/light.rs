@@ -481,6 +481,17 @@ impl Lights {
         2.0 * (self.sphere.1 + (x - self.sphere.0).length())
     }
 
+    /// How far a shadow ray from `x` towards the sky or a distant light runs: 2·max(R, |x − c|) for the
+    /// scene's bounding sphere (c, R), which ends it outside the sphere (at least R from c), and which a
+    /// medium round `x` dims along its whole length. Mitsuba puts its `constant` and `envmap` emitters'
+    /// samples 2R from `x` and its `directional` one's 2·max(R, |x − c|) (pbrt-v4 both 2R): in a medium
+    /// that fills the space round the scene (a sensor's, a shape's exterior that nothing encloses) the
+    /// sky's light then reaches a point through that much of it by light sampling (where paths that
+    /// leave the scene never get out of the medium). Alike for points inside the sphere.
+    pub fn sky_distance(&self, x: Vec3) -> f32 {
+        2.0 * self.sphere.1.max((x - self.sphere.0).length())
+    }
+
     /// Radiance of the environment towards `dir` (zero without one).
     pub fn env_radiance(&self, dir: Vec3) -> Rgb {
         self.env.as_ref().map_or(Rgb::ZERO, |(e, _)| e.radiance(dir))
@@ -578,8 +589,8 @@ impl Lights {
             }
             LightKind::Env | LightKind::Distant { .. } => {
                 let s = self.sample_infinite(i, u)?;
-                // A shadow ray to a point beyond the scene's bounding sphere.
-                let dist = self.beyond_scene(x);
+                // A shadow ray to a point outside the scene's bounding sphere (`sky_distance`).
+                let dist = self.sky_distance(x);
                 Some(LightSample {
                     wi: s.wi,
                     dist,

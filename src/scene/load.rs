@@ -533,6 +533,12 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
         return Err(cx.err("camera.far_clip", format!("must be a depth beyond near_clip ({near}), got {far}")));
     }
     camera.clip = [near, far];
+    if let Some(m) = &c.medium {
+        let sigma_t = absorption_of(cx, "camera.medium.absorption", m.absorption)?;
+        let keys = ["absorption", "albedo", "phase_g"];
+        let scattering = scattering_of(cx, "camera.medium", keys, sigma_t, &m.albedo, m.phase_g)?;
+        camera.medium = crate::scene::medium::Medium { sigma_t, scattering };
+    }
     // Rays leave the lens's rim and aim at the corners of the plane of focus: both must be f32 points.
     let rim = camera.origin + camera.lens_radius * (camera.right + camera.up);
     if !rim.is_finite() {

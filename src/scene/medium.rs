@@ -47,6 +47,14 @@ impl Scattering {
     }
 }
 
+/// A homogeneous medium a path runs through: its extinction σ_t per channel and what of it scatters
+/// (the default: vacuum).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Medium {
+    pub sigma_t: Rgb,
+    pub scattering: Scattering,
+}
+
 /// Henyey–Greenstein's density at the cosine `cos` between the incoming and outgoing directions of
 /// travel: (1 − g²) / (4π (1 + g² − 2g cos)^{3/2}), Mitsuba's `hg` (its g > 0 scatters forwards).
 pub fn henyey_greenstein(g: f32, cos: f32) -> f32 {

@@ -555,7 +555,7 @@ impl Scene {
     #[inline(always)]
     pub fn sigma_next(&self, si: &SurfaceHit, w: Vec3, arrived: Rgb) -> Rgb {
         if self.absorption.is_empty() {
-            return Rgb::ZERO;
+            return arrived;
         }
         if self.boundary[si.shape as usize] {
             self.sigma_leaving(si, w)
@@ -597,11 +597,23 @@ impl Scene {
     /// (a `null` material), are rendered by the path tracer alone (the other modes' photons, light
     /// subpaths and gathers would pass through the first as through coloured glass, and cross the
     /// second's boundary as if it bounded nothing).
+    /// A camera in a medium (`camera.medium`) is too: the other modes' light paths would have to know
+    /// which medium every point of the scene lies in.
     pub fn check_mode(&self, mode: crate::scene::file::Mode) -> Result<(), String> {
-        if (self.scattering.is_empty() && !self.see_through_media) || mode == crate::scene::file::Mode::Path {
+        let camera_medium = self.camera.medium.sigma_t != Rgb::ZERO;
+        if (self.scattering.is_empty() && !self.see_through_media && !camera_medium)
+            || mode == crate::scene::file::Mode::Path
+        {
             return Ok(());
         }
         let file = if self.path.as_os_str().is_empty() { String::new() } else { format!("{}: ", self.path.display()) };
+        if camera_medium {
+            return Err(format!(
+                "{file}the camera sits in a medium (camera.medium; Mitsuba's sensor `medium`), which only the \
+                 path tracer renders (--mode path); the photon-mapping and bidirectional modes start camera \
+                 paths in vacuum"
+            ));
+        }
         let name = |shape: usize| &self.material_names[self.shapes[shape].material as usize];
         if let Some(shape) = self.scattering.iter().position(|s| s.iter().any(Scattering::scatters)) {
             return Err(format!(

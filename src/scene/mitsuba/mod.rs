@@ -210,6 +210,7 @@ fn empty_file() -> SceneFile {
         near_clip: None,
         far_clip: None,
         mirror: false,
+        medium: None,
     };
     let mut render = RenderSettings { max_depth: UNLIMITED_DEPTH, ..Default::default() };
     render.spp = 4;
@@ -409,7 +410,7 @@ impl<'a> Cx<'a> {
         }
     }
 
-    fn sensor(&mut self, s: &Node) -> Result<(), SceneError> {
+    fn sensor(&mut self, s: &'a Node) -> Result<(), SceneError> {
         let thin_lens = match s.attr("type") {
             Some("perspective") => false,
             Some("thinlens") => true,
@@ -443,7 +444,7 @@ impl<'a> Cx<'a> {
             }
         }
         self.sensor_common(s, &p)?;
-        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, shutter_open, shutter_close, film, sampler (for perspective principal_point_offset_x, principal_point_offset_y; for thinlens aperture_radius, focus_distance)")?;
+        p.finish("to_world, fov, fov_axis, focal_length, near_clip, far_clip, shutter_open, shutter_close, film, sampler, medium (for perspective principal_point_offset_x, principal_point_offset_y; for thinlens aperture_radius, focus_distance)")?;
         let [w, h] = self.file.camera.resolution.map(|v| v as f32);
         let (deg, axis) = field_of_view(s, fov, fov_axis, focal)?;
         let half = (deg.to_radians() * 0.5).tan();
@@ -477,7 +478,7 @@ impl<'a> Cx<'a> {
 
     /// What every sensor may hold besides its projection: the clipping planes (Mitsuba's defaults 0.01
     /// and 10⁴, which Mitsuba requires to be positive and in order), the film and the sampler.
-    fn sensor_common(&mut self, s: &Node, p: &Props) -> Result<(), SceneError> {
+    fn sensor_common(&mut self, s: &Node, p: &Props<'a>) -> Result<(), SceneError> {
         let near = p.float("near_clip")?.unwrap_or(MITSUBA_CLIP[0]);
         let far = p.float("far_clip")?.unwrap_or(MITSUBA_CLIP[1]);
         if !(near.is_finite() && near > 0.0 && far.is_finite() && far > near) {
@@ -486,6 +487,7 @@ impl<'a> Cx<'a> {
             )));
         }
         (self.file.camera.near_clip, self.file.camera.far_clip) = (Some(near), Some(far));
+        self.sensor_medium(p)?;
         // When the shutter opens and closes: nothing in a Mitsuba XML scene moves, so the image is the same.
         p.float("shutter_open")?;
         p.float("shutter_close")?;
@@ -512,10 +514,53 @@ impl<'a> Cx<'a> {
         Ok(())
     }
 
+    /// The medium an endpoint (a sensor or an emitter) names: a nested `<medium>`, or a `<ref>` to one,
+    /// unnamed or named `medium`; a second is refused naming its line.
+    fn endpoint_medium(&self, p: &Props<'a>) -> Result<Option<&'a Node>, SceneError> {
+        let ids = &self.ids;
+        let media = p.children_where(|c| match c.tag.as_str() {
+            "medium" => true,
+            "ref" => {
+                matches!(c.attr("name"), None | Some("medium"))
+                    && c.attr("id").and_then(|id| ids.get(id)).is_some_and(|t| t.tag == "medium")
+            }
+            _ => false,
+        });
+        match media[..] {
+            [] => Ok(None),
+            [m] if m.tag == "ref" => Ok(Some(self.lookup(m, m.attr("id").unwrap_or_default())?)),
+            [m] => Ok(Some(m)),
+            [_, second, ..] => Err(second.error("a second medium (an endpoint sits in one)")),
+        }
+    }
+
+    /// The medium a sensor sits in (`endpoint_medium`), read under `volpath` into `camera.medium`, and
+    /// ignored with a warning under Mitsuba's other integrators, which ignore it. A medium of σ_t 0 is
+    /// vacuum.
+    fn sensor_medium(&mut self, p: &Props<'a>) -> Result<(), SceneError> {
+        let Some(node) = self.endpoint_medium(p)? else { return Ok(()) };
+        let medium = homogeneous_medium(node)?;
+        if !self.media {
+            self.warnings.push(format!(
+                "{}: line {}: the sensor's medium is ignored, as Mitsuba's integrator here ignores it (only \
+                 volpath and volpathmis render media)",
+                p.node.file.display(),
+                p.node.line
+            ));
+            return Ok(());
+        }
+        self.file.camera.medium = (medium.sigma != [0.0; 3]).then(|| CameraMediumSpec {
+            absorption: medium.sigma,
+            albedo: medium.albedo,
+            phase_g: if medium.albedo.is_some() { medium.g } else { 0.0 },
+        });
+        Ok(())
+    }
+
     /// Mitsuba's `orthographic` sensor: its film spans local x in [−1, 1] and y in [−1/aspect,
     /// 1/aspect], scaled by `to_world` (which may scale x and y, to size the view, but not shear or
     /// mirror), every ray along local z.
-    fn orthographic(&mut self, s: &Node) -> Result<(), SceneError> {
+    fn orthographic(&mut self, s: &'a Node) -> Result<(), SceneError> {
         let p = Props::new(s);
         let m = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
@@ -535,7 +580,7 @@ impl<'a> Cx<'a> {
         if clips && (sz - 1.0).abs() > 1e-3 {
             return Err(s.error("an orthographic camera whose to_world scales z may not set near_clip or far_clip"));
         }
-        p.finish("to_world, near_clip, far_clip, shutter_open, shutter_close, film, sampler")?;
+        p.finish("to_world, near_clip, far_clip, shutter_open, shutter_close, film, sampler, medium")?;
         let [w, h] = self.file.camera.resolution.map(|v| v as f32);
         let cam = &mut self.file.camera;
         cam.projection = Projection::Orthographic;
@@ -933,7 +978,9 @@ impl<'a> Cx<'a> {
             emission = Some(radiance.unwrap_or(Reflectance::Colour([1.0; 3])));
             // How often Mitsuba's light samples pick this emitter: it changes the noise, not the image.
             ep.float("sampling_weight")?;
-            ep.finish("radiance, sampling_weight")?;
+            // Its medium, left out (`emitter`).
+            self.endpoint_medium(&ep)?;
+            ep.finish("radiance, sampling_weight, medium")?;
         }
         // The shape's own to_world mirrors (an instance's does not turn its shapes in Mitsuba either).
         let mirrors = own.is_some_and(|m| glam::Mat3::from_mat4(m).determinant() < 0.0);
@@ -1946,6 +1993,9 @@ impl<'a> Cx<'a> {
         let p = Props::new(e);
         // How often Mitsuba's light samples pick this emitter: it changes the noise, not the image.
         p.float("sampling_weight")?;
+        // The medium it sits in, which Mitsuba's path tracers do not read (a path carries its own, and a
+        // light sample is dimmed by the medium of the point it lights): read and left out.
+        self.endpoint_medium(&p)?;
         match e.attr("type") {
             Some("point") => {
                 let intensity = p.rgb("intensity")?.unwrap_or([1.0; 3]);
@@ -2064,7 +2114,7 @@ impl<'a> Cx<'a> {
         }
         p.finish(
             "intensity, position, to_world (point); intensity, cutoff_angle, beam_width, texture, to_world (spot); irradiance, scale, fov, fov_axis, focal_length, to_world (projector); irradiance, direction, to_world (directional); radiance \
-             (constant); filename, scale, to_world, mis_compensation (envmap); sampling_weight (every emitter)",
+             (constant); filename, scale, to_world, mis_compensation (envmap); sampling_weight, medium (every emitter)",
         )
     }
 }
