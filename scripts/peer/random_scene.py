@@ -1,7 +1,7 @@
 """A random Mitsuba 3 XML scene made of what caustica's import reads, for scripts/random-check (caustica's
 path tracer against Mitsuba's on scenes nobody chose).
 
-    python3 scripts/peer/random_scene.py SEED OUT.xml [--no-blend] [--area-lights] [--more] [--exporter] [--scale S]
+    python3 scripts/peer/random_scene.py SEED OUT.xml [--no-blend] [--area-lights] [--more] [--fog] [--exporter] [--scale S]
 
 The same SEED gives the same scene. A floor (and half the time a back wall) under one to four objects
 (sphere, cube, cylinder, disk, rectangle, the PLY ball, the OBJ tile) with random transforms, each of a
@@ -46,6 +46,7 @@ sometimes mirrors them.
 half the time): `name` labels on nested objects, booleans spelled "True" and "FALSE", references through
 <alias>, and a camera mirrored by <scale x="-1"/> (the image mirrored in both renderers).
 --scale S writes the same scene scaled by S about the origin (`scale_scene`), whose image is the same.
+--fog puts the camera in a fog that scatters (the sensor's medium), under volpath.
 """
 import argparse
 import os
@@ -65,6 +66,9 @@ ap.add_argument("--curves", action="store_true",
 ap.add_argument("--scatter", action="store_true",
                 help="with --more: the coloured glass's media scatter too (albedo 0.3 to 1 a channel, "
                      "isotropic or Henyey-Greenstein), and every closed glass shape holds one")
+ap.add_argument("--fog", action="store_true",
+                help="the camera sits in a fog (the sensor's medium: a grey sigma_t of 0.05 to 0.3 a unit, an "
+                     "albedo of 0.4 to 1 a channel, isotropic or Henyey-Greenstein), under volpath; not with --scale")
 ap.add_argument("--exporter", action="store_true",
                 help="the same scene written as other tools write it (labels, True, aliases, a mirrored camera)")
 ap.add_argument("--scale", type=float, default=1.0,
@@ -1038,6 +1042,26 @@ if args.curves and args.scale == 1.0:
 # transmittance, as no bounce, as caustica does: the reference for such scenes.
 if 'type="mask"' in text or 'type="thindielectric"' in text:
     text = text.replace('<integrator type="path">', '<integrator type="volpath">', 1)
+if args.fog:
+    # A camera in fog (session 77), from a stream of its own: the sensor's medium, nested or a <ref> to
+    # a top-level one written before the sensor, under volpath. Paths keep it past every shape without
+    # media and lose it where they leave a glass shape whose exterior is none (Mitsuba's volpath, and
+    # caustica's import). Meant with --area-lights: light sampled from points ever nearer a point light
+    # inside a medium has no finite variance.
+    if args.scale != 1.0:
+        raise SystemExit("random_scene.py: --fog is not scaled by --scale")
+    G = random.Random(args.seed * 6151 + 29)
+    phase = G.choice(["", '<phase type="isotropic"/>',
+                      f'<phase type="hg"><float name="g" value="{f(G.uniform(-0.6, 0.8))}"/></phase>'])
+    props = (f'<float name="sigma_t" value="{f(G.uniform(0.05, 0.3))}"/>'
+             f'<rgb name="albedo" value="{", ".join(f(G.uniform(0.4, 1.0)) for _ in range(3))}"/>{phase}')
+    if G.random() < 0.5:
+        text = re.sub(r'(<sensor type="\w+">)', lambda m: m.group(1) + f'<medium type="homogeneous">{props}</medium>',
+                      text, count=1)
+    else:
+        text = re.sub(r'(<sensor type="\w+">)', lambda m: f'<medium type="homogeneous" id="fog">{props}</medium>'
+                      + m.group(1) + '<ref id="fog"/>', text, count=1)
+    text = re.sub(r'(<integrator type=")path(")', r"\1volpath\2", text, count=1)
 if args.scale != 1.0:
     text = scale_scene(text, args.scale, os.path.dirname(os.path.abspath(args.out)))
 if args.exporter:
