@@ -1062,6 +1062,15 @@ if args.fog:
         text = re.sub(r'(<sensor type="\w+">)', lambda m: f'<medium type="homogeneous" id="fog">{props}</medium>'
                       + m.group(1) + '<ref id="fog"/>', text, count=1)
     text = re.sub(r'(<integrator type=")path(")', r"\1volpath\2", text, count=1)
+    # An envmap becomes a constant sky of its scale: in a fog that fills space the sky's light reaches
+    # a point only by light sampling, MIS-weighted against a phase or BSDF sample that never gets out,
+    # so that light depends on the sampling density, which for an envmap differs from Mitsuba's (README,
+    # "Not done"); a constant sky's is uniform in both.
+    text = re.sub(r'<emitter type="envmap">(?:(?!</emitter>).)*?<float name="scale" value="([^"]*)"/>(?:(?!</emitter>).)*</emitter>',
+                  lambda m: f'<emitter type="constant"><rgb name="radiance" value="{m.group(1)}, {m.group(1)}, {m.group(1)}"/></emitter>',
+                  text)
+    text = re.sub(r'<emitter type="envmap">(?:(?!</emitter>).)*</emitter>',
+                  '<emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>', text)
 if args.scale != 1.0:
     text = scale_scene(text, args.scale, os.path.dirname(os.path.abspath(args.out)))
 if args.exporter:

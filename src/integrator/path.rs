@@ -55,7 +55,13 @@ impl PathTracer<'_> {
         let mut crossed = 0;
         loop {
             c.rays += 1;
-            let mut found = view.trace(scene, self.tracer, &ray, c);
+            // With `hide_emitters` the camera's line of sight passes hidden emitters, but not inside a
+            // medium, where Mitsuba's volpath meets them (their light hidden, their BSDF scattering) as
+            // it does any surface: a camera in fog sees only the fog before a hidden light.
+            let mut found = match sigma != Rgb::ZERO {
+                true => crate::accel::interact(scene, self.tracer, &ray),
+                false => view.trace(scene, self.tracer, &ray, c),
+            };
             // Past see-through surfaces (out of line: most scenes have none), with the BSDF picked where
             // the path scatters.
             let mut picked = None;

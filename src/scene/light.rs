@@ -482,12 +482,13 @@ impl Lights {
     }
 
     /// How far a shadow ray from `x` towards the sky or a distant light runs: 2·max(R, |x − c|) for the
-    /// scene's bounding sphere (c, R), which ends it outside the sphere (at least R from c), and which a
-    /// medium round `x` dims along its whole length. Mitsuba puts its `constant` and `envmap` emitters'
-    /// samples 2R from `x` and its `directional` one's 2·max(R, |x − c|) (pbrt-v4 both 2R): in a medium
-    /// that fills the space round the scene (a sensor's, a shape's exterior that nothing encloses) the
-    /// sky's light then reaches a point through that much of it by light sampling (where paths that
-    /// leave the scene never get out of the medium). Alike for points inside the sphere.
+    /// scene's bounding sphere (c, R), as Mitsuba 3 runs them (its `envmap` and `directional` emitters'
+    /// samples lie that far from `x`; pbrt-v4's 2R), which ends it outside the sphere. A medium round
+    /// `x` dims the ray along that length: in a medium that fills the space round the scene (a
+    /// sensor's, a shape's exterior that nothing encloses) the sky's light reaches a point through that
+    /// much of it by light sampling, MIS-weighted against the phase function's or BSDF's sample, which
+    /// never gets out of the medium. (That light depends on the light sampling's density, which for an
+    /// `envmap` is not Mitsuba's: README, "Not done".)
     pub fn sky_distance(&self, x: Vec3) -> f32 {
         2.0 * self.sphere.1.max((x - self.sphere.0).length())
     }
