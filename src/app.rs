@@ -258,12 +258,21 @@ fn cmd_convert(scene: &Path, out: &Path) -> Result<()> {
 /// A medium of extinction `sigma` that scatters `sc` of it, for `caustica info`: a medium that
 /// scatters by its σ_t, albedo and phase; one that only absorbs by its σ.
 fn medium_text(sigma: glam::Vec3, sc: &crate::scene::Scattering) -> String {
+    use crate::scene::medium::Lobe;
+    let lobe = |l: Lobe| match l {
+        Lobe::Hg(g) => format!("g {g}"),
+        Lobe::Rayleigh => "Rayleigh".to_string(),
+    };
+    let p = sc.phase;
+    let phase = match p.weight {
+        0.0 => lobe(p.first),
+        w => format!("{} × {} + {w} × {}", 1.0 - w, lobe(p.first), lobe(p.second)),
+    };
     match sc.scatters() {
         true => format!(
-            "σ_t {:?} per unit, albedo {:?}, phase g {}",
+            "σ_t {:?} per unit, albedo {:?}, phase {phase}",
             sigma.to_array(),
             (sc.sigma_s / sigma).to_array().map(|a| if a.is_finite() { a } else { 0.0 }),
-            sc.g
         ),
         false => format!("σ {:?} per unit", sigma.to_array()),
     }

@@ -1467,8 +1467,8 @@ fn scattering_media_xml_match_mitsuba() {
     let scene = load_scene_with(&dir().join("scatter.xml"), &[]).unwrap();
     let scattering: Vec<_> = scene.scattering.iter().filter(|s| s[0].scatters()).collect();
     assert_eq!(scattering.len(), 3, "three shapes hold media that scatter");
-    let gs: Vec<f32> = scattering.iter().map(|s| s[0].g).collect();
-    assert_eq!(gs, [0.0, 0.7, -0.3]);
+    let gs: Vec<_> = scattering.iter().map(|s| s[0].phase).collect();
+    assert_eq!(gs, [0.0, 0.7, -0.3].map(caustica::scene::medium::Phase::hg));
     let accel = Accel::new(&scene).unwrap();
     for mode in ["bdpt", "vcm", "sppm", "ppm", "photon_map"] {
         let scene = load_scene_with(&dir().join("scatter.xml"), &[format!("render.mode=\"{mode}\"")]).unwrap();
@@ -1572,7 +1572,11 @@ fn camera_in_fog_matches_mitsuba() {
     let scene = load_scene_with(&dir().join("fogcam.xml"), &[]).unwrap();
     let m = scene.camera.medium;
     assert_eq!(m.sigma_t.to_array(), [0.3; 3]);
-    assert_eq!((m.scattering.g, m.scattering.sigma_s.to_array()), (0.4, [0.3 * 0.9, 0.3 * 0.85, 0.3 * 0.75]));
+    let sigma_s = [0.3 * 0.9, 0.3 * 0.85, 0.3 * 0.75];
+    assert_eq!(
+        (m.scattering.phase, m.scattering.sigma_s.to_array()),
+        (caustica::scene::medium::Phase::hg(0.4), sigma_s)
+    );
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
     let accel = Accel::new(&scene).unwrap();
     for mode in ["bdpt", "vcm", "sppm", "ppm", "photon_map"] {
@@ -1631,6 +1635,55 @@ fn camera_in_fog_matches_mitsuba() {
     let again = load_scene_with(&toml, &[]).unwrap();
     assert_eq!(again.content_hash(), scene.content_hash());
     let _ = std::fs::remove_dir_all(d);
+}
+
+/// Phase functions beyond one Henyey–Greenstein lobe (`phase.xml`: the camera in a fog scattering by
+/// Rayleigh's, a glass ball of a blend of a forward lobe and Rayleigh's, a null box of smoke blending a
+/// forward and a backward lobe): the path tracer within 0.3% of Mitsuba's means and 4% per block
+/// (the old build refused the file, "phase function type not read"); each medium's phase read as
+/// written, the blend's weight on its second lobe; the converted TOML (`phase`) hashing equal; a blend
+/// of three lobes and an unread phase function refused naming the line.
+#[test]
+fn rayleigh_and_blended_phase_functions_match_mitsuba() {
+    use caustica::scene::medium::{Lobe, Phase};
+    matches_mitsuba("phase", 4096, 0.003);
+    let scene = load_scene_with(&dir().join("phase.xml"), &[]).unwrap();
+    assert_eq!(scene.camera.medium.scattering.phase, Phase { first: Lobe::Rayleigh, ..Default::default() });
+    let phases: Vec<Phase> = scene.scattering.iter().filter(|s| s[0].scatters()).map(|s| s[0].phase).collect();
+    assert_eq!(
+        phases,
+        [
+            Phase { first: Lobe::Hg(0.8), second: Lobe::Rayleigh, weight: 0.4 },
+            Phase { first: Lobe::Hg(0.9), second: Lobe::Hg(-0.6), weight: 0.3 }
+        ]
+    );
+    let d = tmp("phase-convert");
+    let toml = d.join("phase.toml");
+    std::fs::create_dir_all(&d).unwrap();
+    let converted = caustica::scene::mitsuba::convert(&dir().join("phase.xml")).unwrap();
+    std::fs::write(&toml, caustica::scene::load::scene_file_toml(&converted.file, "phase.toml").unwrap()).unwrap();
+    let text = std::fs::read_to_string(&toml).unwrap();
+    assert!(text.contains("rayleigh") && text.contains("weight"), "{text}");
+    let again = load_scene_with(&toml, &[]).unwrap();
+    assert_eq!(again.content_hash(), scene.content_hash());
+    let _ = std::fs::remove_dir_all(d);
+    let rayleigh = r#"<phase type="rayleigh"/>
+            </phase>"#;
+    let three = r#"<phase type="blendphase"><float name="weight" value="0.5"/><phase type="rayleigh"/><phase type="isotropic"/></phase>
+            </phase>"#;
+    let msg = beside("phase", rayleigh, three, |path| {
+        load_scene_with(path, &[]).err().expect("three lobes loaded").to_string()
+    });
+    assert!(msg.contains(": line 43") && msg.contains("more than two lobes"), "{msg}");
+    let msg = beside(
+        "phase",
+        r#"<phase type="rayleigh"/>
+    </medium>"#,
+        r#"<phase type="sggx"/>
+    </medium>"#,
+        |path| load_scene_with(path, &[]).err().expect("sggx loaded").to_string(),
+    );
+    assert!(msg.contains(": line 14") && msg.contains("phase function type not read"), "{msg}");
 }
 
 /// Hidden emitters seen from a camera in fog (`hidefog.xml`: `hide_emitters` under volpath, a sphere
@@ -3019,8 +3072,9 @@ fn what_is_not_read_is_refused_naming_the_line() {
         // function must be one caustica has, its albedo a share.
         (
             "medium-phase-kind",
-            &volpath_glass(r#"<medium type="homogeneous" name="interior"><phase type="rayleigh"/></medium>"#, ""),
-            "phase function type not read (read: isotropic, hg)",
+            // (Rayleigh's, the example here before, is read since session 77.)
+            &volpath_glass(r#"<medium type="homogeneous" name="interior"><phase type="sggx"/></medium>"#, ""),
+            "phase function type not read (read: isotropic, hg, rayleigh, blendphase)",
         ),
         (
             "medium-phase-g",

@@ -11,9 +11,22 @@ use caustica::film::Image;
 /// red's free flights and weighted channel by channel at each flight, carry weights without bound; the
 /// whole path's spectral MIS keeps them within three times a channel's own. Seen: weighting each flight
 /// alone read 0.85 in blue, with pixels up to 9.4; the scattering's σ_s left out reads far below 1.
+/// Rayleigh's phase function and blends of two lobes read 1 too (a phase function whose samples'
+/// density is not its own, or that does not integrate to 1, reads otherwise).
 #[test]
 fn a_white_medium_in_a_white_furnace_reads_one() {
-    for (glass, g) in [("ior = 1.0", 0.0), ("ior = 1.5", 0.7), ("ior = 1.33", -0.5)] {
+    // (Since session 77 also Rayleigh's phase function and blends of two lobes, `phase`.)
+    let rayleigh = "0.0, phase = [{ type = \"rayleigh\" }]";
+    let blend = "0.0, phase = [{ type = \"hg\", g = 0.8, weight = 0.6 }, { type = \"rayleigh\", weight = 0.4 }]";
+    let two_hg = "0.0, phase = [{ type = \"hg\", g = 0.9, weight = 0.7 }, { type = \"hg\", g = -0.6, weight = 0.3 }]";
+    for (glass, g) in [
+        ("ior = 1.0", "0.0"),
+        ("ior = 1.5", "0.7"),
+        ("ior = 1.33", "-0.5"),
+        ("ior = 1.0", rayleigh),
+        ("ior = 1.5", blend),
+        ("ior = 1.0", two_hg),
+    ] {
         let text = format!(
             "[camera]\nfov = 30\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 1.0, 0.0]\n\
              resolution = [16, 16]\n\
@@ -110,8 +123,10 @@ fn channel_blocks(img: &Image, k: usize) -> Vec<f64> {
 }
 
 /// Bad scattering settings are refused naming the key: an albedo above 1 or below 0, an albedo without
-/// an absorption (the extinction it is a share of), a `phase_g` of 1 or without an albedo; and a null
-/// surface round a medium that emits, naming the shape.
+/// an absorption (the extinction it is a share of), a `phase_g` of 1 or without an albedo; a `phase`
+/// beside a `phase_g`, without an albedo, of three lobes, of two whose weights miss or do not sum to 1,
+/// a `hg` lobe without its g or with a g of 1, a g on another lobe, an unknown lobe; and a null surface
+/// round a medium that emits, naming the shape.
 #[test]
 fn bad_scattering_settings_are_refused_naming_the_key() {
     for (fields, key) in [
@@ -123,6 +138,28 @@ fn bad_scattering_settings_are_refused_naming_the_key() {
         (
             "outside_absorption = [1.0, 1.0, 1.0], outside_albedo = [0.5, 0.5, 0.5], outside_phase_g = -1.5",
             "materials.fog.outside_phase_g",
+        ),
+        // Phase functions as lobes (`phase`, since session 77).
+        ("absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase_g = 0.3, phase = [{ type = \"rayleigh\" }]", "materials.fog.phase"),
+        ("absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"hg\" }]", "materials.fog.phase[0]"),
+        ("absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"rayleigh\", g = 0.3 }]", "materials.fog.phase[0].g"),
+        (
+            "absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"hg\", g = 0.5, weight = 0.5 }, { type = \"rayleigh\", weight = 0.6 }]",
+            "materials.fog.phase",
+        ),
+        (
+            "absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"hg\", g = 0.5, weight = 0.5 }, { type = \"rayleigh\" }]",
+            "materials.fog.phase[1].weight",
+        ),
+        (
+            "absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"rayleigh\" }, { type = \"rayleigh\" }, { type = \"isotropic\" }]",
+            "materials.fog.phase",
+        ),
+        ("absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"mie\" }]", "mie"),
+        ("absorption = [1.0, 1.0, 1.0], phase = [{ type = \"rayleigh\" }]", "materials.fog.phase"),
+        (
+            "outside_absorption = [1.0, 1.0, 1.0], outside_albedo = [0.5, 0.5, 0.5], outside_phase = [{ type = \"hg\", g = 1.0 }]",
+            "materials.fog.outside_phase[0].g",
         ),
     ] {
         let text = format!(

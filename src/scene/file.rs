@@ -126,8 +126,9 @@ pub struct CameraSpec {
 
 /// `[camera.medium]`: its extinction σ_t per channel and unit of scene length (`absorption`, as a
 /// dielectric's), what share of it scatters (`albedo`, each channel in [0, 1]; none: it only absorbs)
-/// and the Henyey–Greenstein asymmetry of its phase function (`phase_g` in (−1, 1), 0: isotropic).
-#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq)]
+/// and the Henyey–Greenstein asymmetry of its phase function (`phase_g` in (−1, 1), 0: isotropic), or
+/// its lobes (`phase`).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CameraMediumSpec {
     pub absorption: V3,
@@ -135,6 +136,9 @@ pub struct CameraMediumSpec {
     pub albedo: Option<V3>,
     #[serde(default, skip_serializing_if = "is_zero")]
     pub phase_g: f32,
+    /// One or two lobes in place of `phase_g`, as a dielectric's `phase` (`LobeSpec`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phase: Option<Vec<LobeSpec>>,
 }
 
 fn is_box_filter(f: &crate::scene::camera::FilterSpec) -> bool {
@@ -307,6 +311,14 @@ pub enum MaterialSpec {
         /// `phase_g` for the medium outside.
         #[serde(default, skip_serializing_if = "is_zero")]
         outside_phase_g: f32,
+        /// The inside medium's phase function as one or two lobes, in place of `phase_g` (`LobeSpec`):
+        /// `[{ type = "rayleigh" }]`, or a blend such as `[{ type = "hg", g = 0.8, weight = 0.7 },
+        /// { type = "rayleigh", weight = 0.3 }]` (Mitsuba's `rayleigh` and `blendphase`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        phase: Option<Vec<LobeSpec>>,
+        /// `phase` for the medium outside.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        outside_phase: Option<Vec<LobeSpec>>,
     },
     /// Two of the other `[materials]`, by name, mixed (Mitsuba's `blendbsdf`): at each hit the surface is
     /// `second` with probability `weight` (a number in [0, 1], or the name of a `[textures]` entry,
@@ -421,16 +433,43 @@ pub enum MaterialSpec {
         outside_albedo: Option<V3>,
         #[serde(default, skip_serializing_if = "is_zero")]
         outside_phase_g: f32,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        phase: Option<Vec<LobeSpec>>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        outside_phase: Option<Vec<LobeSpec>>,
     },
 }
 
-/// One side's medium as a dielectric's or a null material's keys give it: `absorption`, `albedo` and
-/// `phase_g` for the inside, their `outside_` kin for the outside (`MaterialSpec::media`).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// One lobe of a medium's phase function (`phase`): `{ type = "hg", g = 0.8 }` (Henyey–Greenstein,
+/// g in (−1, 1)), `{ type = "isotropic" }` or `{ type = "rayleigh" }` (3/(16π)·(1 + cos²θ)); two lobes
+/// blend, each with its `weight` (the two summing to 1), as Mitsuba's `blendphase` does.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LobeSpec {
+    #[serde(rename = "type")]
+    pub kind: LobeKind,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub g: Option<f32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weight: Option<f32>,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum LobeKind {
+    Hg,
+    Isotropic,
+    Rayleigh,
+}
+
+/// One side's medium as a dielectric's or a null material's keys give it: `absorption`, `albedo`,
+/// `phase_g` and `phase` for the inside, their `outside_` kin for the outside (`MaterialSpec::media`).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct MediumKeys {
     pub absorption: Option<V3>,
     pub albedo: Option<V3>,
     pub phase_g: f32,
+    pub phase: Option<Vec<LobeSpec>>,
 }
 
 impl MaterialSpec {
@@ -444,14 +483,28 @@ impl MaterialSpec {
                 phase_g,
                 outside_albedo,
                 outside_phase_g,
+                phase,
+                outside_phase,
                 ..
             }
-            | MaterialSpec::Null { absorption, outside_absorption, albedo, phase_g, outside_albedo, outside_phase_g } => {
-                Some([
-                    MediumKeys { absorption: *absorption, albedo: *albedo, phase_g: *phase_g },
-                    MediumKeys { absorption: *outside_absorption, albedo: *outside_albedo, phase_g: *outside_phase_g },
-                ])
-            }
+            | MaterialSpec::Null {
+                absorption,
+                outside_absorption,
+                albedo,
+                phase_g,
+                outside_albedo,
+                outside_phase_g,
+                phase,
+                outside_phase,
+            } => Some([
+                MediumKeys { absorption: *absorption, albedo: *albedo, phase_g: *phase_g, phase: phase.clone() },
+                MediumKeys {
+                    absorption: *outside_absorption,
+                    albedo: *outside_albedo,
+                    phase_g: *outside_phase_g,
+                    phase: outside_phase.clone(),
+                },
+            ]),
             _ => None,
         }
     }
@@ -467,13 +520,24 @@ impl MaterialSpec {
                 phase_g,
                 outside_albedo,
                 outside_phase_g,
+                phase,
+                outside_phase,
                 ..
             }
-            | MaterialSpec::Null { absorption, outside_absorption, albedo, phase_g, outside_albedo, outside_phase_g } =>
-            {
-                (*absorption, *albedo, *phase_g) = (inside.absorption, inside.albedo, inside.phase_g);
-                (*outside_absorption, *outside_albedo, *outside_phase_g) =
-                    (outside.absorption, outside.albedo, outside.phase_g);
+            | MaterialSpec::Null {
+                absorption,
+                outside_absorption,
+                albedo,
+                phase_g,
+                outside_albedo,
+                outside_phase_g,
+                phase,
+                outside_phase,
+            } => {
+                (*absorption, *albedo, *phase_g, *phase) =
+                    (inside.absorption, inside.albedo, inside.phase_g, inside.phase);
+                (*outside_absorption, *outside_albedo, *outside_phase_g, *outside_phase) =
+                    (outside.absorption, outside.albedo, outside.phase_g, outside.phase);
                 true
             }
             _ => false,
@@ -489,6 +553,8 @@ impl MaterialSpec {
             phase_g: 0.0,
             outside_albedo: None,
             outside_phase_g: 0.0,
+            phase: None,
+            outside_phase: None,
         }
     }
 

@@ -182,7 +182,7 @@ fn absorption_of(cx: &Ctx, key: &str, a: V3) -> Result<Rgb, SceneError> {
 }
 
 /// `base` with the media inside and outside it that a dielectric's or a null material's keys give
-/// (`absorption`, `albedo`, `phase_g` and their `outside_` kin).
+/// (`absorption`, `albedo`, `phase_g`, `phase` and their `outside_` kin).
 fn with_media(
     cx: &Ctx,
     key: &str,
@@ -198,42 +198,32 @@ fn with_media(
     Ok(SurfaceMaterial {
         absorption: sigma_in,
         absorption_outside: sigma_out,
-        scattering: scattering_of(
-            cx,
-            key,
-            ["absorption", "albedo", "phase_g"],
-            sigma_in,
-            &inside.albedo,
-            inside.phase_g,
-        )?,
-        scattering_outside: scattering_of(
-            cx,
-            key,
-            ["outside_absorption", "outside_albedo", "outside_phase_g"],
-            sigma_out,
-            &outside.albedo,
-            outside.phase_g,
-        )?,
+        scattering: scattering_of(cx, key, "", sigma_in, &inside)?,
+        scattering_outside: scattering_of(cx, key, "outside_", sigma_out, &outside)?,
         ..base
     })
 }
 
-/// A dielectric's medium's scattering (`albedo`, `phase_g`; the keys' names in `keys` beside the
-/// absorption's): an albedo in [0, 1] of a medium whose absorption, its extinction σ_t, is not zero, and
-/// a g strictly between −1 and 1 only beside an albedo.
+/// A medium's scattering from its keys (`albedo`, `phase_g`, `phase`, each named with `prefix` under
+/// `key`, beside the absorption's): an albedo in [0, 1] of a medium whose absorption, its extinction
+/// σ_t, is not zero; a g strictly between −1 and 1, or the lobes of `phase` (`phase_of`), only beside
+/// an albedo.
 fn scattering_of(
     cx: &Ctx,
     key: &str,
-    [sigma_key, albedo_key, g_key]: [&str; 3],
+    prefix: &str,
     sigma_t: Rgb,
-    albedo: &Option<V3>,
-    g: f32,
+    m: &MediumKeys,
 ) -> Result<crate::scene::Scattering, SceneError> {
-    let Some(a) = albedo else {
-        if g != 0.0 {
+    let [sigma_key, albedo_key, g_key, phase_key] =
+        ["absorption", "albedo", "phase_g", "phase"].map(|k| format!("{prefix}{k}"));
+    let g = m.phase_g;
+    let Some(a) = &m.albedo else {
+        if g != 0.0 || m.phase.is_some() {
+            let (k, what) = if g != 0.0 { (&g_key, g.to_string()) } else { (&phase_key, "a phase".into()) };
             return Err(cx.err(
-                &format!("{key}.{g_key}"),
-                format!("{g} without `{albedo_key}`: a medium that only absorbs has no phase function"),
+                &format!("{key}.{k}"),
+                format!("{what} without `{albedo_key}`: a medium that only absorbs has no phase function"),
             ));
         }
         return Ok(Default::default());
@@ -251,7 +241,56 @@ fn scattering_of(
     if !(g > -1.0 && g < 1.0) {
         return Err(cx.err(&format!("{key}.{g_key}"), format!("{g} must lie strictly between -1 and 1")));
     }
-    Ok(crate::scene::Scattering { sigma_s: sigma_t * Rgb::from(*a), g })
+    let phase = match &m.phase {
+        None => crate::scene::medium::Phase::hg(g),
+        Some(_) if g != 0.0 => {
+            return Err(cx.err(&format!("{key}.{phase_key}"), format!("give `{g_key}` or `{phase_key}`, not both")))
+        }
+        Some(lobes) => phase_of(cx, &format!("{key}.{phase_key}"), lobes)?,
+    };
+    Ok(crate::scene::Scattering { sigma_s: sigma_t * Rgb::from(*a), phase })
+}
+
+/// A phase function from one lobe (its `weight`, if given, 1) or two (their weights, each in [0, 1],
+/// summing to 1); a Henyey–Greenstein lobe needs its g, strictly between −1 and 1, and no other has one.
+fn phase_of(cx: &Ctx, key: &str, lobes: &[LobeSpec]) -> Result<crate::scene::medium::Phase, SceneError> {
+    use crate::scene::medium::{Lobe, Phase};
+    let lobe = |i: usize, l: &LobeSpec| -> Result<Lobe, SceneError> {
+        let k = format!("{key}[{i}]");
+        match (l.kind, l.g) {
+            (LobeKind::Hg, Some(g)) if g > -1.0 && g < 1.0 => Ok(Lobe::Hg(g)),
+            (LobeKind::Hg, Some(g)) => {
+                Err(cx.err(&format!("{k}.g"), format!("{g} must lie strictly between -1 and 1")))
+            }
+            (LobeKind::Hg, None) => Err(cx.err(&k, "a `hg` lobe needs its asymmetry `g`")),
+            (_, Some(_)) => Err(cx.err(&format!("{k}.g"), "only a `hg` lobe has an asymmetry `g`")),
+            (LobeKind::Isotropic, None) => Ok(Lobe::Hg(0.0)),
+            (LobeKind::Rayleigh, None) => Ok(Lobe::Rayleigh),
+        }
+    };
+    let weight = |i: usize, l: &LobeSpec, default: Option<f32>| -> Result<f32, SceneError> {
+        match l.weight.or(default) {
+            Some(w) if (0.0..=1.0).contains(&w) => Ok(w),
+            Some(w) => Err(cx.err(&format!("{key}[{i}].weight"), format!("{w} must lie in [0, 1]"))),
+            None => Err(cx.err(&format!("{key}[{i}].weight"), "each of two blended lobes needs its `weight`")),
+        }
+    };
+    match lobes {
+        [one] => {
+            if weight(0, one, Some(1.0))? != 1.0 {
+                return Err(cx.err(&format!("{key}[0].weight"), "a lone lobe's weight is 1"));
+            }
+            Ok(Phase { first: lobe(0, one)?, ..Default::default() })
+        }
+        [a, b] => {
+            let (wa, wb) = (weight(0, a, None)?, weight(1, b, None)?);
+            if (wa + wb - 1.0).abs() > 1e-4 {
+                return Err(cx.err(key, format!("the lobes' weights {wa} and {wb} must sum to 1")));
+            }
+            Ok(Phase { first: lobe(0, a)?, second: lobe(1, b)?, weight: wb })
+        }
+        _ => Err(cx.err(key, format!("{} lobes: give one, or two to blend", lobes.len()))),
+    }
 }
 
 fn build(file: SceneFile, shown: &str, dir: &Path) -> Result<Scene, SceneError> {
@@ -535,8 +574,9 @@ fn build_camera(cx: &Ctx, c: &CameraSpec) -> Result<Camera, SceneError> {
     camera.clip = [near, far];
     if let Some(m) = &c.medium {
         let sigma_t = absorption_of(cx, "camera.medium.absorption", m.absorption)?;
-        let keys = ["absorption", "albedo", "phase_g"];
-        let scattering = scattering_of(cx, "camera.medium", keys, sigma_t, &m.albedo, m.phase_g)?;
+        let keys =
+            MediumKeys { absorption: Some(m.absorption), albedo: m.albedo, phase_g: m.phase_g, phase: m.phase.clone() };
+        let scattering = scattering_of(cx, "camera.medium", "", sigma_t, &keys)?;
         camera.medium = crate::scene::medium::Medium { sigma_t, scattering };
     }
     // Rays leave the lens's rim and aim at the corners of the plane of focus: both must be f32 points.

@@ -144,11 +144,26 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
 
 /// A `homogeneous` medium: its extinction σ_t (`sigma_t` × `scale`), what share of it scatters
 /// (`albedo`, Mitsuba's default 0.75; None where it is 0 and the medium only absorbs, coloured glass)
-/// and its phase function's asymmetry (`isotropic`: 0, `hg`: its `g`, 0.8 by default).
+/// and its phase function: Henyey–Greenstein's asymmetry `g` (`isotropic`: 0, `hg`: its `g`, 0.8 by
+/// default), or for `rayleigh` and a `blendphase` its lobes (TOML `phase`).
 struct Medium {
     sigma: [f32; 3],
     albedo: Option<[f32; 3]>,
     g: f32,
+    lobes: Option<Vec<LobeSpec>>,
+}
+
+impl Medium {
+    /// The TOML keys of the medium (its phase only where it scatters).
+    fn keys(&self) -> MediumKeys {
+        let scatters = self.albedo.is_some();
+        MediumKeys {
+            absorption: Some(self.sigma),
+            albedo: self.albedo,
+            phase_g: if scatters { self.g } else { 0.0 },
+            phase: self.lobes.clone().filter(|_| scatters),
+        }
+    }
 }
 
 fn homogeneous_medium(m: &Node) -> Result<Medium, SceneError> {
@@ -162,7 +177,7 @@ fn homogeneous_medium(m: &Node) -> Result<Medium, SceneError> {
     p.boolean("sample_emitters")?;
     p.boolean("has_spectral_extinction")?;
     let phases = p.children_where(|c| c.tag == "phase");
-    p.finish("sigma_t, albedo, scale, sample_emitters, has_spectral_extinction, a phase function (isotropic, hg)")?;
+    p.finish("sigma_t, albedo, scale, sample_emitters, has_spectral_extinction, a phase function (isotropic, hg, rayleigh, blendphase)")?;
     let sigma = sigma_t.map(|x| x * scale);
     if sigma.iter().any(|x| !x.is_finite() || *x < 0.0) {
         return Err(m.error(format!("sigma_t × scale = {sigma:?} must be finite and ≥ 0")));
@@ -170,25 +185,64 @@ fn homogeneous_medium(m: &Node) -> Result<Medium, SceneError> {
     if albedo.iter().any(|a| !(0.0..=1.0).contains(a)) {
         return Err(m.error(format!("albedo {albedo:?} must lie in [0, 1] (the share of sigma_t that scatters)")));
     }
-    let g = match phases.as_slice() {
-        [] => 0.0,
-        [ph] => {
-            let pp = Props::new(ph);
-            let g = match ph.attr("type") {
-                Some("isotropic") => 0.0,
-                Some("hg") => pp.float("g")?.unwrap_or(0.8),
-                _ => return Err(ph.error("phase function type not read (read: isotropic, hg)")),
-            };
-            pp.finish(if ph.attr("type") == Some("hg") { "g" } else { "no property" })?;
+    let lobes = match phases.as_slice() {
+        [] => vec![(1.0, LobeSpec { kind: LobeKind::Isotropic, g: None, weight: None })],
+        [ph] => phase_lobes(ph)?,
+        [_, second, ..] => return Err(second.error("a second phase function")),
+    };
+    let (g, lobes) = match lobes.as_slice() {
+        [(_, LobeSpec { kind: LobeKind::Isotropic, .. })] => (0.0, None),
+        [(_, LobeSpec { kind: LobeKind::Hg, g: Some(g), .. })] => (*g, None),
+        _ => (0.0, Some(lobes.into_iter().map(|(w, l)| LobeSpec { weight: Some(w), ..l }).collect())),
+    };
+    let albedo = (albedo != [0.0; 3]).then_some(albedo);
+    Ok(Medium { sigma, albedo, g, lobes })
+}
+
+/// A `<phase>`'s lobes with their weights: `isotropic`, `hg` (its `g`, 0.8 by default, strictly between
+/// −1 and 1), `rayleigh`, or a `blendphase` of two nested phase functions, (1 − `weight`)·first +
+/// `weight`·second, itself read into at most two lobes in all (more are refused naming the line).
+fn phase_lobes(ph: &Node) -> Result<Vec<(f32, LobeSpec)>, SceneError> {
+    let pp = Props::new(ph);
+    let one = |kind, g| Ok(vec![(1.0, LobeSpec { kind, g, weight: None })]);
+    let lobes = match ph.attr("type") {
+        Some("isotropic") => {
+            pp.finish("no property")?;
+            one(LobeKind::Isotropic, None)
+        }
+        Some("rayleigh") => {
+            pp.finish("no property")?;
+            one(LobeKind::Rayleigh, None)
+        }
+        Some("hg") => {
+            let g = pp.float("g")?.unwrap_or(0.8);
+            pp.finish("g")?;
             if !(g > -1.0 && g < 1.0) {
                 return Err(ph.error(format!("g = {g} must lie strictly between -1 and 1")));
             }
-            g
+            one(LobeKind::Hg, Some(g))
         }
-        [_, second, ..] => return Err(second.error("a second phase function")),
-    };
-    let albedo = (albedo != [0.0; 3]).then_some(albedo);
-    Ok(Medium { sigma, albedo, g })
+        Some("blendphase") => {
+            let w = pp.float("weight")?.ok_or_else(|| ph.error("a `blendphase` needs its `weight`"))?;
+            let nested = pp.children_where(|c| c.tag == "phase");
+            pp.finish("weight, two phase functions")?;
+            if !(0.0..=1.0).contains(&w) {
+                return Err(ph.error(format!("weight = {w} must lie in [0, 1]")));
+            }
+            let [a, b] = nested[..] else {
+                return Err(ph.error(format!("a `blendphase` blends two phase functions, not {}", nested.len())));
+            };
+            let scaled = |lobes: Vec<(f32, LobeSpec)>, by: f32| lobes.into_iter().map(move |(x, l)| (x * by, l));
+            let lobes: Vec<(f32, LobeSpec)> =
+                scaled(phase_lobes(a)?, 1.0 - w).chain(scaled(phase_lobes(b)?, w)).filter(|(x, _)| *x > 0.0).collect();
+            if lobes.len() > 2 {
+                return Err(ph.error("a blend of more than two lobes in all is not read (caustica blends two)"));
+            }
+            Ok(lobes)
+        }
+        _ => Err(ph.error("phase function type not read (read: isotropic, hg, rayleigh, blendphase)")),
+    }?;
+    Ok(lobes)
 }
 
 fn empty_file() -> SceneFile {
@@ -549,10 +603,12 @@ impl<'a> Cx<'a> {
             ));
             return Ok(());
         }
-        self.file.camera.medium = (medium.sigma != [0.0; 3]).then(|| CameraMediumSpec {
+        let keys = medium.keys();
+        self.file.camera.medium = (medium.sigma != [0.0; 3]).then_some(CameraMediumSpec {
             absorption: medium.sigma,
-            albedo: medium.albedo,
-            phase_g: if medium.albedo.is_some() { medium.g } else { 0.0 },
+            albedo: keys.albedo,
+            phase_g: keys.phase_g,
+            phase: keys.phase,
         });
         Ok(())
     }
@@ -1248,17 +1304,11 @@ impl<'a> Cx<'a> {
             )
         };
         // A copy of a dielectric's or null material's spec with the media (None for any other material).
-        let keys = |side: &Option<(Medium, String)>| {
-            side.as_ref().map_or(MediumKeys::default(), |(m, _)| MediumKeys {
-                absorption: Some(m.sigma),
-                albedo: m.albedo,
-                phase_g: if m.albedo.is_some() { m.g } else { 0.0 },
-            })
-        };
+        let keys = |side: &Option<(Medium, String)>| side.as_ref().map_or(MediumKeys::default(), |(m, _)| m.keys());
         let media = [keys(&inside), keys(&outside)];
         let with_media = |spec: Option<&MaterialSpec>| {
             let mut copy = spec?.clone();
-            copy.set_media(media).then_some(copy)
+            copy.set_media(media.clone()).then_some(copy)
         };
         let mut spec = self.file.materials.get(&material).cloned();
         match &mut spec {
@@ -1433,6 +1483,8 @@ impl<'a> Cx<'a> {
                         phase_g: 0.0,
                         outside_albedo: None,
                         outside_phase_g: 0.0,
+                        phase: None,
+                        outside_phase: None,
                     },
                     _ => {
                         let (roughness, roughness_v, distribution) = self.microfacet(b, &p, name)?;
@@ -1449,6 +1501,8 @@ impl<'a> Cx<'a> {
                             phase_g: 0.0,
                             outside_albedo: None,
                             outside_phase_g: 0.0,
+                            phase: None,
+                            outside_phase: None,
                         }
                     }
                 }
