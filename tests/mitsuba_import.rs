@@ -1459,8 +1459,8 @@ fn absorbing_glass_xml_matches_mitsuba() {
 /// 0.7), and a ball of index 1 holding a chromatic back-scattering fog (g = −0.3) with a point light, a
 /// sphere light and a diffuse ball inside it. The path tracer at 4096 spp (at 1024 a wall block caught
 /// a glint through the glass, 5% off) within 0.3% of Mitsuba's means and 4% per
-/// block (refused before: seen failing); every other mode refuses the scene, naming the material; the
-/// converted TOML keeps the media (`albedo`, `phase_g`) and hashes equal to the XML.
+/// block (refused before: seen failing); every other mode refuses the scene, naming the material (its
+/// converted TOML, keeping the media, is `convert_writes_toml_that_loads_to_the_same_scene_and_image`'s).
 #[test]
 fn scattering_media_xml_match_mitsuba() {
     matches_mitsuba("scatter", 4096, 0.003);
@@ -1469,27 +1469,11 @@ fn scattering_media_xml_match_mitsuba() {
     assert_eq!(scattering.len(), 3, "three shapes hold media that scatter");
     let gs: Vec<_> = scattering.iter().map(|s| s[0].phase).collect();
     assert_eq!(gs, [0.0, 0.7, -0.3].map(caustica::scene::medium::Phase::hg));
-    let accel = Accel::new(&scene).unwrap();
     for mode in ["bdpt", "vcm", "sppm", "ppm", "photon_map"] {
         let scene = load_scene_with(&dir().join("scatter.xml"), &[format!("render.mode=\"{mode}\"")]).unwrap();
-        let plan = caustica::pipeline::plan_for(&scene, &accel);
-        let msg =
-            match caustica::pipeline::render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true) {
-                Ok(_) => panic!("{mode}: rendered a medium that scatters"),
-                Err(e) => e.to_string(),
-            };
+        let msg = common::render_error(&scene, mode);
         assert!(msg.contains("scatters light") && msg.contains("--mode path"), "{mode}: {msg}");
     }
-    let d = tmp("scatter-convert");
-    let toml = d.join("scatter.toml");
-    std::fs::create_dir_all(&d).unwrap();
-    let converted = caustica::scene::mitsuba::convert(&dir().join("scatter.xml")).unwrap();
-    std::fs::write(&toml, caustica::scene::load::scene_file_toml(&converted.file, "scatter.toml").unwrap()).unwrap();
-    let text = std::fs::read_to_string(&toml).unwrap();
-    assert!(text.contains("albedo") && text.contains("phase_g"), "{text}");
-    let again = load_scene_with(&toml, &[]).unwrap();
-    assert_eq!(again.content_hash(), scene.content_hash());
-    let _ = std::fs::remove_dir_all(d);
 }
 
 /// Media inside `null` boundaries (`smoke.xml`: a box of smoke that scatters, g = 0.5, with a diffuse
@@ -1505,19 +1489,12 @@ fn media_inside_null_boundaries_match_mitsuba() {
     let d = tmp("smoke-ink");
     let text = std::fs::read_to_string(dir().join("smoke.xml")).unwrap();
     let ink = write(&d, "ink.xml", &text.replace(r#"<ref name="interior" id="smoke"/>"#, ""));
-    let accel = Accel::new(&scene).unwrap();
     for (path, want) in
         [(dir().join("smoke.xml"), "scatters light"), (ink, "see-through surface (null) round a medium")]
     {
         for mode in ["bdpt", "vcm", "sppm", "ppm", "photon_map"] {
             let scene = load_scene_with(&path, &[format!("render.mode=\"{mode}\"")]).unwrap();
-            let plan = caustica::pipeline::plan_for(&scene, &accel);
-            let msg =
-                match caustica::pipeline::render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true)
-                {
-                    Ok(_) => panic!("{mode}: rendered {}", path.display()),
-                    Err(e) => e.to_string(),
-                };
+            let msg = common::render_error(&scene, &format!("{mode}, {}", path.display()));
             assert!(msg.contains(want) && msg.contains("--mode path"), "{mode}: {msg}");
         }
     }
@@ -1561,8 +1538,9 @@ fn constant_volumes_read_as_their_values() {
 /// through the fog; an area light and a sky): the path tracer within 0.3% of Mitsuba's means and 4%
 /// per block (refused before, the sensor's medium "not supported": seen failing; with the fog from the
 /// lens rather than the near plane, or the sky's light sampled through more of the fog than Mitsuba's
-/// two scene radii, seen 1.2% to 1.9% dark). The medium reads the same nested, as a `<ref
-/// name="medium">` and converted to TOML (`[camera.medium]`); other modes refuse the scene; a second
+/// two scene radii, seen 1.2% to 1.9% dark). The medium reads the same nested and as a `<ref
+/// name="medium">` (converted to TOML, `[camera.medium]`, in
+/// `convert_writes_toml_that_loads_to_the_same_scene_and_image`); other modes refuse the scene; a second
 /// medium is refused naming its line; under an integrator without media the sensor's is ignored with
 /// a warning. An emitter's medium (an area light's, the sky's), which Mitsuba's path tracers do not
 /// read, is read and left out (refused before as a property the emitter does not read).
@@ -1578,15 +1556,9 @@ fn camera_in_fog_matches_mitsuba() {
         (caustica::scene::medium::Phase::hg(0.4), sigma_s)
     );
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
-    let accel = Accel::new(&scene).unwrap();
     for mode in ["bdpt", "vcm", "sppm", "ppm", "photon_map"] {
         let scene = load_scene_with(&dir().join("fogcam.xml"), &[format!("render.mode=\"{mode}\"")]).unwrap();
-        let plan = caustica::pipeline::plan_for(&scene, &accel);
-        let msg =
-            match caustica::pipeline::render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true) {
-                Ok(_) => panic!("{mode}: rendered a camera in a medium"),
-                Err(e) => e.to_string(),
-            };
+        let msg = common::render_error(&scene, mode);
         assert!(msg.contains("camera sits in a medium") && msg.contains("--mode path"), "{mode}: {msg}");
     }
     let fog = r#"<medium type="homogeneous" id="fog">
@@ -1625,24 +1597,15 @@ fn camera_in_fog_matches_mitsuba() {
         "{:?}",
         path_only.warnings
     );
-    let d = tmp("fogcam-convert");
-    let toml = d.join("fogcam.toml");
-    std::fs::create_dir_all(&d).unwrap();
-    let converted = caustica::scene::mitsuba::convert(&dir().join("fogcam.xml")).unwrap();
-    std::fs::write(&toml, caustica::scene::load::scene_file_toml(&converted.file, "fogcam.toml").unwrap()).unwrap();
-    let text = std::fs::read_to_string(&toml).unwrap();
-    assert!(text.contains("[camera.medium]"), "{text}");
-    let again = load_scene_with(&toml, &[]).unwrap();
-    assert_eq!(again.content_hash(), scene.content_hash());
-    let _ = std::fs::remove_dir_all(d);
 }
 
 /// Phase functions beyond one Henyey–Greenstein lobe (`phase.xml`: the camera in a fog scattering by
 /// Rayleigh's, a glass ball of a blend of a forward lobe and Rayleigh's, a null box of smoke blending a
 /// forward and a backward lobe): the path tracer within 0.3% of Mitsuba's means and 4% per block
 /// (the old build refused the file, "phase function type not read"); each medium's phase read as
-/// written, the blend's weight on its second lobe; the converted TOML (`phase`) hashing equal; a blend
-/// of three lobes and an unread phase function refused naming the line.
+/// written, the blend's weight on its second lobe (converted to TOML, `phase`, in
+/// `convert_writes_toml_that_loads_to_the_same_scene_and_image`); a blend of three lobes and an unread
+/// phase function refused naming the line.
 #[test]
 fn rayleigh_and_blended_phase_functions_match_mitsuba() {
     use caustica::scene::medium::{Lobe, Phase};
@@ -1657,16 +1620,6 @@ fn rayleigh_and_blended_phase_functions_match_mitsuba() {
             Phase { first: Lobe::Hg(0.9), second: Lobe::Hg(-0.6), weight: 0.3 }
         ]
     );
-    let d = tmp("phase-convert");
-    let toml = d.join("phase.toml");
-    std::fs::create_dir_all(&d).unwrap();
-    let converted = caustica::scene::mitsuba::convert(&dir().join("phase.xml")).unwrap();
-    std::fs::write(&toml, caustica::scene::load::scene_file_toml(&converted.file, "phase.toml").unwrap()).unwrap();
-    let text = std::fs::read_to_string(&toml).unwrap();
-    assert!(text.contains("rayleigh") && text.contains("weight"), "{text}");
-    let again = load_scene_with(&toml, &[]).unwrap();
-    assert_eq!(again.content_hash(), scene.content_hash());
-    let _ = std::fs::remove_dir_all(d);
     let rayleigh = r#"<phase type="rayleigh"/>
             </phase>"#;
     let three = r#"<phase type="blendphase"><float name="weight" value="0.5"/><phase type="rayleigh"/><phase type="isotropic"/></phase>
@@ -2435,8 +2388,12 @@ fn emitter_spectra_read_as_mitsuba_reads_them() {
 #[test]
 fn convert_writes_toml_that_loads_to_the_same_scene_and_image() {
     let bin = env!("CARGO_BIN_EXE_caustica");
-    let cases: [(&str, &[&str]); 18] = [
+    let cases: [(&str, &[&str]); 21] = [
         ("mirrorcam", &["mirror = true", "crop = [30, 14, 50, 36]"]),
+        // Media that scatter (session 76), a camera in fog and phase functions of lobes (session 77).
+        ("scatter", &["albedo", "phase_g"]),
+        ("fogcam", &["[camera.medium]", "phase_g = 0.4"]),
+        ("phase", &["type = \"rayleigh\"", "weight = 0.3", "type = \"hg\""]),
         (
             "principled-aniso",
             &["anisotropic = \"shapes[0]-anisotropic\"", "anisotropic = \"shapes[1]-anisotropic-as-weight\""],

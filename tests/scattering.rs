@@ -36,16 +36,20 @@ fn a_white_medium_in_a_white_furnace_reads_one() {
              [[lights]]\ntype = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n\
              [render]\nmax_depth = 100000\nspp = 1024\n"
         );
-        let img = common::render_image(&common::scene(&text));
-        let n = img.pixels.len() as f64;
-        for k in 0..3 {
-            let mean = img.pixels.iter().map(|p| p[k] as f64).sum::<f64>() / n;
-            let blocks = channel_blocks(&img, k);
-            let (lo, hi) = blocks.iter().fold((f64::MAX, f64::MIN), |(lo, hi), b| (lo.min(*b), hi.max(*b)));
-            println!("{glass}, g = {g}, channel {k}: mean {mean:.5}, 4 × 4 blocks {lo:.4} to {hi:.4}");
-            assert!((mean - 1.0).abs() < 0.004, "{glass}, g = {g}, channel {k}: mean {mean}");
-            assert!(lo > 0.97 && hi < 1.03, "{glass}, g = {g}, channel {k}: blocks {lo} to {hi}");
-        }
+        assert_reads_one(&common::render_image(&common::scene(&text)), &format!("{glass}, g = {g}"));
+    }
+}
+
+/// Every channel of a furnace's image reads 1: its mean within 0.004 and every 4 × 4 block within 3%.
+fn assert_reads_one(img: &Image, what: &str) {
+    let n = img.pixels.len() as f64;
+    for k in 0..3 {
+        let mean = img.pixels.iter().map(|p| p[k] as f64).sum::<f64>() / n;
+        let blocks = channel_blocks(img, k);
+        let (lo, hi) = blocks.iter().fold((f64::MAX, f64::MIN), |(lo, hi), b| (lo.min(*b), hi.max(*b)));
+        println!("{what}, channel {k}: mean {mean:.5}, 4 × 4 blocks {lo:.4} to {hi:.4}");
+        assert!((mean - 1.0).abs() < 0.004, "{what}, channel {k}: mean {mean}");
+        assert!(lo > 0.97 && hi < 1.03, "{what}, channel {k}: blocks {lo} to {hi}");
     }
 }
 
@@ -94,13 +98,7 @@ fn each_channel_of_a_coloured_medium_reads_as_a_grey_medium_of_its_own() {
         assert!(worst < 0.05, "channel {k}: a block off by {worst} of itself or the mean");
     }
     for mode in ["bdpt", "vcm", "sppm", "ppm", "photon_map", "both"] {
-        let scene = common::scene_in_mode(&coloured, mode, &[]);
-        let accel = caustica::accel::Accel::new(&scene).unwrap();
-        let plan = caustica::pipeline::plan_for(&scene, &accel);
-        let err = caustica::pipeline::render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true)
-            .err()
-            .unwrap_or_else(|| panic!("{mode} rendered a medium that scatters"));
-        let msg = err.to_string();
+        let msg = common::render_error(&common::scene_in_mode(&coloured, mode, &[]), mode);
         assert!(msg.contains("`fog`") && msg.contains("--mode path"), "{mode}: {msg}");
     }
 }
@@ -168,10 +166,7 @@ fn bad_scattering_settings_are_refused_naming_the_key() {
              [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"fog\"\n\
              [[lights]]\ntype = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n"
         );
-        let err = caustica::scene::load_scene_str(&text, "fog.toml", std::path::Path::new("."), &[])
-            .err()
-            .unwrap_or_else(|| panic!("{fields}: loaded"))
-            .to_string();
+        let err = common::load_error(&text, "fog.toml", fields);
         assert!(err.contains("fog.toml") && err.contains(key), "{fields}: {err}");
     }
     // A null surface round a medium that emits: an emitter is no see-through surface.
@@ -179,10 +174,7 @@ fn bad_scattering_settings_are_refused_naming_the_key() {
                 [materials]\nsmoke = { type = \"null\", absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5] }\n\
                 [[shapes]]\ntype = \"box\"\nmin = [-1.0, -1.0, -1.0]\nmax = [1.0, 1.0, 1.0]\nmaterial = \"smoke\"\n\
                 emission = [1.0, 1.0, 1.0]\n";
-    let err = caustica::scene::load_scene_str(text, "smoke.toml", std::path::Path::new("."), &[])
-        .err()
-        .expect("an emitting null surface round a medium loaded")
-        .to_string();
+    let err = common::load_error(text, "smoke.toml", "an emitting null surface round a medium");
     assert!(
         err.contains("smoke.toml") && err.contains("shapes[0]") && err.contains("null surface round a medium"),
         "{err}"
@@ -230,13 +222,7 @@ fn ink_inside_a_null_boundary_dims_camera_and_shadow_rays() {
         }
     }
     // The other modes refuse it, naming the material.
-    let scene = common::scene_in_mode(&text, "sppm", &[]);
-    let accel = caustica::accel::Accel::new(&scene).unwrap();
-    let plan = caustica::pipeline::plan_for(&scene, &accel);
-    let msg = caustica::pipeline::render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true)
-        .err()
-        .expect("sppm rendered a medium inside a null boundary")
-        .to_string();
+    let msg = common::render_error(&common::scene_in_mode(&text, "sppm", &[]), "sppm, ink in a null box");
     assert!(msg.contains("`ink`") && msg.contains("--mode path"), "{msg}");
 }
 
@@ -306,13 +292,7 @@ fn a_camera_in_an_absorbing_medium_sees_from_its_near_plane() {
         }
     }
     for mode in ["bdpt", "vcm", "sppm", "ppm", "photon_map", "both"] {
-        let scene = common::scene_in_mode(&text(""), mode, &[]);
-        let accel = caustica::accel::Accel::new(&scene).unwrap();
-        let plan = caustica::pipeline::plan_for(&scene, &accel);
-        let err = caustica::pipeline::render_layers(&scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true)
-            .err()
-            .unwrap_or_else(|| panic!("{mode} rendered a camera in a medium"));
-        let msg = err.to_string();
+        let msg = common::render_error(&common::scene_in_mode(&text(""), mode, &[]), mode);
         assert!(msg.contains("camera.medium") && msg.contains("--mode path"), "{mode}: {msg}");
     }
 }
@@ -331,20 +311,11 @@ fn a_camera_in_a_white_medium_in_a_white_furnace_reads_one() {
                 [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 2.0\nmaterial = \"grey\"\n\
                 flip_normals = true\nemission = [0.5, 0.5, 0.5]\n\
                 [render]\nmax_depth = 100000\nspp = 1024\n";
-    let img = common::render_image(&common::scene(text));
-    let n = img.pixels.len() as f64;
-    for k in 0..3 {
-        let mean = img.pixels.iter().map(|p| p[k] as f64).sum::<f64>() / n;
-        let blocks = channel_blocks(&img, k);
-        let (lo, hi) = blocks.iter().fold((f64::MAX, f64::MIN), |(lo, hi), b| (lo.min(*b), hi.max(*b)));
-        println!("channel {k}: mean {mean:.5}, 4 × 4 blocks {lo:.4} to {hi:.4}");
-        assert!((mean - 1.0).abs() < 0.004, "channel {k}: mean {mean}");
-        assert!(lo > 0.97 && hi < 1.03, "channel {k}: blocks {lo} to {hi}");
-    }
+    assert_reads_one(&common::render_image(&common::scene(text)), "a camera in a white medium");
 }
 
-/// Bad camera media are refused naming the key: a negative or non-finite absorption, an albedo above
-/// 1 or without absorption, a phase_g of 1, an unknown key.
+/// Bad camera media are refused naming the file and the key: a negative or non-finite absorption, an
+/// albedo above 1 or without absorption, a phase_g of 1, an unknown key.
 #[test]
 fn bad_camera_media_are_refused_naming_the_key() {
     for (fields, key) in [
@@ -355,22 +326,14 @@ fn bad_camera_media_are_refused_naming_the_key() {
         ("absorption = [1.0, 1.0, 1.0], phase_g = 0.5", "camera.medium.phase_g"),
         ("absorption = [1.0, 1.0, 1.0], sigma_s = [0.5, 0.5, 0.5]", "sigma_s"),
         ("albedo = [0.5, 0.5, 0.5]", "absorption"),
+        ("absorption = [inf, 1.0, 1.0]", "camera.medium.absorption"),
     ] {
         let text = format!(
             "[camera]\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
              medium = {{ {fields} }}\n\
              [[lights]]\ntype = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n"
         );
-        let err = caustica::scene::load_scene_str(&text, "fogcam.toml", std::path::Path::new("."), &[])
-            .err()
-            .unwrap_or_else(|| panic!("{fields}: loaded"))
-            .to_string();
+        let err = common::load_error(&text, "fogcam.toml", fields);
         assert!(err.contains("fogcam.toml") && err.contains(key), "{fields}: {err}");
     }
-    let text = "[camera]\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
-                medium = { absorption = [inf, 1.0, 1.0] }\n\
-                [[lights]]\ntype = \"constant\"\nradiance = [1.0, 1.0, 1.0]\n";
-    let err =
-        caustica::scene::load_scene_str(text, "fogcam.toml", std::path::Path::new("."), &[]).err().unwrap().to_string();
-    assert!(err.contains("camera.medium.absorption"), "{err}");
 }

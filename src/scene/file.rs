@@ -472,11 +472,39 @@ pub struct MediumKeys {
     pub phase: Option<Vec<LobeSpec>>,
 }
 
+/// The pattern that binds the media fields of the materials that hold media (a dielectric, a null
+/// surface) to the names given, in the order `absorption`, `outside_absorption`, `albedo`, `phase_g`,
+/// `outside_albedo`, `outside_phase_g`, `phase`, `outside_phase` (`MaterialSpec::media`, `set_media`).
+macro_rules! media_fields {
+    ($a:ident, $oa:ident, $al:ident, $g:ident, $oal:ident, $og:ident, $p:ident, $op:ident) => {
+        MaterialSpec::Dielectric {
+            absorption: $a,
+            outside_absorption: $oa,
+            albedo: $al,
+            phase_g: $g,
+            outside_albedo: $oal,
+            outside_phase_g: $og,
+            phase: $p,
+            outside_phase: $op,
+            ..
+        } | MaterialSpec::Null {
+            absorption: $a,
+            outside_absorption: $oa,
+            albedo: $al,
+            phase_g: $g,
+            outside_albedo: $oal,
+            outside_phase_g: $og,
+            phase: $p,
+            outside_phase: $op,
+        }
+    };
+}
+
 impl MaterialSpec {
     /// The media inside and outside a dielectric or a null material; None for any other material.
     pub fn media(&self) -> Option<[MediumKeys; 2]> {
         match self {
-            MaterialSpec::Dielectric {
+            media_fields!(
                 absorption,
                 outside_absorption,
                 albedo,
@@ -484,19 +512,8 @@ impl MaterialSpec {
                 outside_albedo,
                 outside_phase_g,
                 phase,
-                outside_phase,
-                ..
-            }
-            | MaterialSpec::Null {
-                absorption,
-                outside_absorption,
-                albedo,
-                phase_g,
-                outside_albedo,
-                outside_phase_g,
-                phase,
-                outside_phase,
-            } => Some([
+                outside_phase
+            ) => Some([
                 MediumKeys { absorption: *absorption, albedo: *albedo, phase_g: *phase_g, phase: phase.clone() },
                 MediumKeys {
                     absorption: *outside_absorption,
@@ -513,7 +530,7 @@ impl MaterialSpec {
     /// changed) for any other material.
     pub fn set_media(&mut self, [inside, outside]: [MediumKeys; 2]) -> bool {
         match self {
-            MaterialSpec::Dielectric {
+            media_fields!(
                 absorption,
                 outside_absorption,
                 albedo,
@@ -521,19 +538,8 @@ impl MaterialSpec {
                 outside_albedo,
                 outside_phase_g,
                 phase,
-                outside_phase,
-                ..
-            }
-            | MaterialSpec::Null {
-                absorption,
-                outside_absorption,
-                albedo,
-                phase_g,
-                outside_albedo,
-                outside_phase_g,
-                phase,
-                outside_phase,
-            } => {
+                outside_phase
+            ) => {
                 (*absorption, *albedo, *phase_g, *phase) =
                     (inside.absorption, inside.albedo, inside.phase_g, inside.phase);
                 (*outside_absorption, *outside_albedo, *outside_phase_g, *outside_phase) =

@@ -62,6 +62,25 @@ pub fn render_image(scene: &Scene) -> Image {
     layers[0].sums.image()
 }
 
+/// The error a render of `scene` in its own mode stops with, as `caustica render` plans it (a mode that
+/// refuses the scene); panics, naming `what`, if it renders.
+pub fn render_error(scene: &Scene, what: &str) -> String {
+    let accel = Accel::new(scene).unwrap();
+    let plan = plan_for(scene, &accel);
+    match render_layers(scene, &accel, &plan, &serde_json::json!({}), 0.0, None, true) {
+        Ok(_) => panic!("{what}: rendered"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// The error loading the TOML `text` (shown as `shown`) stops with; panics, naming `what`, if it loads.
+pub fn load_error(text: &str, shown: &str, what: &str) -> String {
+    match load_scene_str(text, shown, Path::new("."), &[]) {
+        Ok(_) => panic!("{what}: loaded"),
+        Err(e) => e.to_string(),
+    }
+}
+
 /// Six inward-facing quads forming the box [lo, hi]³ (for closed-room tests).
 pub fn inward_box(lo: f32, hi: f32, material: &str, emission: Option<f32>) -> String {
     let s = hi - lo;
