@@ -83,7 +83,7 @@ for sampler in ["independent", "ldsampler"]:
             print(rows[-1]["renderer"], spp, f"{t:.2f} s", f"RMSE {rows[-1]['rmse']:.5f}", file=sys.stderr)
 
 # caustica: its render time from the JSON (scene load and BVH excluded, as Mitsuba's load_dict is).
-for sampler in ["independent", "sobol"]:
+for sampler in ["independent", "sobol", "padded"]:
     for spp in a.spp:
         for run in range(a.runs):
             base = os.path.join(a.out, f"caustica-{sampler}-{spp}-{run}")
