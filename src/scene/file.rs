@@ -1139,8 +1139,8 @@ pub struct RenderSettings {
     /// Bounces before Russian roulette starts.
     pub rr_depth: u32,
     pub seed: u64,
-    /// Camera samples: `padded` ((0,2)-sequences per pixel and draw, the default), `sobol`
-    /// (Owen-scrambled Sobol per pixel) or `independent`.
+    /// Camera samples: `sobol` (Owen-scrambled Sobol per pixel, the default), `padded` ((0,2)-sequences
+    /// per pixel and draw: less time a sample, more noise at high counts) or `independent`.
     pub sampler: crate::math::rng::Sampler,
     /// Preview exposure in stops (PNG only; the EXR is linear radiance).
     pub exposure: f32,
@@ -1302,7 +1302,7 @@ impl Default for RenderSettings {
             max_depth: 64,
             rr_depth: 4,
             seed: 0,
-            sampler: crate::math::rng::Sampler::Padded,
+            sampler: crate::math::rng::Sampler::Sobol,
             exposure: 0.0,
             pm_spp: 4,
             specular_spp: 4,
