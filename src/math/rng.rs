@@ -77,7 +77,8 @@ struct PaddedStream {
     slot: u32,
     /// The next draw's point, computed ahead: a draw's hashes are a long chain of dependent
     /// multiplications, and with the point ready the work that uses it does not wait for them (a 1-D
-    /// draw takes its first coordinate, which is what a 1-D draw of that slot is).
+    /// draw takes its first coordinate, which is what a 1-D draw of that slot is). `tests/mitsuba/phase.xml`
+    /// at 512 spp: 8.15–8.37 s computed ahead, 8.77–8.89 s computed when drawn (three runs each).
     ready: [f32; 2],
 }
 
@@ -358,7 +359,7 @@ mod tests {
     }
 
     /// The padded sampler's draws are shuffled apart: consecutive draws of 4096 samples are uncorrelated
-    /// (|r| < 0.06, four standard errors; one shuffle shared by all draws gives |r| ≈ 0.75), and pixels
+    /// (|r| < 0.06, about four standard errors; one shuffle shared by all draws gives |r| ≈ 0.75), and pixels
     /// get different points.
     #[test]
     fn padded_draws_are_independent_of_one_another() {
