@@ -477,7 +477,10 @@ pub struct MediumKeys {
 /// `outside_albedo`, `outside_phase_g`, `phase`, `outside_phase` (`MaterialSpec::media`, `set_media`).
 macro_rules! media_fields {
     ($a:ident, $oa:ident, $al:ident, $g:ident, $oal:ident, $og:ident, $p:ident, $op:ident) => {
-        MaterialSpec::Dielectric {
+        media_fields!(@in [Dielectric Null] $a, $oa, $al, $g, $oal, $og, $p, $op)
+    };
+    (@in [$($v:ident)+] $a:ident, $oa:ident, $al:ident, $g:ident, $oal:ident, $og:ident, $p:ident, $op:ident) => {
+        $(MaterialSpec::$v {
             absorption: $a,
             outside_absorption: $oa,
             albedo: $al,
@@ -487,16 +490,7 @@ macro_rules! media_fields {
             phase: $p,
             outside_phase: $op,
             ..
-        } | MaterialSpec::Null {
-            absorption: $a,
-            outside_absorption: $oa,
-            albedo: $al,
-            phase_g: $g,
-            outside_albedo: $oal,
-            outside_phase_g: $og,
-            phase: $p,
-            outside_phase: $op,
-        }
+        })|+
     };
 }
 
