@@ -786,9 +786,10 @@ impl Microfacet {
     }
 
     /// A microfacet normal (local frame) for a path arriving along `lo` (lo.z > 0), with density
-    /// `pdf_h`: GGX draws only the normals `lo` can see (Heitz 2018, "Sampling the GGX distribution of
-    /// visible normals"), whose samples weigh at most 1 apart from Fresnel; Beckmann draws D(h) cos θh
-    /// (its slopes, a Gaussian stretched by α.u and α.v).
+    /// `pdf_h`: only the normals `lo` can see, D_lo(h) = G1(lo) max(0, lo·h) D(h) / cos θo, so that a
+    /// white rough mirror's samples weigh about G1(li) ≤ 1 apart from Fresnel. GGX by Heitz 2018
+    /// ("Sampling the GGX distribution of visible normals"); Beckmann by `beckmann_visible_slopes`, as
+    /// Mitsuba 3 samples both (its `sample_visible`, on by default).
     fn sample_h(self, lo: Vec3, u: [f32; 2], alpha: impl Into<Alpha>) -> Vec3 {
         let alpha = alpha.into();
         let (ax, ay) = alpha.clamped();
@@ -807,18 +808,15 @@ impl Microfacet {
                 let nh = a * t1 + b * t2 + (1.0 - a * a - b * b).max(0.0).sqrt() * v;
                 Vec3::new(ax * nh.x, ay * nh.y, nh.z.max(0.0)).normalize()
             }
-            Microfacet::Beckmann if !alpha.isotropic() => {
-                let r = (-(1.0 - u[0]).max(1e-30).ln()).sqrt();
-                let phi = 2.0 * PI * u[1];
-                Vec3::new(ax * r * phi.cos(), ay * r * phi.sin(), 1.0).normalize()
-            }
             Microfacet::Beckmann => {
-                let a2 = ax * ax;
-                let cos2 = 1.0 / (1.0 - a2 * (1.0 - u[0]).max(1e-30).ln());
-                let cos_t = cos2.max(0.0).sqrt();
-                let sin_t = (1.0 - cos2).max(0.0).sqrt();
-                let phi = 2.0 * PI * u[1];
-                Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+                // Stretch to unit roughness (Beckmann's slopes scale with α), draw the slopes a
+                // surface seen at that angle shows, turn them to the direction's azimuth, unstretch.
+                let (sx, sy) = (ax * lo.x, ay * lo.y);
+                let sin = (sx * sx + sy * sy).sqrt();
+                let (cos_phi, sin_phi) = if sin > 0.0 { (sx / sin, sy / sin) } else { (1.0, 0.0) };
+                let (x, y) = beckmann_visible_slopes(sin / lo.z.max(0.0), u);
+                let (x, y) = (cos_phi * x - sin_phi * y, sin_phi * x + cos_phi * y);
+                Vec3::new(-ax * x, -ay * y, 1.0).normalize()
             }
         }
     }
@@ -835,15 +833,117 @@ impl Microfacet {
         Some((f.to_world(li), li.z))
     }
 
-    /// Density of `sample_h` drawing h for a path arriving along `lo` (lo.z > 0).
+    /// Density of `sample_h` drawing h for a path arriving along `lo` (lo.z > 0): D_lo(h), normalised
+    /// by the exact G1 (for Beckmann not `g1`'s rational fit, which `eval` keeps as Mitsuba does: the
+    /// density must be the sampler's own, 0.3% off at worst otherwise).
     fn pdf_h(self, lo: Vec3, h: Vec3, alpha: impl Into<Alpha>) -> f32 {
         let alpha = alpha.into();
-        let d = self.d(h, alpha);
-        match self {
-            Microfacet::Ggx => self.g1(lo, alpha) * lo.dot(h).max(0.0) * d / lo.z,
-            Microfacet::Beckmann => d * h.z.max(0.0),
-        }
+        let g1 = match self {
+            Microfacet::Ggx => self.g1(lo, alpha),
+            Microfacet::Beckmann => beckmann_g1_exact(alpha.projected_tan2(lo)),
+        };
+        g1 * lo.dot(h).max(0.0) * self.d(h, alpha) / lo.z
     }
+}
+
+/// Smith's masking for Beckmann normals, exactly: 1 / (1 + Λ), Λ(a) = (erf(a) − 1)/2 + e^(−a²)/(2a√π),
+/// a = 1/(α tan θ) from `at2` = α² tan²θ along the direction's azimuth (`Alpha::projected_tan2`).
+fn beckmann_g1_exact(at2: f32) -> f32 {
+    // Also NaN: a direction along the normal, or none.
+    if at2.is_nan() || at2 <= 0.0 {
+        return 1.0;
+    }
+    let a = 1.0 / at2.sqrt();
+    if a > 6.0 {
+        // Λ < 1e-17: below f32's reach.
+        return 1.0;
+    }
+    let lambda = 0.5 * (libm::erff(a) - 1.0) + (-a * a).exp() / (2.0 * a * SQRT_PI);
+    1.0 / (1.0 + lambda)
+}
+
+const SQRT_PI: f32 = 1.772_453_9;
+
+/// erf⁻¹(y) for y in (−1, 1): Giles' single-precision polynomial ("Approximating the erfinv function",
+/// 2010; relative error a few 1e-7).
+fn erf_inv(y: f32) -> f32 {
+    let w = -((1.0 - y) * (1.0 + y)).ln();
+    let p = if w < 5.0 {
+        let w = w - 2.5;
+        [
+            2.810_226_4e-8,
+            3.432_739_4e-7,
+            -3.523_387_7e-6,
+            -4.391_506_5e-6,
+            2.185_808_7e-4,
+            -1.253_725e-3,
+            -4.177_681_6e-3,
+            2.466_407_3e-1,
+            1.501_409_4,
+        ]
+        .iter()
+        .fold(0.0, |p, c| c + p * w)
+    } else {
+        let w = w.sqrt() - 3.0;
+        [
+            -2.002_142_6e-4,
+            1.009_505_6e-4,
+            1.349_343_2e-3,
+            -3.673_428_4e-3,
+            5.739_507_7e-3,
+            -7.622_461e-3,
+            9.438_870_5e-3,
+            1.001_674,
+            2.832_976_8,
+        ]
+        .iter()
+        .fold(0.0, |p, c| c + p * w)
+    };
+    p * y
+}
+
+/// The slopes (x, y) of the unit-roughness Beckmann normals a direction at tan θ = `tan` (in the xz
+/// plane, towards +x) sees, from the unit square `u`: density ∝ max(0, 1 − x tan θ) e^(−x²−y²) (Jakob
+/// 2014, "An improved visible normal sampling routine for the Beckmann distribution"). y is a plain
+/// Gaussian; x inverts its marginal's CDF, (1 + erf x + tan θ e^(−x²)/√π) / (1 + erf(cot θ) + tan θ
+/// e^(−cot²θ)/√π), by Newton's method on b = erf x from Jakob's fit of the inverse, safeguarded by
+/// bisection (two or three steps to 1e-6). Monotone and continuous in `u`, so a low-discrepancy
+/// sampler's strata map to strata. (Session 26 solved this in f64 to 1e-15 and doubled render times.)
+fn beckmann_visible_slopes(tan: f32, u: [f32; 2]) -> (f32, f32) {
+    // The draws kept off 0 and 1 by 2⁻²⁴ (|x|, |y| < 3.9: a Gaussian's mass beyond is 1e-7).
+    const EDGE: f32 = 1.0 / 16_777_216.0;
+    const ONE_BELOW: f32 = 1.0 - EDGE;
+    let (u0, u1) = (u[0].clamp(EDGE, 1.0 - EDGE), u[1].clamp(EDGE, 1.0 - EDGE));
+    let y = erf_inv(2.0 * u1 - 1.0);
+    if tan.is_nan() || tan <= 1e-4 {
+        // Seen from above every normal is visible: the slopes are two Gaussians.
+        return (erf_inv(2.0 * u0 - 1.0), y);
+    }
+    let cot = 1.0 / tan;
+    let (mut lo, mut hi) = (-1.0f32, libm::erff(cot));
+    let norm = 1.0 / (1.0 + hi + tan * (-cot * cot).exp() / SQRT_PI);
+    let theta = tan.atan();
+    let fit = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
+    let mut b = hi - (1.0 + hi) * (1.0 - u0).powf(fit);
+    let mut x = 0.0;
+    for _ in 0..16 {
+        if !(b > lo && b < hi) {
+            b = 0.5 * (lo + hi);
+        }
+        // Kept inside (−1, 1), where erf⁻¹ is finite (erf(cot θ) reads 1 in f32 past cot θ ≈ 3.9).
+        x = erf_inv(b.clamp(-ONE_BELOW, ONE_BELOW));
+        let value = norm * (1.0 + b + tan * (-x * x).exp() / SQRT_PI) - u0;
+        if value.abs() < 1e-6 {
+            break;
+        }
+        if value > 0.0 {
+            hi = b;
+        } else {
+            lo = b;
+        }
+        b -= value / (norm * (1.0 - x * tan));
+    }
+    (x, y)
 }
 
 /// The local frame a microfacet BSDF of roughness `alpha` is taken in about the normal `n`: along the
@@ -1040,10 +1140,9 @@ fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 
 /// ∫ over the microfacet normals `wi` sees (the visible-normal distribution D_wi) of the light a rough
 /// interface of relative index `eta` passes on: transmitted, (1 − F) G1(wt); or reflected, F G1(wr). The
-/// quadrature runs over the unit square `sample_h` maps to normals, each node weighed by D_wi over the
-/// sampler's density (1 for GGX, which samples D_wi itself).
+/// quadrature runs over the unit square `sample_h` maps to normals (drawn by D_wi itself, as Mitsuba's
+/// tables are).
 fn coat_integral(m: Microfacet, alpha: f32, eta: f32, wi: Vec3, nodes: &[(f64, f64)], transmit: bool) -> f64 {
-    let g1_wi = m.g1(wi, alpha);
     let mut sum = 0.0f64;
     for &(x, wx) in nodes {
         for &(y, wy) in nodes {
@@ -1052,10 +1151,6 @@ fn coat_integral(m: Microfacet, alpha: f32, eta: f32, wi: Vec3, nodes: &[(f64, f
             if cos_ih <= 0.0 || h.z <= 0.0 {
                 continue;
             }
-            let visible = match m {
-                Microfacet::Ggx => 1.0,
-                Microfacet::Beckmann => g1_wi * cos_ih / (wi.z * h.z),
-            };
             let (f, cos_t) = fresnel_dielectric(cos_ih, eta);
             let passed = if transmit {
                 let wt = refract(wi, h, eta, cos_t).normalize();
@@ -1070,7 +1165,7 @@ fn coat_integral(m: Microfacet, alpha: f32, eta: f32, wi: Vec3, nodes: &[(f64, f
                 }
                 f * m.g1(wr, alpha)
             };
-            sum += wx * wy * (visible * passed) as f64;
+            sum += wx * wy * passed as f64;
         }
     }
     sum
@@ -2734,9 +2829,10 @@ mod tests {
             let coat = RoughCoat::get(alpha, distribution, ior);
             let label = format!("{distribution:?} α {alpha} ior {ior}");
             // Mitsuba's tables come from a 32×32 (128×128 inside) quadrature over its own visible-normal
-            // sampler; caustica's converge (64 and 128 nodes agree with 1,024 to 3e-5). Where they
-            // differ Mitsuba's is the less accurate (Beckmann α 0.5 at cos 0.5: Mitsuba 0.9357,
-            // the converged integral 0.9380): 3e-3 allows it.
+            // sampler; caustica's converge (64 and 128 nodes agree with 1,024 to 3e-5) and, since Beckmann
+            // draws visible normals too, agree with Mitsuba's within 4e-4 (GGX at normal incidence;
+            // Beckmann within 5e-5). Before, Beckmann's D cos θh sampler weighed by `g1`'s rational fit
+            // gave 0.9380 for α 0.5 at cos 0.5, Mitsuba 0.9357 (the bound was 3e-3).
             assert!(
                 (coat.internal_reflectance() - m_rint).abs() < 5e-4,
                 "{label}: R_int {}",
@@ -2744,7 +2840,7 @@ mod tests {
             );
             for (mu, t) in mus.iter().zip(m_t) {
                 assert!(
-                    (coat.transmittance(*mu) - t).abs() < 3e-3,
+                    (coat.transmittance(*mu) - t).abs() < 5e-4,
                     "{label}: t({mu}) {} vs {t}",
                     coat.transmittance(*mu)
                 );
@@ -2816,7 +2912,18 @@ mod tests {
             if let Some(s) = m.sample(wo, n, r.next_2d(), r.next_f32(), mode) {
                 let pdf = m.pdf(wo, s.wi, n, TransportMode::Radiance);
                 let w = m.eval(wo, s.wi, n, mode) * s.wi.dot(n).abs() / pdf;
-                assert!((pdf / s.pdf - 1.0).abs() < 1e-3, "{case}: pdf {pdf} vs sampled {}", s.pdf);
+                // Within 1e-3, or within what changing wi by a few ulps moves it (f32's own jitter there):
+                // near a microfacet's critical angle 1 − F is the root of a difference, and a refraction
+                // met there (one sample in 10⁵) reads 1% apart for wi rounded differently.
+                let rounding = (0..6)
+                    .map(|k| {
+                        let mut wi = s.wi;
+                        let bits = wi[k / 2].to_bits();
+                        wi[k / 2] = f32::from_bits(if k % 2 == 0 { bits + 3 } else { bits - 3 });
+                        (m.pdf(wo, wi, n, TransportMode::Radiance) / pdf - 1.0).abs()
+                    })
+                    .fold(0.0, f32::max);
+                assert!((pdf / s.pdf - 1.0).abs() < 1e-3 + rounding, "{case}: pdf {pdf} vs sampled {}", s.pdf);
                 assert!((w - s.weight).length() < 2e-3 * w.length().max(1.0), "{case}: {w:?} vs {:?}", s.weight);
                 assert_eq!(s.transmitted, s.wi.dot(n) * wo.dot(n) < 0.0);
                 for (sum, w) in rt[s.transmitted as usize].iter_mut().zip(s.weight.to_array()) {
@@ -3222,24 +3329,107 @@ mod tests {
         }
     }
 
-    /// GGX draws visible normals only, so a white rough mirror's samples weigh G1 ≤ 1, even at grazing
-    /// incidence; Beckmann's D cos θ sampling, for contrast, gives weights far above 1 there (what made
-    /// rough GGX metal noisy before session 24's change).
+    /// Both distributions draw visible normals only, so a white rough mirror's samples weigh
+    /// G1(lo) G1(li) / G1(lo) ≤ 1 even at grazing incidence (Beckmann: `g1`'s rational fit over the exact
+    /// G1 the sampler's density holds, within 0.4%), and their mean is the mirror's albedo. Beckmann's
+    /// earlier D cos θh sampling gave weights above 1.5 here (seen failing), what made rough GGX metal
+    /// noisy before session 24's change. The draws' density is `pdf` (histogram over the outgoing
+    /// hemisphere against ∫ pdf over each bin), for both, at grazing and near-normal incidence, anisotropic
+    /// too.
     #[test]
-    fn ggx_visible_normal_samples_weigh_at_most_one() {
+    fn visible_normal_samples_weigh_at_most_one_and_follow_pdf() {
         let mut r = Rng::new(8, 0, 0);
-        let wo = Vec3::new((1.0f32 - 0.01).sqrt(), 0.0, 0.1);
-        let mut worst = [0.0f32; 2];
-        for (k, distribution) in [Microfacet::Ggx, Microfacet::Beckmann].into_iter().enumerate() {
+        let grazing = Vec3::new((1.0f32 - 0.01).sqrt(), 0.0, 0.1);
+        for distribution in [Microfacet::Ggx, Microfacet::Beckmann] {
             let m = Material::conductor(Fresnel::Constant(Rgb::ONE), 0.5, distribution);
+            let mut worst = 0.0f32;
             for _ in 0..100_000 {
-                if let Some(s) = m.sample(wo, Vec3::Z, r.next_2d(), r.next_f32(), TransportMode::Radiance) {
-                    worst[k] = worst[k].max(s.weight.x);
+                if let Some(s) = m.sample(grazing, Vec3::Z, r.next_2d(), r.next_f32(), TransportMode::Radiance) {
+                    worst = worst.max(s.weight.x);
+                }
+            }
+            let bound = if distribution == Microfacet::Ggx { 1.0 + 1e-4 } else { 1.004 };
+            assert!(worst <= bound, "{distribution:?}: a sample weighs {worst}");
+        }
+        // Density: 24 × 48 bins in (cos θ, φ) over the hemisphere, each holding pdf × its solid angle.
+        let (nt, np) = (24usize, 48usize);
+        for distribution in [Microfacet::Ggx, Microfacet::Beckmann] {
+            for (alpha, alpha_v) in [(0.5, 0.5), (0.15, 0.15), (0.1, 0.6)] {
+                for wo in [grazing, Vec3::new(0.3, 0.2, 0.93).normalize(), Vec3::new(-0.5, 0.7, 0.3).normalize()] {
+                    let m = Material::Conductor {
+                        fresnel: Fresnel::Constant(Rgb::ONE),
+                        alpha,
+                        alpha_v,
+                        tangent: Vec3::X,
+                        distribution,
+                    };
+                    let count = 400_000;
+                    let mut hist = vec![0.0f64; nt * np];
+                    for _ in 0..count {
+                        if let Some(s) = m.sample(wo, Vec3::Z, r.next_2d(), r.next_f32(), TransportMode::Radiance) {
+                            let t = ((s.wi.z.clamp(0.0, 1.0) * nt as f32) as usize).min(nt - 1);
+                            let phi = s.wi.y.atan2(s.wi.x).rem_euclid(2.0 * PI);
+                            let p = ((phi / (2.0 * PI) * np as f32) as usize).min(np - 1);
+                            hist[t * np + p] += 1.0 / count as f64;
+                        }
+                    }
+                    // ∫ pdf over each bin by a 6 × 6 midpoint rule in (cos θ, φ).
+                    let k = 6;
+                    let mut worst = 0.0f64;
+                    for t in 0..nt {
+                        for p in 0..np {
+                            let mut expect = 0.0f64;
+                            for i in 0..k {
+                                for j in 0..k {
+                                    let c = (t as f32 + (i as f32 + 0.5) / k as f32) / nt as f32;
+                                    let phi = 2.0 * PI * (p as f32 + (j as f32 + 0.5) / k as f32) / np as f32;
+                                    let s = (1.0 - c * c).max(0.0).sqrt();
+                                    let wi = Vec3::new(s * phi.cos(), s * phi.sin(), c);
+                                    let area = 2.0 * PI / (nt * np * k * k) as f32;
+                                    expect += (m.pdf(wo, wi, Vec3::Z, TransportMode::Radiance) * area) as f64;
+                                }
+                            }
+                            // In counts: Poisson noise (one more for bins the pdf gives next to nothing),
+                            // plus 2% for the midpoint rule.
+                            let (got, expect) = (hist[t * np + p] * count as f64, expect * count as f64);
+                            let off = ((got - expect).abs() - 0.02 * expect) / (expect + 1.0).sqrt();
+                            worst = worst.max(off);
+                        }
+                    }
+                    assert!(worst < 5.0, "{distribution:?} α {alpha}/{alpha_v} wo {wo}: a bin {worst:.1}σ off its pdf");
                 }
             }
         }
-        assert!(worst[0] <= 1.0 + 1e-4, "GGX: a sample weighs {}", worst[0]);
-        assert!(worst[1] > 1.5, "Beckmann: the largest weight is only {}", worst[1]);
+    }
+
+    /// Beckmann's visible slopes invert their CDF: at tan θ from 0 to 100 the x slope drawn from u has
+    /// CDF(x) = u within 2e-6 (evaluated in f64), rises with u, and stays finite from u = 0 to the last
+    /// float below 1; the y slope is a Gaussian's (erf y = 2u − 1).
+    #[test]
+    fn beckmann_visible_slopes_invert_their_cdf() {
+        for tan in [0.0f32, 1e-3, 0.1, 1.0, 5.0, 100.0] {
+            let (t, cot) = (tan as f64, 1.0 / tan as f64);
+            let norm = 1.0 + libm::erf(cot) + t * (-cot * cot).exp() / std::f64::consts::PI.sqrt();
+            let cdf = |x: f64| {
+                if tan == 0.0 {
+                    0.5 * (1.0 + libm::erf(x))
+                } else {
+                    (1.0 + libm::erf(x) + t * (-x * x).exp() / std::f64::consts::PI.sqrt()) / norm
+                }
+            };
+            let mut last = f32::NEG_INFINITY;
+            for k in 0..=2000 {
+                let u = (k as f32 / 2000.0).min(1.0 - f32::EPSILON / 2.0);
+                let (x, y) = beckmann_visible_slopes(tan, [u, u]);
+                assert!(x.is_finite() && y.is_finite() && x >= last, "tan {tan} u {u}: x {x} after {last}");
+                assert!(tan == 0.0 || x as f64 <= cot + 1e-6, "tan {tan}: x {x} beyond cot θ");
+                last = x;
+                if (1e-4..=1.0 - 1e-4).contains(&u) {
+                    assert!((cdf(x as f64) - u as f64).abs() < 2e-6, "tan {tan} u {u}: CDF {}", cdf(x as f64));
+                    assert!((libm::erf(y as f64) - (2.0 * u as f64 - 1.0)).abs() < 2e-6, "y {y} at u {u}");
+                }
+            }
+        }
     }
 
     /// A roughness far below f32's reach near the normal (D would overflow) still gives finite samples,
