@@ -921,7 +921,8 @@ fn beckmann_visible_slopes(tan: f32, u: [f32; 2]) -> (f32, f32) {
     }
     let cot = 1.0 / tan;
     let (mut lo, mut hi) = (-1.0f32, libm::erff(cot));
-    let norm = 1.0 / (1.0 + hi + tan * (-cot * cot).exp() / SQRT_PI);
+    // The CDF's denominator is 2 (1 + Λ(cot θ)): the same normalisation `pdf_h` gives the density.
+    let norm = 0.5 * beckmann_g1_exact(tan * tan);
     let theta = tan.atan();
     let fit = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
     let mut b = hi - (1.0 + hi) * (1.0 - u0).powf(fit);
@@ -3329,11 +3330,10 @@ mod tests {
         }
     }
 
-    /// Both distributions draw visible normals only, so a white rough mirror's samples weigh
-    /// G1(lo) G1(li) / G1(lo) ≤ 1 even at grazing incidence (Beckmann: `g1`'s rational fit over the exact
-    /// G1 the sampler's density holds, within 0.4%), and their mean is the mirror's albedo. Beckmann's
-    /// earlier D cos θh sampling gave weights above 1.5 here (seen failing), what made rough GGX metal
-    /// noisy before session 24's change. The draws' density is `pdf` (histogram over the outgoing
+    /// Both distributions draw visible normals only, so a white rough mirror's samples weigh G1(li) ≤ 1
+    /// even at grazing incidence (Beckmann: times `g1`'s rational fit over the exact G1 at lo that the
+    /// sampler's density holds, within 0.4%). Beckmann's earlier D cos θh sampling gave weights up to
+    /// 7.97 here (seen failing), as GGX's had before session 24's change made rough metal less noisy. The draws' density is `pdf` (histogram over the outgoing
     /// hemisphere against ∫ pdf over each bin), for both, at grazing and near-normal incidence, anisotropic
     /// too.
     #[test]
