@@ -1133,7 +1133,8 @@ pub struct RenderSettings {
     /// Bounces before Russian roulette starts.
     pub rr_depth: u32,
     pub seed: u64,
-    /// Camera samples: `sobol` (Owen-scrambled Sobol per pixel, the default), `padded` ((0,2)-sequences
+    /// Camera samples: `sobol` (Owen-scrambled Sobol per pixel for a sample's first 16 draws, padded
+    /// after them; the default), `padded` ((0,2)-sequences
     /// per pixel and draw: less time a sample, more noise at high counts) or `independent`.
     pub sampler: crate::math::rng::Sampler,
     /// Preview exposure in stops (PNG only; the EXR is linear radiance).
