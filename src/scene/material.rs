@@ -858,8 +858,13 @@ fn beckmann_g1_exact(at2: f32) -> f32 {
         // Λ < 1e-17: below f32's reach.
         return 1.0;
     }
-    let lambda = 0.5 * (libm::erff(a) - 1.0) + (-a * a).exp() / (2.0 * a * SQRT_PI);
-    1.0 / (1.0 + lambda)
+    1.0 / beckmann_one_plus_lambda(a, libm::erff(a))
+}
+
+/// 1 + Λ(a) for Beckmann normals, given `erf_a` = erf(a) (the visible-normal sampler has it already).
+fn beckmann_one_plus_lambda(a: f32, erf_a: f32) -> f32 {
+    let lambda = 0.5 * (erf_a - 1.0) + (-a * a).exp() / (2.0 * a * SQRT_PI);
+    1.0 + lambda
 }
 
 const SQRT_PI: f32 = 1.772_453_9;
@@ -922,7 +927,7 @@ fn beckmann_visible_slopes(tan: f32, u: [f32; 2]) -> (f32, f32) {
     let cot = 1.0 / tan;
     let (mut lo, mut hi) = (-1.0f32, libm::erff(cot));
     // The CDF's denominator is 2 (1 + Λ(cot θ)): the same normalisation `pdf_h` gives the density.
-    let norm = 0.5 * beckmann_g1_exact(tan * tan);
+    let norm = 0.5 / beckmann_one_plus_lambda(cot, hi);
     let theta = tan.atan();
     let fit = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
     let mut b = hi - (1.0 + hi) * (1.0 - u0).powf(fit);
