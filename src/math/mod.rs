@@ -119,6 +119,7 @@ pub fn face_forward(n: Vec3, w: Vec3) -> Vec3 {
 
 /// Nearest positive hit of a ray with a sphere, in f64 (Embree's user geometry, the brute-force twin
 /// and light sampling share it): the smallest root t of |o + t·d − c| = r in (tmin, tmax).
+#[inline(always)]
 pub fn sphere_root(o: [f32; 3], d: [f32; 3], c: [f32; 3], r: f32, tmin: f32, tmax: f32) -> Option<f32> {
     let oc = [o[0] as f64 - c[0] as f64, o[1] as f64 - c[1] as f64, o[2] as f64 - c[2] as f64];
     let dd = [d[0] as f64, d[1] as f64, d[2] as f64];
