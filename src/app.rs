@@ -262,6 +262,7 @@ fn medium_text(sigma: glam::Vec3, sc: &crate::scene::Scattering) -> String {
     let lobe = |l: Lobe| match l {
         Lobe::Hg(g) => format!("g {g}"),
         Lobe::Rayleigh => "Rayleigh".to_string(),
+        Lobe::Table(t) => format!("a table of {} values", t.values().len()),
     };
     let p = sc.phase;
     let phase = match p.weight {

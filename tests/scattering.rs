@@ -11,14 +11,18 @@ use caustica::film::Image;
 /// red's free flights and weighted channel by channel at each flight, carry weights without bound; the
 /// whole path's spectral MIS keeps them within three times a channel's own. Seen: weighting each flight
 /// alone read 0.85 in blue, with pixels up to 9.4; the scattering's σ_s left out reads far below 1.
-/// Rayleigh's phase function and blends of two lobes read 1 too (a phase function whose samples'
-/// density is not its own, or that does not integrate to 1, reads otherwise).
+/// Rayleigh's phase function, tables over the cosine and blends of two lobes read 1 too (a phase
+/// function whose samples' density is not its own, or that does not integrate to 1, reads otherwise).
 #[test]
 fn a_white_medium_in_a_white_furnace_reads_one() {
     // (Since session 77 also Rayleigh's phase function and blends of two lobes, `phase`.)
     let rayleigh = "0.0, phase = [{ type = \"rayleigh\" }]";
     let blend = "0.0, phase = [{ type = \"hg\", g = 0.8, weight = 0.6 }, { type = \"rayleigh\", weight = 0.4 }]";
     let two_hg = "0.0, phase = [{ type = \"hg\", g = 0.9, weight = 0.7 }, { type = \"hg\", g = -0.6, weight = 0.3 }]";
+    // (Since session 81 tables over the cosine, Mitsuba's `tabphase`, alone and blended.)
+    let table = "0.0, phase = [{ type = \"table\", values = [0.8, 0.3, 0.1, 0.05, 0.1, 0.4, 1.5, 6.0] }]";
+    let table_hg =
+        "0.0, phase = [{ type = \"table\", values = [2.0, 0.0, 0.0, 3.0], weight = 0.4 }, { type = \"hg\", g = -0.4, weight = 0.6 }]";
     for (glass, g) in [
         ("ior = 1.0", "0.0"),
         ("ior = 1.5", "0.7"),
@@ -26,6 +30,8 @@ fn a_white_medium_in_a_white_furnace_reads_one() {
         ("ior = 1.0", rayleigh),
         ("ior = 1.5", blend),
         ("ior = 1.0", two_hg),
+        ("ior = 1.5", table),
+        ("ior = 1.0", table_hg),
     ] {
         let text = format!(
             "[camera]\nfov = 30\norigin = [0.0, 0.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 1.0, 0.0]\n\
@@ -123,7 +129,8 @@ fn channel_blocks(img: &Image, k: usize) -> Vec<f64> {
 /// Bad scattering settings are refused naming the key: an albedo above 1 or below 0, an albedo without
 /// an absorption (the extinction it is a share of), a `phase_g` of 1 or without an albedo; a `phase`
 /// beside a `phase_g`, without an albedo, of three lobes, of two whose weights miss or do not sum to 1,
-/// a `hg` lobe without its g or with a g of 1, a g on another lobe, an unknown lobe; and a null surface
+/// a `hg` lobe without its g or with a g of 1, a g on another lobe, an unknown lobe, a table without
+/// its values or with bad ones, values on another lobe; and a null surface
 /// round a medium that emits, naming the shape.
 #[test]
 fn bad_scattering_settings_are_refused_naming_the_key() {
@@ -158,6 +165,25 @@ fn bad_scattering_settings_are_refused_naming_the_key() {
         (
             "outside_absorption = [1.0, 1.0, 1.0], outside_albedo = [0.5, 0.5, 0.5], outside_phase = [{ type = \"hg\", g = 1.0 }]",
             "materials.fog.outside_phase[0].g",
+        ),
+        // Tables over the cosine (since session 81): without values, values on another lobe, one
+        // value, a negative one, only zeros.
+        ("absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"table\" }]", "materials.fog.phase[0]"),
+        (
+            "absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"rayleigh\", values = [1.0, 2.0] }]",
+            "materials.fog.phase[0].values",
+        ),
+        (
+            "absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"table\", values = [1.0] }]",
+            "materials.fog.phase[0].values",
+        ),
+        (
+            "absorption = [1.0, 1.0, 1.0], albedo = [0.5, 0.5, 0.5], phase = [{ type = \"table\", values = [1.0, -0.5, 2.0] }]",
+            "materials.fog.phase[0].values",
+        ),
+        (
+            "outside_absorption = [1.0, 1.0, 1.0], outside_albedo = [0.5, 0.5, 0.5], outside_phase = [{ type = \"table\", values = [0.0, 0.0] }]",
+            "materials.fog.outside_phase[0].values",
         ),
     ] {
         let text = format!(

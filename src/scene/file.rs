@@ -313,7 +313,9 @@ pub enum MaterialSpec {
         outside_phase_g: f32,
         /// The inside medium's phase function as one or two lobes, in place of `phase_g` (`LobeSpec`):
         /// `[{ type = "rayleigh" }]`, or a blend such as `[{ type = "hg", g = 0.8, weight = 0.7 },
-        /// { type = "rayleigh", weight = 0.3 }]` (Mitsuba's `rayleigh` and `blendphase`).
+        /// { type = "rayleigh", weight = 0.3 }]` (Mitsuba's `rayleigh` and `blendphase`), or a table of
+        /// values over the cosine, `[{ type = "table", values = [0.2, 0.3, 1.0, 4.0] }]` (Mitsuba's
+        /// `tabphase`).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         phase: Option<Vec<LobeSpec>>,
         /// `phase` for the medium outside.
@@ -441,9 +443,11 @@ pub enum MaterialSpec {
 }
 
 /// One lobe of a medium's phase function (`phase`): `{ type = "hg", g = 0.8 }` (Henyey–Greenstein,
-/// g in (−1, 1)), `{ type = "isotropic" }` or `{ type = "rayleigh" }` (3/(16π)·(1 + cos²θ)); two lobes
+/// g in (−1, 1)), `{ type = "isotropic" }`, `{ type = "rayleigh" }` (3/(16π)·(1 + cos²θ)) or
+/// `{ type = "table", values = [...] }` (Mitsuba's `tabphase`: values at n ≥ 2 cosines evenly spaced
+/// from −1, back, to 1, onwards, linear between them, each ≥ 0, scaled to integrate to 1); two lobes
 /// blend, each with its `weight` (the two summing to 1), as Mitsuba's `blendphase` does.
-#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct LobeSpec {
     #[serde(rename = "type")]
@@ -452,6 +456,9 @@ pub struct LobeSpec {
     pub g: Option<f32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weight: Option<f32>,
+    /// A `table` lobe's values.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub values: Option<Vec<f32>>,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
@@ -460,6 +467,7 @@ pub enum LobeKind {
     Hg,
     Isotropic,
     Rayleigh,
+    Table,
 }
 
 /// One side's medium as a dielectric's or a null material's keys give it: `absorption`, `albedo`,

@@ -252,12 +252,25 @@ fn scattering_of(
 }
 
 /// A phase function from one lobe (its `weight`, if given, 1) or two (their weights, each in [0, 1],
-/// summing to 1); a Henyey–Greenstein lobe needs its g, strictly between −1 and 1, and no other has one.
+/// summing to 1); a Henyey–Greenstein lobe needs its g, strictly between −1 and 1, and no other has one;
+/// a table its `values` (`medium::Table::new`), and no other has them.
 fn phase_of(cx: &Ctx, key: &str, lobes: &[LobeSpec]) -> Result<crate::scene::medium::Phase, SceneError> {
     use crate::scene::medium::{Lobe, Phase};
     let lobe = |i: usize, l: &LobeSpec| -> Result<Lobe, SceneError> {
         let k = format!("{key}[{i}]");
+        if l.values.is_some() != (l.kind == LobeKind::Table) {
+            return Err(match l.kind {
+                LobeKind::Table => cx.err(&k, "a `table` lobe needs its `values`"),
+                _ => cx.err(&format!("{k}.values"), "only a `table` lobe has `values`"),
+            });
+        }
         match (l.kind, l.g) {
+            (LobeKind::Table, None) => {
+                let values = l.values.as_deref().unwrap_or_default();
+                crate::scene::medium::Table::interned(values)
+                    .map(Lobe::Table)
+                    .map_err(|e| cx.err(&format!("{k}.values"), e))
+            }
             (LobeKind::Hg, Some(g)) if g > -1.0 && g < 1.0 => Ok(Lobe::Hg(g)),
             (LobeKind::Hg, Some(g)) => {
                 Err(cx.err(&format!("{k}.g"), format!("{g} must lie strictly between -1 and 1")))

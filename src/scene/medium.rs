@@ -25,6 +25,96 @@ pub enum Lobe {
     Hg(f32),
     /// Rayleigh's, 3/(16π)·(1 + cos²θ): small particles, as much back as onwards (Mitsuba's `rayleigh`).
     Rayleigh,
+    /// A table of values over the cosine (Mitsuba's `tabphase`).
+    Table(&'static Table),
+}
+
+/// A phase function tabulated over the cosine between the directions light travels in and out (1:
+/// onwards): values at n ≥ 2 cosines evenly spaced from −1 to 1, linear between them, scaled to
+/// integrate to 1 over the sphere (Mitsuba's `tabphase`, whose `ContinuousDistribution` reads them
+/// so).
+#[derive(Debug, PartialEq)]
+pub struct Table {
+    /// The values as given.
+    values: Vec<f32>,
+    /// The density over the cosine at each knot (the values over their integral, in f64: values near
+    /// f32::MAX sum beyond it).
+    pdf: Vec<f64>,
+    /// The density's integral from −1 up to each knot (trapezoids): 0 first, 1 last.
+    cdf: Vec<f64>,
+}
+
+impl Table {
+    /// The table of `values`, refused (with why) unless there are at least two, each finite and ≥ 0,
+    /// not all 0.
+    pub fn new(values: &[f32]) -> Result<Table, String> {
+        if values.len() < 2 {
+            return Err(format!("{} value(s): a table needs at least two (at cosines −1 and 1)", values.len()));
+        }
+        if let Some(v) = values.iter().find(|v| !v.is_finite() || **v < 0.0) {
+            return Err(format!("{v}: each value must be finite and ≥ 0"));
+        }
+        let h = 2.0 / (values.len() - 1) as f64;
+        let mut cdf = vec![0.0f64];
+        for w in values.windows(2) {
+            cdf.push(cdf.last().unwrap() + 0.5 * (w[0] as f64 + w[1] as f64) * h);
+        }
+        let total = *cdf.last().unwrap();
+        if total <= 0.0 {
+            return Err("every value is 0: the table has no scattering to spread".to_string());
+        }
+        cdf.iter_mut().for_each(|c| *c /= total);
+        let pdf = values.iter().map(|v| *v as f64 / total).collect();
+        Ok(Table { values: values.to_vec(), pdf, cdf })
+    }
+
+    /// The table of `values` (as `new`), one copy per distinct table for the life of the process: a
+    /// lobe refers to it, and lobes are copied along every path.
+    pub fn interned(values: &[f32]) -> Result<&'static Table, String> {
+        static TABLES: std::sync::Mutex<Vec<&'static Table>> = std::sync::Mutex::new(Vec::new());
+        let table = Table::new(values)?;
+        let mut tables = TABLES.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(t) = tables.iter().find(|t| ***t == table) {
+            return Ok(t);
+        }
+        let t: &'static Table = Box::leak(Box::new(table));
+        tables.push(t);
+        Ok(t)
+    }
+
+    /// The values as given.
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+
+    fn step(&self) -> f64 {
+        2.0 / (self.values.len() - 1) as f64
+    }
+
+    /// Density per steradian at the cosine `cos`: the values interpolated, over their integral and 2π.
+    fn density(&self, cos: f32) -> f32 {
+        let last = self.pdf.len() - 1;
+        let x = ((cos.clamp(-1.0, 1.0) as f64 + 1.0) / self.step()).min(last as f64);
+        let i = (x as usize).min(last - 1);
+        let t = x - i as f64;
+        ((self.pdf[i] * (1.0 - t) + self.pdf[i + 1] * t) / (2.0 * std::f64::consts::PI)) as f32
+    }
+
+    /// A cosine drawn by the table's density from `u` in [0, 1): the interval by the integral, then
+    /// the point inside it by the linear density's quadratic integral, inverted.
+    fn sample_cos(&self, u: f32) -> f32 {
+        let last = self.pdf.len() - 1;
+        let target = u as f64;
+        // The last knot whose integral is ≤ the target, below the last.
+        let i = self.cdf.partition_point(|c| *c <= target).clamp(1, last) - 1;
+        let h = self.step();
+        let (a, b) = (self.pdf[i], self.pdf[i + 1]);
+        // The share t of the interval with a·t·h + (b − a)·t²·h/2 = r, in the form without cancellation.
+        let r = (target - self.cdf[i]).max(0.0) / h;
+        let root = a + (a * a + 2.0 * (b - a) * r).max(0.0).sqrt();
+        let t = if root > 0.0 { (2.0 * r / root).clamp(0.0, 1.0) } else { 0.0 };
+        (-1.0 + (i as f64 + t) * h).clamp(-1.0, 1.0) as f32
+    }
 }
 
 impl Default for Lobe {
@@ -39,6 +129,7 @@ impl Lobe {
         match self {
             Lobe::Hg(g) => henyey_greenstein(g, cos),
             Lobe::Rayleigh => 3.0 / (16.0 * PI) * (1.0 + cos * cos),
+            Lobe::Table(t) => t.density(cos),
         }
     }
 
@@ -56,6 +147,7 @@ impl Lobe {
                 let r = (z * z / 4.0 + 1.0).sqrt();
                 ((z / 2.0 + r).cbrt() + (z / 2.0 - r).cbrt()).clamp(-1.0, 1.0)
             }
+            Lobe::Table(t) => t.sample_cos(u),
         }
     }
 }
@@ -190,11 +282,28 @@ mod tests {
         let mean_cos = |l: Lobe| match l {
             Lobe::Hg(g) => g as f64,
             Lobe::Rayleigh => 0.0,
+            // ∫ c·v(c) dc over ∫ v(c) dc, interval by interval in closed form (v linear on each).
+            Lobe::Table(t) => {
+                let v = t.values();
+                let h = 2.0 / (v.len() - 1) as f64;
+                let (mut num, mut den) = (0.0, 0.0);
+                for (i, w) in v.windows(2).enumerate() {
+                    let (a, b, c0) = (w[0] as f64, w[1] as f64, -1.0 + i as f64 * h);
+                    num += h * (c0 * a + c0 * (b - a) / 2.0 + h * a / 2.0 + h * (b - a) / 3.0);
+                    den += h * (a + b) / 2.0;
+                }
+                num / den
+            }
         };
         let mut phases: Vec<Phase> = [-0.7f32, -0.2, 0.0, 0.0005, 0.3, 0.8, 0.95].map(Phase::hg).to_vec();
         phases.push(Phase { first: Lobe::Rayleigh, ..Default::default() });
         phases.push(Phase { first: Lobe::Hg(0.8), second: Lobe::Rayleigh, weight: 0.3 });
         phases.push(Phase { first: Lobe::Hg(0.9), second: Lobe::Hg(-0.5), weight: 0.25 });
+        let table = |v: &[f32]| Lobe::Table(Table::interned(v).unwrap());
+        for v in [&[0.0f32, 1.0][..], &[0.1, 0.1, 0.2, 0.5, 3.0, 10.0], &[1.0, 0.0, 0.0, 2.0], &[0.0, 5.0, 0.0]] {
+            phases.push(Phase { first: table(v), ..Default::default() });
+        }
+        phases.push(Phase { first: Lobe::Hg(-0.3), second: table(&[0.2, 0.0, 0.3, 4.0]), weight: 0.6 });
         for phase in phases {
             let n = 200_000;
             let integral: f64 = (0..n)
@@ -235,6 +344,28 @@ mod tests {
             if phase.first == Lobe::Rayleigh && w == 0.0 {
                 assert!((mean2 - 0.4).abs() < 0.004, "Rayleigh: mean squared cosine {mean2}");
             }
+        }
+    }
+
+    /// A table's density is its values interpolated over their integral and 2π: equal values are the
+    /// isotropic lobe (also values near f32::MAX, whose sum passes it), values 0 and 1 the ramp (1 + cos)/(4π); equal tables are one copy; a table of
+    /// fewer than two values, a negative or non-finite value, or only zeros is refused.
+    #[test]
+    fn tabulated_phase_functions_read_as_their_closed_forms() {
+        let flat = Table::interned(&[2.0, 2.0]).unwrap();
+        let ramp = Table::interned(&[0.0, 1.0]).unwrap();
+        // Values whose sum passes f32::MAX.
+        let huge = Table::interned(&[3e38, 3e38, 3e38]).unwrap();
+        for k in 0..=40 {
+            let cos = -1.0 + k as f32 / 20.0;
+            assert!((Lobe::Table(flat).density(cos) - 1.0 / (4.0 * PI)).abs() < 1e-6, "flat at {cos}");
+            assert!((Lobe::Table(huge).density(cos) - 1.0 / (4.0 * PI)).abs() < 1e-6, "huge at {cos}");
+            let want = (1.0 + cos) / (4.0 * PI);
+            assert!((Lobe::Table(ramp).density(cos) - want).abs() < 1e-6, "ramp at {cos}");
+        }
+        assert!(std::ptr::eq(ramp, Table::interned(&[0.0, 1.0]).unwrap()));
+        for bad in [&[][..], &[1.0], &[1.0, -0.5], &[1.0, f32::NAN], &[0.0, 0.0, 0.0]] {
+            assert!(Table::new(bad).is_err(), "{bad:?} read");
         }
     }
 

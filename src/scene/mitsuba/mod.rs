@@ -145,7 +145,7 @@ pub fn convert(path: &Path) -> Result<Converted, SceneError> {
 /// A `homogeneous` medium: its extinction σ_t (`sigma_t` × `scale`), what share of it scatters
 /// (`albedo`, Mitsuba's default 0.75; None where it is 0 and the medium only absorbs, coloured glass)
 /// and its phase function: Henyey–Greenstein's asymmetry `g` (`isotropic`: 0, `hg`: its `g`, 0.8 by
-/// default), or for `rayleigh` and a `blendphase` its lobes (TOML `phase`).
+/// default), or for `rayleigh`, `tabphase` and a `blendphase` its lobes (TOML `phase`).
 struct Medium {
     sigma: [f32; 3],
     albedo: Option<[f32; 3]>,
@@ -177,7 +177,7 @@ fn homogeneous_medium(m: &Node) -> Result<Medium, SceneError> {
     p.boolean("sample_emitters")?;
     p.boolean("has_spectral_extinction")?;
     let phases = p.children_where(|c| c.tag == "phase");
-    p.finish("sigma_t, albedo, scale, sample_emitters, has_spectral_extinction, a phase function (isotropic, hg, rayleigh, blendphase)")?;
+    p.finish("sigma_t, albedo, scale, sample_emitters, has_spectral_extinction, a phase function (isotropic, hg, rayleigh, tabphase, blendphase)")?;
     let sigma = sigma_t.map(|x| x * scale);
     if sigma.iter().any(|x| !x.is_finite() || *x < 0.0) {
         return Err(m.error(format!("sigma_t × scale = {sigma:?} must be finite and ≥ 0")));
@@ -186,7 +186,7 @@ fn homogeneous_medium(m: &Node) -> Result<Medium, SceneError> {
         return Err(m.error(format!("albedo {albedo:?} must lie in [0, 1] (the share of sigma_t that scatters)")));
     }
     let lobes = match phases.as_slice() {
-        [] => vec![(1.0, LobeSpec { kind: LobeKind::Isotropic, g: None, weight: None })],
+        [] => vec![(1.0, LobeSpec { kind: LobeKind::Isotropic, g: None, weight: None, values: None })],
         [ph] => phase_lobes(ph)?,
         [_, second, ..] => return Err(second.error("a second phase function")),
     };
@@ -200,11 +200,12 @@ fn homogeneous_medium(m: &Node) -> Result<Medium, SceneError> {
 }
 
 /// A `<phase>`'s lobes with their weights: `isotropic`, `hg` (its `g`, 0.8 by default, strictly between
-/// −1 and 1), `rayleigh`, or a `blendphase` of two nested phase functions, (1 − `weight`)·first +
-/// `weight`·second, itself read into at most two lobes in all (more are refused naming the line).
+/// −1 and 1), `rayleigh`, `tabphase` (its `values`, a string of numbers), or a `blendphase` of two
+/// nested phase functions, (1 − `weight`)·first + `weight`·second, itself read into at most two lobes
+/// in all (more are refused naming the line).
 fn phase_lobes(ph: &Node) -> Result<Vec<(f32, LobeSpec)>, SceneError> {
     let pp = Props::new(ph);
-    let one = |kind, g| Ok(vec![(1.0, LobeSpec { kind, g, weight: None })]);
+    let one = |kind, g| Ok(vec![(1.0, LobeSpec { kind, g, weight: None, values: None })]);
     let lobes = match ph.attr("type") {
         Some("isotropic") => {
             pp.finish("no property")?;
@@ -221,6 +222,13 @@ fn phase_lobes(ph: &Node) -> Result<Vec<(f32, LobeSpec)>, SceneError> {
                 return Err(ph.error(format!("g = {g} must lie strictly between -1 and 1")));
             }
             one(LobeKind::Hg, Some(g))
+        }
+        Some("tabphase") => {
+            let text = pp.string("values")?.ok_or_else(|| ph.error("a `tabphase` needs its `values`"))?;
+            pp.finish("values")?;
+            let values = Props::numbers(ph, &text)?;
+            crate::scene::medium::Table::new(&values).map_err(|e| ph.error(format!("`values`: {e}")))?;
+            Ok(vec![(1.0, LobeSpec { kind: LobeKind::Table, g: None, weight: None, values: Some(values) })])
         }
         Some("blendphase") => {
             let w = pp.float("weight")?.ok_or_else(|| ph.error("a `blendphase` needs its `weight`"))?;
@@ -240,7 +248,7 @@ fn phase_lobes(ph: &Node) -> Result<Vec<(f32, LobeSpec)>, SceneError> {
             }
             Ok(lobes)
         }
-        _ => Err(ph.error("phase function type not read (read: isotropic, hg, rayleigh, blendphase)")),
+        _ => Err(ph.error("phase function type not read (read: isotropic, hg, rayleigh, tabphase, blendphase)")),
     }?;
     Ok(lobes)
 }
