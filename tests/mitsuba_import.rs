@@ -3068,7 +3068,7 @@ fn what_is_not_read_is_refused_naming_the_line() {
             "medium-phase-kind",
             // (Rayleigh's, the example here before, is read since session 77.)
             &volpath_glass(r#"<medium type="homogeneous" name="interior"><phase type="sggx"/></medium>"#, ""),
-            "phase function type not read (read: isotropic, hg, rayleigh, blendphase)",
+            "phase function type not read (read: isotropic, hg, rayleigh, tabphase, blendphase)",
         ),
         (
             "medium-phase-g",
