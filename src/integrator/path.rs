@@ -80,7 +80,7 @@ impl PathTracer<'_> {
                     Flight::Through { prob: Rgb::ONE }
                 };
                 match flight {
-                    Flight::Scatter { dist, pdf } => {
+                    Flight::Scatter { dist, pdf, tr } => {
                         // The scattering event is the path's next (`max_depth` counts these too, as
                         // Mitsuba's volpath does).
                         if depth >= self.max_depth {
@@ -90,7 +90,7 @@ impl PathTracer<'_> {
                         if m <= 0.0 {
                             break;
                         }
-                        beta *= Scene::absorbed(sigma, dist) / m;
+                        beta *= tr / m;
                         ratio *= pdf / m;
                         let inc = ray.d.normalize();
                         let p = ray.o + inc * dist;

@@ -228,8 +228,9 @@ pub fn henyey_greenstein(g: f32, cos: f32) -> f32 {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Flight {
     /// It meets the medium at distance `dist`, which each channel's free flight reaches with density
-    /// `pdf` (σ_t e^(−σ_t dist) per channel); the transmittance there is `pdf / σ_t`.
-    Scatter { dist: f32, pdf: Rgb },
+    /// `pdf` (σ_t e^(−σ_t dist) per channel), through the transmittance `tr` (e^(−σ_t dist); 1 in a
+    /// channel of σ_t 0).
+    Scatter { dist: f32, pdf: Rgb, tr: Rgb },
     /// It reaches the segment's end, which each channel's free flight passes with probability `prob`
     /// (e^(−σ_t len) per channel: the transmittance).
     Through { prob: Rgb },
@@ -253,7 +254,8 @@ pub fn fly(sigma_t: Rgb, len: f32, hero: usize, u: f32) -> Flight {
         Rgb::new(one(sigma_t.x), one(sigma_t.y), one(sigma_t.z))
     };
     if dist < len {
-        Flight::Scatter { dist, pdf: sigma_t * tr(dist) }
+        let tr = tr(dist);
+        Flight::Scatter { dist, pdf: sigma_t * tr, tr }
     } else {
         Flight::Through { prob: tr(len) }
     }
@@ -374,7 +376,7 @@ mod tests {
     /// summed and divided by the flights, are the transmittance e^(−σ_t L); and those that stop in
     /// [a, b] (σ_t times the transmittance over the mean density) give ∫ σ_t e^(−σ_t t) dt over [a, b]
     /// per channel (the closed form), for a medium whose channels differ a hundredfold and one with a
-    /// channel of σ_t 0.
+    /// channel of σ_t 0. The transmittance a stop reports is `Scene::absorbed`'s, bit for bit.
     #[test]
     fn free_flight_weights_are_the_transmittance_and_its_density() {
         let mut rng = Rng::new(11, 0, 0);
@@ -387,7 +389,8 @@ mod tests {
                 let hero = ((rng.next_f32() * 3.0) as usize).min(2);
                 match fly(sigma, len, hero, rng.next_f32()) {
                     Flight::Through { prob } => through += prob / mean_ratio(prob) / n as f32,
-                    Flight::Scatter { dist, pdf } => {
+                    Flight::Scatter { dist, pdf, tr } => {
+                        assert_eq!(tr, crate::scene::Scene::absorbed(sigma, dist));
                         assert!(dist < len);
                         if (a..b).contains(&dist) {
                             inside += pdf / mean_ratio(pdf) / n as f32;
