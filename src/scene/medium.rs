@@ -37,10 +37,8 @@ pub enum Lobe {
 pub struct Table {
     /// The values as given.
     values: Vec<f32>,
-    /// The density over the cosine at each knot (the values over their integral, in f64: values near
-    /// f32::MAX sum beyond it).
-    pdf: Vec<f64>,
-    /// The density's integral from −1 up to each knot (trapezoids): 0 first, 1 last.
+    /// The values' integral over the cosine from −1 up to each knot (trapezoids; 0 first, their whole
+    /// integral last), in f64: values near f32::MAX sum beyond it.
     cdf: Vec<f64>,
 }
 
@@ -59,25 +57,21 @@ impl Table {
         for w in values.windows(2) {
             cdf.push(cdf.last().unwrap() + 0.5 * (w[0] as f64 + w[1] as f64) * h);
         }
-        let total = *cdf.last().unwrap();
-        if total <= 0.0 {
+        if *cdf.last().unwrap() <= 0.0 {
             return Err("every value is 0: the table has no scattering to spread".to_string());
         }
-        cdf.iter_mut().for_each(|c| *c /= total);
-        let pdf = values.iter().map(|v| *v as f64 / total).collect();
-        Ok(Table { values: values.to_vec(), pdf, cdf })
+        Ok(Table { values: values.to_vec(), cdf })
     }
 
     /// The table of `values` (as `new`), one copy per distinct table for the life of the process: a
     /// lobe refers to it, and lobes are copied along every path.
     pub fn interned(values: &[f32]) -> Result<&'static Table, String> {
         static TABLES: std::sync::Mutex<Vec<&'static Table>> = std::sync::Mutex::new(Vec::new());
-        let table = Table::new(values)?;
         let mut tables = TABLES.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(t) = tables.iter().find(|t| ***t == table) {
+        if let Some(t) = tables.iter().find(|t| t.values == values) {
             return Ok(t);
         }
-        let t: &'static Table = Box::leak(Box::new(table));
+        let t: &'static Table = Box::leak(Box::new(Table::new(values)?));
         tables.push(t);
         Ok(t)
     }
@@ -91,24 +85,30 @@ impl Table {
         2.0 / (self.values.len() - 1) as f64
     }
 
+    /// The values' whole integral over the cosine.
+    fn total(&self) -> f64 {
+        *self.cdf.last().unwrap()
+    }
+
     /// Density per steradian at the cosine `cos`: the values interpolated, over their integral and 2π.
     fn density(&self, cos: f32) -> f32 {
-        let last = self.pdf.len() - 1;
+        let last = self.values.len() - 1;
         let x = ((cos.clamp(-1.0, 1.0) as f64 + 1.0) / self.step()).min(last as f64);
         let i = (x as usize).min(last - 1);
         let t = x - i as f64;
-        ((self.pdf[i] * (1.0 - t) + self.pdf[i + 1] * t) / (2.0 * std::f64::consts::PI)) as f32
+        let v = self.values[i] as f64 * (1.0 - t) + self.values[i + 1] as f64 * t;
+        (v / (self.total() * 2.0 * std::f64::consts::PI)) as f32
     }
 
     /// A cosine drawn by the table's density from `u` in [0, 1): the interval by the integral, then
     /// the point inside it by the linear density's quadratic integral, inverted.
     fn sample_cos(&self, u: f32) -> f32 {
-        let last = self.pdf.len() - 1;
-        let target = u as f64;
+        let last = self.values.len() - 1;
+        let target = u as f64 * self.total();
         // The last knot whose integral is ≤ the target, below the last.
         let i = self.cdf.partition_point(|c| *c <= target).clamp(1, last) - 1;
         let h = self.step();
-        let (a, b) = (self.pdf[i], self.pdf[i + 1]);
+        let (a, b) = (self.values[i] as f64, self.values[i + 1] as f64);
         // The share t of the interval with a·t·h + (b − a)·t²·h/2 = r, in the form without cancellation.
         let r = (target - self.cdf[i]).max(0.0) / h;
         let root = a + (a * a + 2.0 * (b - a) * r).max(0.0).sqrt();
