@@ -363,6 +363,74 @@ pub fn load_mesh_file(
     }
 }
 
+/// Where in an OBJ's `text` tobj's error `e` lies (tobj names none): "line N: `…`" for the first line
+/// whose numbers do not parse (a `v`, `vt`, `vn`, or a face's indices) or, for an index out of bounds,
+/// the first face naming an element the file does not have (an index of 0, one past the file's
+/// count, a relative one reaching before its first element). None if no line matches: the message then
+/// stays tobj's alone.
+fn obj_error_line(text: &str, e: &tobj::LoadError) -> Option<String> {
+    use tobj::LoadError as E;
+    // Which attribute of a face's `v/vt/vn` an out-of-bounds error is about.
+    let slot = match e {
+        E::FaceVertexOutOfBounds => Some(0),
+        E::FaceTexCoordOutOfBounds => Some(1),
+        E::FaceNormalOutOfBounds => Some(2),
+        _ => None,
+    };
+    let floats =
+        |words: std::str::SplitWhitespace, n: usize| words.take(n).filter(|w| w.parse::<f32>().is_ok()).count() == n;
+    let totals = text.lines().fold([0usize; 3], |mut c, l| {
+        match l.split_whitespace().next() {
+            Some("v") => c[0] += 1,
+            Some("vt") => c[1] += 1,
+            Some("vn") => c[2] += 1,
+            _ => {}
+        }
+        c
+    });
+    let mut counts = [0usize; 3];
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let bad = match (words.next(), e) {
+            (Some("v"), _) => {
+                counts[0] += 1;
+                matches!(e, E::PositionParseError) && !floats(words, 3)
+            }
+            (Some("vt"), _) => {
+                counts[1] += 1;
+                matches!(e, E::TexcoordParseError) && !floats(words, 2)
+            }
+            (Some("vn"), _) => {
+                counts[2] += 1;
+                matches!(e, E::NormalParseError) && !floats(words, 3)
+            }
+            (Some("f" | "l"), E::FaceParseError) => words.any(|w| {
+                w.split('/').count() > 3 || w.split('/').any(|x| !x.is_empty() && x.parse::<isize>().is_err())
+            }),
+            (Some("f" | "l"), _) if slot.is_some() => {
+                let k = slot.unwrap_or(0);
+                words.filter_map(|w| w.split('/').nth(k).and_then(|x| x.parse::<i128>().ok())).any(|x| {
+                    let at = if x < 0 { counts[k] as i128 + x } else { x - 1 };
+                    at < 0 || at >= totals[k] as i128
+                })
+            }
+            _ => false,
+        };
+        if bad {
+            let shown: String = line.trim().chars().take(80).collect();
+            let more = if line.trim().chars().count() > 80 { "…" } else { "" };
+            let of = match slot {
+                Some(k) => {
+                    format!(" (the file has {} {})", totals[k], ["vertices", "texture coordinates", "normals"][k])
+                }
+                None => String::new(),
+            };
+            return Some(format!("line {}: `{shown}{more}`{of}", i + 1));
+        }
+    }
+    None
+}
+
 fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedMesh>, String> {
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let file = std::fs::File::open(path).map_err(|e| format!("OBJ: {e}"))?;
@@ -377,7 +445,12 @@ fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedM
         }
         tobj::load_mtl(full)
     })
-    .map_err(|e| format!("OBJ: {e}"))?;
+    .map_err(|e| {
+        match std::fs::read(path).ok().and_then(|b| obj_error_line(&String::from_utf8_lossy(&b), &e)) {
+            Some(at) => format!("OBJ: {e}: {at}"),
+            None => format!("OBJ: {e}"),
+        }
+    })?;
     // A missing or broken MTL is not fatal (the scene may give the material), but it is remembered.
     let (mtls, mtl_error) = match (mtls, not_regular.into_inner()) {
         (_, Some(why)) => (Vec::new(), Some(why)),
@@ -1684,5 +1757,51 @@ mod tests {
         let huge = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty uchar flags\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n1 4000000000000000000 0 1 2\n";
         let e = parse_ply(huge.as_bytes(), true).unwrap_err();
         assert!(e.contains("face 0: no index"), "{e}");
+    }
+
+    /// tobj names no line; the error does (it said only "face vertex index out of bounds" before). Each
+    /// file below is read by `load_obj` itself, so the message is the one a scene's user sees.
+    #[test]
+    fn an_obj_error_names_its_line() {
+        let dir = std::env::temp_dir().join(format!("caustica-obj-lines-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+        for (name, text, wants) in [
+            (
+                "far",
+                format!("{tri}f 1 2 3\nf 1 2 99999999999\n"),
+                "line 5: `f 1 2 99999999999` (the file has 3 vertices)",
+            ),
+            ("zero", format!("{tri}f 1 2 3\n# fine\nf 0 1 2\n"), "line 6: `f 0 1 2`"),
+            (
+                "relative",
+                format!("{tri}f -3 -2 -1\nf -4 -2 -1\nv 1 1 0\n"),
+                "line 5: `f -4 -2 -1` (the file has 4 vertices)",
+            ),
+            ("later", format!("{tri}f 1 2 4\nv 1 1 0\nf 2 4 5\n"), "line 6: `f 2 4 5`"),
+            (
+                "uv",
+                format!("{tri}vt 0 0\nf 1/1 2/1 3/2\n"),
+                "line 5: `f 1/1 2/1 3/2` (the file has 1 texture coordinates)",
+            ),
+            (
+                "normal",
+                format!("{tri}vn 0 0 1\nf 1//1 2//1 3//7\n"),
+                "line 5: `f 1//1 2//1 3//7` (the file has 1 normals)",
+            ),
+            ("word", format!("{tri}f 1 2 x\n"), "face parse error: line 4: `f 1 2 x`"),
+            ("position", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n".to_string(), "line 2: `v 1 zero 0`"),
+            ("texcoord", format!("{tri}vt 0.5\nf 1 2 3\n"), "line 4: `vt 0.5`"),
+        ] {
+            let path = dir.join(format!("{name}.obj"));
+            std::fs::write(&path, text).unwrap();
+            let e = load_obj(&path, true, false).err().unwrap_or_else(|| panic!("{name}: loaded"));
+            assert!(e.starts_with("OBJ: ") && e.contains(wants), "{name}: {e}");
+        }
+        // A face that names a vertex the file has, after it: loaded, as tobj loads it.
+        let path = dir.join("ahead.obj");
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n").unwrap();
+        assert_eq!(load_obj(&path, true, false).unwrap()[0].mesh.indices.len(), 1);
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
