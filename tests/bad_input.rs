@@ -1253,7 +1253,10 @@ fn endless_and_blocking_files_are_refused_not_read() {
     let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     std::fs::write(d.join("zero-mtl.obj"), format!("mtllib /dev/zero\n{tri}")).unwrap();
     std::fs::write(d.join("pipe-mtl.obj"), format!("mtllib pipe.png\n{tri}")).unwrap();
-    for obj in ["zero-mtl.obj", "pipe-mtl.obj"] {
+    // An MTL colour of two numbers panicked inside tobj (session 82): now the MTL's error, naming its line.
+    std::fs::write(d.join("short.mtl"), "newmtl x\nKd 1 0\n").unwrap();
+    std::fs::write(d.join("short-mtl.obj"), format!("mtllib short.mtl\nusemtl x\n{tri}")).unwrap();
+    for obj in ["zero-mtl.obj", "pipe-mtl.obj", "short-mtl.obj"] {
         let path = toml(&format!("{obj}.toml"), with_shape(&format!("type = \"mesh\"\nfile = \"{obj}\"")));
         let (code, err) = run_for_at_most_30s(&path);
         assert_eq!(code, Some(0), "{obj}: {err}");
@@ -1264,8 +1267,13 @@ fn endless_and_blocking_files_are_refused_not_read() {
         std::fs::write(&bare, text).unwrap();
         let (code, err) = run_for_at_most_30s(Path::new(&bare));
         assert_eq!(code, Some(1), "{obj} without a material: {err}");
-        let mtl = if obj == "zero-mtl.obj" { "/dev/zero" } else { "pipe.png" };
-        assert!(err.contains(mtl) && err.contains("not a regular file"), "{obj}: {err}");
+        assert!(!err.contains("panicked"), "{obj}: {err}");
+        let (mtl, why) = match obj {
+            "zero-mtl.obj" => ("/dev/zero", "not a regular file"),
+            "pipe-mtl.obj" => ("pipe.png", "not a regular file"),
+            _ => ("short.mtl", "line 2: `Kd 1 0`: needs three numbers"),
+        };
+        assert!(err.contains(mtl) && err.contains(why), "{obj}: {err}");
     }
     // The command line's own files too: a chart's CSV, images to compare.
     let pipe = fifo.to_str().unwrap();

@@ -342,12 +342,14 @@ fn xml_corpus() -> XmlCorpus {
         }
     }
     scenes.sort();
-    // Scenes reading the images kept in the other formats (not mutated themselves: the XML fuzz's cases
-    // stay those of its seed).
+    // Scenes reading the images kept in the other formats and the OBJ with an MTL (not mutated
+    // themselves: the XML fuzz's cases stay those of its seed).
     for (scene, from, to, name) in [
         ("envmap.xml", "sky.exr", "sky.hdr", "envmap-hdr.xml"),
         ("showcase.xml", "label.png", "label.pfm", "showcase-pfm.xml"),
         ("showcase.xml", "label.png", "label.ppm", "showcase-ppm.xml"),
+        // An OBJ with an MTL beside it (Mitsuba's `obj` reads none; caustica's loader reads it anyway).
+        ("showcase.xml", "tile.obj", "tile-mtl.obj", "showcase-mtl.xml"),
     ] {
         let text = std::fs::read_to_string(src.join(scene)).unwrap();
         assert!(text.contains(from), "{scene} no longer reads {from}");
@@ -511,6 +513,7 @@ const ASSETS: &[(&str, &str)] = &[
     ("sky.hdr", "envmap-hdr.xml"),
     ("label.pfm", "showcase-pfm.xml"),
     ("label.ppm", "showcase-ppm.xml"),
+    ("tile.mtl", "showcase-mtl.xml"),
 ];
 
 proptest! {

@@ -431,11 +431,39 @@ fn obj_error_line(text: &str, e: &tobj::LoadError) -> Option<String> {
     None
 }
 
+/// The first line of an MTL's `text` that tobj refuses, as "line N: `…`: what it needs", by tobj's own
+/// rules: a colour (`Ka`, `Kd`, `Ks`, `Ke`) of three numbers, `Ns`, `Ni` and `d` of one, `illum` of a
+/// whole number from 0 to 255, a name after `newmtl` and a file after a `map_…` or `bump`. None if
+/// every line reads.
+fn mtl_error_line(text: &str) -> Option<String> {
+    let number = |w: Option<&str>| w.is_some_and(|w| w.parse::<f32>().is_ok());
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let needs = match words.next() {
+            Some("Ka" | "Kd" | "Ks" | "Ke") if !(0..3).all(|_| number(words.next())) => "three numbers",
+            Some("Ns" | "Ni" | "d") if !number(words.next()) => "a number",
+            Some("illum") if words.next().is_none_or(|w| w.parse::<u8>().is_err()) => "a whole number from 0 to 255",
+            Some("newmtl") if words.next().is_none() => "a name",
+            Some(
+                "map_Ka" | "map_Kd" | "map_Ks" | "map_Bump" | "map_bump" | "map_Ns" | "map_ns" | "map_NS" | "bump"
+                | "map_d",
+            ) if words.next().is_none() => "a file name",
+            _ => continue,
+        };
+        let shown: String = line.trim().chars().take(80).collect();
+        let more = if line.trim().chars().count() > 80 { "…" } else { "" };
+        return Some(format!("line {}: `{shown}{more}`: needs {needs}", i + 1));
+    }
+    None
+}
+
 fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedMesh>, String> {
     let opts = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
     let file = std::fs::File::open(path).map_err(|e| format!("OBJ: {e}"))?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    // An MTL that is a device or a pipe is not read (`regular_file`): it would never end or block.
+    // An MTL that is a device or a pipe is not read (`regular_file`): it would never end or block. One
+    // with a line tobj cannot read is not handed to it (a colour of fewer than three numbers panics
+    // there): its error names the line.
     let not_regular = std::cell::RefCell::new(None);
     let (models, mtls) = tobj::load_obj_buf(&mut BufReader::new(file), &opts, |mtl| {
         let full = dir.join(mtl);
@@ -443,7 +471,12 @@ fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedM
             *not_regular.borrow_mut() = Some(format!("{}: {e}", mtl.display()));
             return Err(tobj::LoadError::OpenFileFailed);
         }
-        tobj::load_mtl(full)
+        let bytes = std::fs::read(&full).map_err(|_| tobj::LoadError::OpenFileFailed)?;
+        if let Some(at) = mtl_error_line(&String::from_utf8_lossy(&bytes)) {
+            *not_regular.borrow_mut() = Some(format!("{}: {at}", mtl.display()));
+            return Err(tobj::LoadError::MaterialParseError);
+        }
+        tobj::load_mtl_buf(&mut &bytes[..])
     })
     .map_err(|e| {
         match std::fs::read(path).ok().and_then(|b| obj_error_line(&String::from_utf8_lossy(&b), &e)) {
@@ -1802,6 +1835,36 @@ mod tests {
         let path = dir.join("ahead.obj");
         std::fs::write(&path, "v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n").unwrap();
         assert_eq!(load_obj(&path, true, false).unwrap()[0].mesh.indices.len(), 1);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// An MTL line that tobj cannot read is the mesh's MTL error, naming the line, and not a panic:
+    /// `Kd 1 0` (two numbers of three) panicked inside tobj (`parse_float3` unwraps), from a TOML scene
+    /// and from a Mitsuba one alike (whose `obj` reads no MTL at all). The mesh itself still loads.
+    #[test]
+    fn a_broken_mtl_names_its_line_and_does_not_panic() {
+        let dir = std::env::temp_dir().join(format!("caustica-mtl-lines-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let obj = dir.join("tile.obj");
+        std::fs::write(&obj, "mtllib tile.mtl\nusemtl x\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        for (mtl, wants) in [
+            ("newmtl x\nKd 1 0\n", "line 2: `Kd 1 0`"),
+            ("newmtl x\nKd 1 1 1\nKs 0.5\n", "line 3: `Ks 0.5`"),
+            ("newmtl x\nKe\n", "line 2: `Ke`"),
+            ("newmtl x\nKa 1 1 one\n", "line 2: `Ka 1 1 one`"),
+            ("# a colour\nnewmtl x\nNs shiny\n", "line 3: `Ns shiny`"),
+            ("newmtl x\nillum 2.5\n", "line 2: `illum 2.5`"),
+            ("newmtl x\nmap_Kd\n", "line 2: `map_Kd`"),
+        ] {
+            std::fs::write(dir.join("tile.mtl"), mtl).unwrap();
+            let loaded = load_obj(&obj, true, false).unwrap_or_else(|e| panic!("{mtl:?}: {e}"));
+            let why = loaded[0].mtl_error.clone().unwrap_or_else(|| panic!("{mtl:?}: read"));
+            assert!(why.contains("tile.mtl") && why.contains(wants), "{mtl:?}: {why}");
+            assert_eq!(loaded[0].mesh.indices.len(), 1);
+        }
+        std::fs::write(dir.join("tile.mtl"), "newmtl x\nKd 0.25 0.5 1\n").unwrap();
+        let loaded = load_obj(&obj, true, false).unwrap();
+        assert_eq!((loaded[0].mtl_diffuse, loaded[0].mtl_error.clone()), (Some([0.25, 0.5, 1.0]), None));
         std::fs::remove_dir_all(&dir).ok();
     }
 }
