@@ -363,6 +363,13 @@ pub fn load_mesh_file(
     }
 }
 
+/// "line N: `…`" for line `i` (from 0) of a text file, at most 80 of its characters shown.
+fn quoted_line(i: usize, line: &str) -> String {
+    let shown: String = line.trim().chars().take(80).collect();
+    let more = if line.trim().chars().count() > 80 { "…" } else { "" };
+    format!("line {}: `{shown}{more}`", i + 1)
+}
+
 /// Where in an OBJ's `text` tobj's error `e` lies (tobj names none): "line N: `…`" for the first line
 /// whose numbers do not parse (a `v`, `vt`, `vn`, or a face's indices) or, for an index out of bounds,
 /// the first face naming an element the file does not have (an index of 0, one past the file's
@@ -417,15 +424,13 @@ fn obj_error_line(text: &str, e: &tobj::LoadError) -> Option<String> {
             _ => false,
         };
         if bad {
-            let shown: String = line.trim().chars().take(80).collect();
-            let more = if line.trim().chars().count() > 80 { "…" } else { "" };
             let of = match slot {
                 Some(k) => {
                     format!(" (the file has {} {})", totals[k], ["vertices", "texture coordinates", "normals"][k])
                 }
                 None => String::new(),
             };
-            return Some(format!("line {}: `{shown}{more}`{of}", i + 1));
+            return Some(format!("{}{of}", quoted_line(i, line)));
         }
     }
     None
@@ -450,9 +455,7 @@ fn mtl_error_line(text: &str) -> Option<String> {
             ) if words.next().is_none() => "a file name",
             _ => continue,
         };
-        let shown: String = line.trim().chars().take(80).collect();
-        let more = if line.trim().chars().count() > 80 { "…" } else { "" };
-        return Some(format!("line {}: `{shown}{more}`: needs {needs}", i + 1));
+        return Some(format!("{}: needs {needs}", quoted_line(i, line)));
     }
     None
 }
