@@ -371,7 +371,8 @@ fn quoted_line(i: usize, line: &str) -> String {
 }
 
 /// Where in an OBJ's `text` tobj's error `e` lies (tobj names none): "line N: `…`" for the first line
-/// whose numbers do not parse (a `v`, `vt`, `vn`, or a face's indices) or, for an index out of bounds,
+/// whose numbers do not parse (a `v` of other than 3, 4 or 6 numbers or with a w of 0, a `vt`, a `vn`,
+/// a face's indices), a `usemtl` without a name or, for an index out of bounds,
 /// the first face naming an element the file does not have (an index of 0, one past the file's
 /// count, a relative one reaching before its first element). None if no line matches: the message then
 /// stays tobj's alone.
@@ -401,8 +402,17 @@ fn obj_error_line(text: &str, e: &tobj::LoadError) -> Option<String> {
         let bad = match (words.next(), e) {
             (Some("v"), _) => {
                 counts[0] += 1;
-                matches!(e, E::PositionParseError) && !floats(words, 3)
+                // x y z, then nothing, a w (not 0) or a colour's three numbers.
+                let rest: Vec<&str> = words.clone().skip(3).collect();
+                let w = (rest.len() == 1).then(|| rest[0].parse::<f32>());
+                match e {
+                    E::PositionParseError => !floats(words, 3) || w.is_some_and(|w| w.is_err()),
+                    E::ScalingByZeroError => w.is_some_and(|w| w == Ok(0.0)),
+                    E::ColorParseError => rest.len() == 2 || rest.len() > 3,
+                    _ => false,
+                }
             }
+            (Some("usemtl"), E::MaterialParseError) => words.next().is_none(),
             (Some("vt"), _) => {
                 counts[1] += 1;
                 matches!(e, E::TexcoordParseError) && !floats(words, 2)
@@ -1828,6 +1838,10 @@ mod tests {
             ("word", format!("{tri}f 1 2 x\n"), "face parse error: line 4: `f 1 2 x`"),
             ("position", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n".to_string(), "line 2: `v 1 zero 0`"),
             ("texcoord", format!("{tri}vt 0.5\nf 1 2 3\n"), "line 4: `vt 0.5`"),
+            ("w", format!("{tri}v 1 1 1 w\nf 1 2 3\n"), "line 4: `v 1 1 1 w`"),
+            ("w0", format!("{tri}v 1 1 1 0\nf 1 2 3\n"), "line 4: `v 1 1 1 0`"),
+            ("colour", format!("v 0 0 0 1 0 0\n{tri}v 1 1 1 0.5 0.5\nf 1 2 3\n"), "line 5: `v 1 1 1 0.5 0.5`"),
+            ("usemtl", format!("{tri}usemtl\nf 1 2 3\n"), "line 4: `usemtl`"),
         ] {
             let path = dir.join(format!("{name}.obj"));
             std::fs::write(&path, text).unwrap();
