@@ -593,8 +593,30 @@ fn every_damaged_image_header_byte_reads_or_is_refused() {
     let dir = std::env::temp_dir().join(format!("caustica-exr-bytes-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (mut read, mut refused) = (0, 0);
-    for name in ["sky.exr", "bumps.exr", "sky.hdr", "label.pfm", "label.ppm"] {
-        let good = std::fs::read(src.join(name)).unwrap();
+    // The label in the formats no scene here keeps, written by the `image` crate (which decodes them).
+    let label = image::open(src.join("label.png")).unwrap();
+    for (name, format) in [
+        ("label.jpg", image::ImageFormat::Jpeg),
+        ("label.bmp", image::ImageFormat::Bmp),
+        ("label.tga", image::ImageFormat::Tga),
+    ] {
+        label.save_with_format(dir.join(name), format).unwrap();
+        let (w, h, _) = caustica::scene::texture::load_image(&dir.join(name), false).unwrap();
+        assert_eq!((w, h), (8, 4), "{name}");
+    }
+    for name in [
+        "sky.exr",
+        "bumps.exr",
+        "sky.hdr",
+        "label.pfm",
+        "label.ppm",
+        "label.png",
+        "label.jpg",
+        "label.bmp",
+        "label.tga",
+    ] {
+        let from = if ["jpg", "bmp", "tga"].iter().any(|e| name.ends_with(e)) { &dir } else { &src };
+        let good = std::fs::read(from.join(name)).unwrap();
         let file = dir.join(name);
         for at in 0..400.min(good.len()) {
             for v in [0x00u8, 0x01, 0x20, 0x3b, 0x7f, 0x80, 0xff] {
