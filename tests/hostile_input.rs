@@ -514,6 +514,8 @@ const ASSETS: &[(&str, &str)] = &[
     ("label.pfm", "showcase-pfm.xml"),
     ("label.ppm", "showcase-ppm.xml"),
     ("tile.mtl", "showcase-mtl.xml"),
+    ("curves.txt", "curves.xml"),
+    ("blob.txt", "curves.xml"),
 ];
 
 proptest! {
