@@ -421,8 +421,9 @@ fn obj_error_line(text: &str, e: &tobj::LoadError) -> Option<String> {
                 counts[2] += 1;
                 matches!(e, E::NormalParseError) && !floats(words, 3)
             }
+            // tobj reads up to three parts, `v/vt/vn`: a fourth that is not empty is an error.
             (Some("f" | "l"), E::FaceParseError) => words.any(|w| {
-                w.split('/').count() > 3 || w.split('/').any(|x| !x.is_empty() && x.parse::<isize>().is_err())
+                w.split('/').enumerate().any(|(k, x)| !x.is_empty() && (k > 2 || x.parse::<isize>().is_err()))
             }),
             (Some("f" | "l"), _) if slot.is_some() => {
                 let k = slot.unwrap_or(0);
@@ -1836,6 +1837,7 @@ mod tests {
                 "line 5: `f 1//1 2//1 3//7` (the file has 1 normals)",
             ),
             ("word", format!("{tri}f 1 2 x\n"), "face parse error: line 4: `f 1 2 x`"),
+            ("slash", format!("{tri}f 1// 2// 3///\nf 1 2 3/1/1/1\n"), "face parse error: line 5: `f 1 2 3/1/1/1`"),
             ("position", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n".to_string(), "line 2: `v 1 zero 0`"),
             ("texcoord", format!("{tri}vt 0.5\nf 1 2 3\n"), "line 4: `vt 0.5`"),
             ("w", format!("{tri}v 1 1 1 w\nf 1 2 3\n"), "line 4: `v 1 1 1 w`"),
