@@ -399,8 +399,8 @@ fn obj_error_line(text: &str, e: &tobj::LoadError) -> Option<String> {
     let mut counts = [0usize; 3];
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
-        let bad = match (words.next(), e) {
-            (Some("v"), _) => {
+        let bad = match (words.next(), e, slot) {
+            (Some("v"), _, _) => {
                 counts[0] += 1;
                 // x y z, then nothing, a w (not 0) or a colour's three numbers.
                 let rest: Vec<&str> = words.clone().skip(3).collect();
@@ -412,21 +412,20 @@ fn obj_error_line(text: &str, e: &tobj::LoadError) -> Option<String> {
                     _ => false,
                 }
             }
-            (Some("usemtl"), E::MaterialParseError) => words.next().is_none(),
-            (Some("vt"), _) => {
+            (Some("usemtl"), E::MaterialParseError, _) => words.next().is_none(),
+            (Some("vt"), _, _) => {
                 counts[1] += 1;
                 matches!(e, E::TexcoordParseError) && !floats(words, 2)
             }
-            (Some("vn"), _) => {
+            (Some("vn"), _, _) => {
                 counts[2] += 1;
                 matches!(e, E::NormalParseError) && !floats(words, 3)
             }
             // tobj reads up to three parts, `v/vt/vn`: a fourth that is not empty is an error.
-            (Some("f" | "l"), E::FaceParseError) => words.any(|w| {
+            (Some("f" | "l"), E::FaceParseError, _) => words.any(|w| {
                 w.split('/').enumerate().any(|(k, x)| !x.is_empty() && (k > 2 || x.parse::<isize>().is_err()))
             }),
-            (Some("f" | "l"), _) if slot.is_some() => {
-                let k = slot.unwrap_or(0);
+            (Some("f" | "l"), _, Some(k)) => {
                 words.filter_map(|w| w.split('/').nth(k).and_then(|x| x.parse::<i128>().ok())).any(|x| {
                     let at = if x < 0 { counts[k] as i128 + x } else { x - 1 };
                     at < 0 || at >= totals[k] as i128
@@ -478,16 +477,16 @@ fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedM
     // An MTL that is a device or a pipe is not read (`regular_file`): it would never end or block. One
     // with a line tobj cannot read is not handed to it (a colour of fewer than three numbers panics
     // there): its error names the line.
-    let not_regular = std::cell::RefCell::new(None);
+    let mtl_problem = std::cell::RefCell::new(None);
     let (models, mtls) = tobj::load_obj_buf(&mut BufReader::new(file), &opts, |mtl| {
         let full = dir.join(mtl);
         if let Err(e) = crate::scene::regular_file(&full) {
-            *not_regular.borrow_mut() = Some(format!("{}: {e}", mtl.display()));
+            *mtl_problem.borrow_mut() = Some(format!("{}: {e}", mtl.display()));
             return Err(tobj::LoadError::OpenFileFailed);
         }
         let bytes = std::fs::read(&full).map_err(|_| tobj::LoadError::OpenFileFailed)?;
         if let Some(at) = mtl_error_line(&String::from_utf8_lossy(&bytes)) {
-            *not_regular.borrow_mut() = Some(format!("{}: {at}", mtl.display()));
+            *mtl_problem.borrow_mut() = Some(format!("{}: {at}", mtl.display()));
             return Err(tobj::LoadError::MaterialParseError);
         }
         tobj::load_mtl_buf(&mut &bytes[..])
@@ -499,7 +498,7 @@ fn load_obj(path: &Path, want_normals: bool, flip_v: bool) -> Result<Vec<LoadedM
         }
     })?;
     // A missing or broken MTL is not fatal (the scene may give the material), but it is remembered.
-    let (mtls, mtl_error) = match (mtls, not_regular.into_inner()) {
+    let (mtls, mtl_error) = match (mtls, mtl_problem.into_inner()) {
         (_, Some(why)) => (Vec::new(), Some(why)),
         (Ok(m), None) => (m, None),
         (Err(e), None) => {
